@@ -1,0 +1,330 @@
+"""The model: a linear structure ``M, C, K`` (paper eq. 1), gaps with contact laws, external
+loads and initial conditions (paper eq. 2; DESIGN.md §1). Plain data, validated on creation.
+
+Example — the paper's SDOF case (a 100 kg block between two walls 5 mm away)::
+
+    >>> import vibroimpact as vi
+    >>> law = vi.contact.Hertz(stiffness=1.509e11)
+    >>> model = vi.Model(
+    ...     structure=vi.Structure.sdof(mass=100.0),
+    ...     gaps=[vi.Gap(dof=0, clearance=0.005, side="both", law=law)],
+    ...     initial_velocity=8.0,
+    ... )
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from vibroimpact.contact import ContactLaw
+from vibroimpact.errors import ModelError, require
+
+__all__ = [
+    "ConstantLoad",
+    "Gap",
+    "HarmonicLoad",
+    "Load",
+    "Model",
+    "Structure",
+    "TableLoad",
+]
+
+Side = Literal["positive", "negative", "both"]
+
+
+def _finite_number(value: Any, field_name: str, expected: str) -> float:
+    ok = isinstance(value, (int, float, np.floating, np.integer)) and not isinstance(value, bool)
+    require(ok and math.isfinite(float(value)), field_name, value, expected)
+    return float(value)
+
+
+def _matrix(value: ArrayLike, field_name: str, n: int | None = None) -> NDArray[np.float64]:
+    try:
+        a = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"{field_name}: not a numeric matrix; expected an n x n array") from None
+    if a.ndim == 0:
+        a = a.reshape(1, 1)
+    if a.ndim != 2 or a.shape[0] != a.shape[1]:
+        raise ModelError(f"{field_name}: shape {a.shape} is not valid; expected a square matrix")
+    if n is not None and a.shape[0] != n:
+        raise ModelError(f"{field_name}: shape {a.shape} does not match; expected ({n}, {n})")
+    if not np.all(np.isfinite(a)):
+        raise ModelError(f"{field_name}: contains NaN or infinity; expected finite values")
+    scale = max(float(np.abs(a).max()), np.finfo(float).tiny)
+    asym = float(np.abs(a - a.T).max())
+    if asym > 1e-9 * scale:
+        raise ModelError(
+            f"{field_name}: not symmetric (max |A - A^T| = {asym:.3e}); expected a symmetric matrix"
+        )
+    return a
+
+
+@dataclass(frozen=True)
+class Structure:
+    """Linear structure: mass ``M`` (kg), damping ``C`` (N·s/m) and stiffness ``K`` (N/m),
+    symmetric n×n arrays; ``M`` positive definite."""
+
+    mass: NDArray[np.float64]
+    stiffness: NDArray[np.float64]
+    damping: NDArray[np.float64]
+
+    def __init__(
+        self, mass: ArrayLike, stiffness: ArrayLike | None = None, damping: ArrayLike | None = None
+    ) -> None:
+        m = _matrix(mass, "structure.mass")
+        n = m.shape[0]
+        k = np.zeros((n, n)) if stiffness is None else _matrix(stiffness, "structure.stiffness", n)
+        c = np.zeros((n, n)) if damping is None else _matrix(damping, "structure.damping", n)
+        try:
+            np.linalg.cholesky(m)
+        except np.linalg.LinAlgError:
+            raise ModelError(
+                "structure.mass: not positive definite; expected every DOF to carry mass"
+            ) from None
+        for a in (m, k, c):
+            a.setflags(write=False)
+        object.__setattr__(self, "mass", m)
+        object.__setattr__(self, "stiffness", k)
+        object.__setattr__(self, "damping", c)
+
+    @classmethod
+    def sdof(cls, mass: float, stiffness: float = 0.0, damping: float = 0.0) -> Structure:
+        """Single DOF: ``mass`` in kg, ``stiffness`` in N/m, ``damping`` in N·s/m."""
+        m = _finite_number(mass, "structure.mass", "a mass > 0 in kg")
+        require(m > 0, "structure.mass", mass, "a mass > 0 in kg")
+        k = _finite_number(stiffness, "structure.stiffness", "a stiffness >= 0 in N/m")
+        require(k >= 0, "structure.stiffness", stiffness, "a stiffness >= 0 in N/m")
+        c = _finite_number(damping, "structure.damping", "a damping >= 0 in N·s/m")
+        require(c >= 0, "structure.damping", damping, "a damping >= 0 in N·s/m")
+        return cls([[m]], [[k]], [[c]])
+
+    @property
+    def n_dof(self) -> int:
+        return int(self.mass.shape[0])
+
+
+def _dofs(value: int | Sequence[int], field_name: str) -> tuple[int, ...]:
+    items = [value] if isinstance(value, (int, np.integer)) else list(value)
+    require(len(items) > 0, field_name, value, "a DOF index or a non-empty list of them")
+    for d in items:
+        ok = isinstance(d, (int, np.integer)) and not isinstance(d, bool) and d >= 0
+        require(ok, field_name, d, "a DOF index (integer >= 0)")
+    return tuple(int(d) for d in items)
+
+
+@dataclass(frozen=True)
+class Gap:
+    """A clearance on the gap coordinate ``u = Σ cᵢ x[dofᵢ]`` (DESIGN.md §1).
+
+    ``dof``: one DOF index or a list; ``coefficients``: one per DOF (default 1 each; use
+    ``dof=[i, j], coefficients=[1, -1]`` for the relative displacement of two DOFs).
+    ``clearance`` in m; ``side``: ``"positive"`` (wall at ``u = +d``), ``"negative"``
+    (wall at ``u = −d``) or ``"both"``; ``law``: a :mod:`vibroimpact.contact` law.
+    """
+
+    dof: int | Sequence[int]
+    law: ContactLaw
+    clearance: float = 0.0
+    side: Side = "positive"
+    coefficients: Sequence[float] | None = None
+    name: str | None = None
+
+    def __post_init__(self) -> None:
+        dofs = _dofs(self.dof, "gap.dof")
+        object.__setattr__(self, "dof", dofs if len(dofs) > 1 else dofs[0])
+        coeffs = (1.0,) * len(dofs) if self.coefficients is None else tuple(self.coefficients)
+        require(
+            len(coeffs) == len(dofs)
+            and all(isinstance(c, (int, float)) and math.isfinite(c) for c in coeffs)
+            and any(c != 0 for c in coeffs),
+            "gap.coefficients",
+            self.coefficients,
+            f"{len(dofs)} finite numbers, not all zero (one per DOF)",
+        )
+        object.__setattr__(self, "coefficients", tuple(float(c) for c in coeffs))
+        c = _finite_number(self.clearance, "gap.clearance", "a clearance >= 0 in m")
+        require(c >= 0, "gap.clearance", self.clearance, "a clearance >= 0 in m")
+        require(
+            self.side in ("positive", "negative", "both"),
+            "gap.side",
+            self.side,
+            "positive, negative or both",
+        )
+        require(isinstance(self.law, ContactLaw), "gap.law", self.law, "a vibroimpact.contact law")
+
+    @property
+    def dofs(self) -> tuple[int, ...]:
+        return self.dof if isinstance(self.dof, tuple) else (int(self.dof),)  # type: ignore[arg-type]
+
+    def to_spec(self) -> dict[str, Any]:
+        return {
+            "dofs": list(self.dofs),
+            "coefficients": list(self.coefficients or ()),
+            "clearance": float(self.clearance),
+            "side": self.side,
+            "law": self.law.to_spec(),
+        }
+
+
+@dataclass(frozen=True)
+class Load:
+    """Base of the loads: applied to each DOF in ``dof``."""
+
+    dof: int | Sequence[int]
+
+    def __post_init__(self) -> None:
+        dofs = _dofs(self.dof, "load.dof")
+        object.__setattr__(self, "dof", dofs if len(dofs) > 1 else dofs[0])
+
+    @property
+    def dofs(self) -> tuple[int, ...]:
+        return self.dof if isinstance(self.dof, tuple) else (int(self.dof),)  # type: ignore[arg-type]
+
+    def to_spec(self) -> dict[str, Any]:
+        raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class ConstantLoad(Load):
+    """``F = amplitude`` (N)."""
+
+    amplitude: float = 0.0
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        _finite_number(self.amplitude, "load.amplitude", "a force in N")
+
+    def to_spec(self) -> dict[str, Any]:
+        return {"kind": "constant", "dofs": list(self.dofs), "amplitude": float(self.amplitude)}
+
+
+@dataclass(frozen=True)
+class HarmonicLoad(Load):
+    """``F = amplitude · sin(2π · frequency · t + phase)``: N, Hz, rad."""
+
+    amplitude: float = 0.0
+    frequency: float = 0.0
+    phase: float = 0.0
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        _finite_number(self.amplitude, "load.amplitude", "a force in N")
+        f = _finite_number(self.frequency, "load.frequency", "a frequency >= 0 in Hz")
+        require(f >= 0, "load.frequency", self.frequency, "a frequency >= 0 in Hz")
+        _finite_number(self.phase, "load.phase", "an angle in rad")
+
+    def to_spec(self) -> dict[str, Any]:
+        return {
+            "kind": "harmonic",
+            "dofs": list(self.dofs),
+            "amplitude": float(self.amplitude),
+            "frequency": float(self.frequency),
+            "phase": float(self.phase),
+        }
+
+
+@dataclass(frozen=True)
+class TableLoad(Load):
+    """Tabulated force ``scale · F(t)``: ``time`` (s, increasing) and ``force`` (N), linearly
+    interpolated and held at the end values outside the table."""
+
+    time: Sequence[float] = field(default_factory=tuple)
+    force: Sequence[float] = field(default_factory=tuple)
+    scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        t = np.asarray(self.time, dtype=float)
+        f = np.asarray(self.force, dtype=float)
+        require(
+            t.ndim == 1 and t.shape == f.shape and t.size >= 2,
+            "load.table",
+            f"{t.size} times, {f.size} forces",
+            "two equal-length columns with at least 2 rows",
+        )
+        require(
+            bool(np.all(np.isfinite(t)) and np.all(np.diff(t) > 0)),
+            "load.table.time",
+            "non-increasing or non-finite times",
+            "strictly increasing times in s",
+        )
+        require(bool(np.all(np.isfinite(f))), "load.table.force", "NaN", "finite forces in N")
+        object.__setattr__(self, "time", tuple(t.tolist()))
+        object.__setattr__(self, "force", tuple(f.tolist()))
+
+    def to_spec(self) -> dict[str, Any]:
+        return {
+            "kind": "table",
+            "dofs": list(self.dofs),
+            "amplitude": float(self.scale),
+            "time": list(self.time),
+            "value": list(self.force),
+        }
+
+
+def _initial(value: ArrayLike | None, n: int, field_name: str, unit: str) -> NDArray[np.float64]:
+    if value is None:
+        return np.zeros(n)
+    a = np.atleast_1d(np.asarray(value, dtype=float))
+    if a.shape != (n,):
+        raise ModelError(
+            f"{field_name}: {a.size} values is not valid; expected {n} (one per DOF, in {unit})"
+        )
+    if not np.all(np.isfinite(a)):
+        raise ModelError(f"{field_name}: contains NaN or infinity; expected finite values")
+    return a
+
+
+@dataclass(frozen=True)
+class Model:
+    """Structure + gaps + loads + initial state (``x(0)`` in m, ``x'(0)`` in m/s)."""
+
+    structure: Structure
+    gaps: Sequence[Gap] = ()
+    loads: Sequence[Load] = ()
+    initial_displacement: ArrayLike | None = None
+    initial_velocity: ArrayLike | None = None
+
+    def __post_init__(self) -> None:
+        require(
+            isinstance(self.structure, Structure), "structure", self.structure, "a Structure"
+        )
+        n = self.structure.n_dof
+        object.__setattr__(self, "gaps", tuple(self.gaps))
+        object.__setattr__(self, "loads", tuple(self.loads))
+        for i, g in enumerate(self.gaps):
+            require(isinstance(g, Gap), f"gaps[{i}]", g, "a vibroimpact.Gap")
+            bad = [d for d in g.dofs if d >= n]
+            require(not bad, f"gaps[{i}].dof", bad[0] if bad else None, f"0 <= dof < {n}")
+        for i, ld in enumerate(self.loads):
+            require(isinstance(ld, Load), f"loads[{i}]", ld, "a vibroimpact load")
+            bad = [d for d in ld.dofs if d >= n]
+            require(not bad, f"loads[{i}].dof", bad[0] if bad else None, f"0 <= dof < {n}")
+        x0 = _initial(self.initial_displacement, n, "initial.displacement", "m")
+        v0 = _initial(self.initial_velocity, n, "initial.velocity", "m/s")
+        object.__setattr__(self, "initial_displacement", x0)
+        object.__setattr__(self, "initial_velocity", v0)
+
+    @property
+    def n_dof(self) -> int:
+        return self.structure.n_dof
+
+    def to_spec(self) -> dict[str, Any]:
+        """Plain dict of arrays and numbers that the Rust core compiles."""
+        s = self.structure
+        return {
+            "mass": s.mass,
+            "damping": s.damping,
+            "stiffness": s.stiffness,
+            "gaps": [g.to_spec() for g in self.gaps],
+            "loads": [ld.to_spec() for ld in self.loads],
+            "x0": np.asarray(self.initial_displacement, dtype=float),
+            "v0": np.asarray(self.initial_velocity, dtype=float),
+        }

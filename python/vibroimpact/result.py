@@ -1,0 +1,265 @@
+"""What a run returns (DESIGN.md §6): time histories, the impact table, the energy account
+and solver statistics, as numpy arrays with pandas/xarray views."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+if TYPE_CHECKING:
+    import pandas as pd
+    import xarray as xr
+
+    from vibroimpact.integrators import Integrator
+    from vibroimpact.model import Model
+
+__all__ = ["EnergyAccount", "ImpactTable", "Result", "SolverStats"]
+
+Array = NDArray[np.float64]
+
+#: Units and descriptions of the impact-table columns.
+IMPACT_COLUMNS: dict[str, tuple[str, str]] = {
+    "gap": ("", "gap index"),
+    "side": ("", "wall hit: positive or negative"),
+    "t_start": ("s", "instant the gap closed"),
+    "t_end": ("s", "instant the gap opened (NaN: still closed at the end)"),
+    "v_in": ("m/s", "approach speed at closing"),
+    "v_out": ("m/s", "separation speed at opening"),
+    "restitution_effective": ("", "v_out / v_in"),
+    "delta_max": ("m", "largest penetration"),
+    "force_max": ("N", "largest contact force"),
+    "impulse": ("N s", "integral of the contact force"),
+}
+
+
+def _json_number(x: float) -> float | None:
+    return None if math.isnan(x) else float(x)
+
+
+@dataclass(frozen=True)
+class ImpactTable:
+    """One row per contact of one wall (columns: :data:`IMPACT_COLUMNS`)."""
+
+    gap: NDArray[np.int64]
+    side: NDArray[np.str_]
+    t_start: Array
+    t_end: Array
+    v_in: Array
+    v_out: Array
+    restitution_effective: Array
+    delta_max: Array
+    force_max: Array
+    impulse: Array
+
+    @classmethod
+    def from_core(cls, raw: dict[str, Any]) -> ImpactTable:
+        side = np.where(np.asarray(raw["side"]) > 0, "positive", "negative")
+        return cls(
+            gap=np.asarray(raw["gap"], dtype=np.int64),
+            side=side.astype(str),
+            restitution_effective=np.asarray(raw["restitution"]),
+            **{k: np.asarray(raw[k]) for k in (
+                "t_start", "t_end", "v_in", "v_out", "delta_max", "force_max", "impulse"
+            )},
+        )
+
+    def __len__(self) -> int:
+        return len(self.t_start)
+
+    def to_records(self) -> list[dict[str, Any]]:
+        """JSON-ready rows (``None`` where a contact was still closed at the end)."""
+        rows = []
+        for i in range(len(self)):
+            row: dict[str, Any] = {"gap": int(self.gap[i]), "side": str(self.side[i])}
+            for f in fields(self):
+                if f.name not in row:
+                    row[f.name] = _json_number(float(getattr(self, f.name)[i]))
+            rows.append(row)
+        return rows
+
+    def to_dataframe(self) -> pd.DataFrame:
+        import pandas as pd
+
+        return pd.DataFrame({f.name: getattr(self, f.name) for f in fields(self)})
+
+
+@dataclass(frozen=True)
+class EnergyAccount:
+    """Energies at the recorded instants, J. ``balance = E + D − E₀ − W_ext`` is zero up to the
+    time discretisation; ``balance_error`` is its largest magnitude relative to the largest
+    energy that entered the system."""
+
+    kinetic: Array
+    strain: Array
+    contact_potential: Array
+    external_work: Array
+    damping_dissipated: Array
+    contact_dissipated: Array
+    balance_error: float
+
+    @property
+    def total(self) -> Array:
+        """Kinetic + strain + contact potential, J."""
+        return self.kinetic + self.strain + self.contact_potential
+
+    @property
+    def balance(self) -> Array:
+        return (
+            self.total
+            + self.damping_dissipated
+            + self.contact_dissipated
+            - self.total[0]
+            - self.external_work
+        )
+
+
+@dataclass(frozen=True)
+class SolverStats:
+    steps: int
+    newton_iterations: int
+    rejected_steps: int
+    step_cuts: int
+    wall_time_s: float
+
+
+@dataclass(frozen=True)
+class Result:
+    """A run: time histories of the recorded DOFs (rows: time), per-gap penetration (m,
+    negative = open) and contact force (N), the impact table, the energy account and solver
+    statistics. ``complete`` is False (and ``message`` says why) if the solver stopped early."""
+
+    time: Array
+    dofs: NDArray[np.int64]
+    displacement: Array
+    velocity: Array
+    acceleration: Array
+    gap_penetration: Array
+    gap_force: Array
+    max_abs_displacement: Array
+    impacts: ImpactTable
+    energy: EnergyAccount
+    stats: SolverStats
+    dt: float
+    t_end: float
+    complete: bool
+    message: str
+    model: Model | None = None
+    method: Integrator | None = None
+
+    @classmethod
+    def from_core(
+        cls,
+        raw: dict[str, Any],
+        *,
+        model: Model | None,
+        method: Integrator | None,
+        t_end: float,
+    ) -> Result:
+        s = raw["stats"]
+        error = raw["error"]
+        return cls(
+            time=raw["time"],
+            dofs=np.asarray(raw["dofs"], dtype=np.int64),
+            displacement=raw["displacement"],
+            velocity=raw["velocity"],
+            acceleration=raw["acceleration"],
+            gap_penetration=raw["gap_penetration"],
+            gap_force=raw["gap_force"],
+            max_abs_displacement=raw["max_abs_displacement"],
+            impacts=ImpactTable.from_core(raw["impacts"]),
+            energy=EnergyAccount(**raw["energy"], balance_error=s["energy_balance_error"]),
+            stats=SolverStats(
+                steps=s["steps"],
+                newton_iterations=s["newton_iterations"],
+                rejected_steps=s["rejected_steps"],
+                step_cuts=s["step_cuts"],
+                wall_time_s=s["wall_time_s"],
+            ),
+            dt=float(s["dt"]),
+            t_end=t_end,
+            complete=error is None,
+            message="completed" if error is None else str(error),
+            model=model,
+            method=method,
+        )
+
+    def summary(self) -> dict[str, Any]:
+        """The JSON summary printed by ``vibroimpact run --json``."""
+        return {
+            "complete": self.complete,
+            "message": self.message,
+            "dofs": [int(d) for d in self.dofs],
+            "max_abs_displacement": [float(x) for x in self.max_abs_displacement],
+            "impacts": self.impacts.to_records(),
+            "steps": self.stats.steps,
+            "rejected_steps": self.stats.rejected_steps,
+            "step_cuts": self.stats.step_cuts,
+            "newton_iterations": self.stats.newton_iterations,
+            "wall_time_s": self.stats.wall_time_s,
+            "energy_balance_error": self.energy.balance_error,
+            "dt": self.dt,
+            "t_end": self.t_end,
+        }
+
+    def to_dataframe(self) -> pd.DataFrame:
+        """Time histories as a DataFrame indexed by ``time [s]``; column names carry units."""
+        import pandas as pd
+
+        cols: dict[str, Array] = {}
+        for j, d in enumerate(self.dofs):
+            cols[f"x{d} [m]"] = self.displacement[:, j]
+            cols[f"v{d} [m/s]"] = self.velocity[:, j]
+            cols[f"a{d} [m/s^2]"] = self.acceleration[:, j]
+        for g in range(self.gap_force.shape[1]):
+            cols[f"gap{g} penetration [m]"] = self.gap_penetration[:, g]
+            cols[f"gap{g} force [N]"] = self.gap_force[:, g]
+        for name in ("kinetic", "strain", "contact_potential", "external_work",
+                     "damping_dissipated", "contact_dissipated"):
+            cols[f"energy {name} [J]"] = getattr(self.energy, name)
+        return pd.DataFrame(cols, index=pd.Index(self.time, name="time [s]"))
+
+    def to_xarray(self) -> xr.Dataset:
+        """An ``xarray.Dataset`` with dims ``time``, ``dof``, ``gap`` and ``impact``; units and
+        descriptions as attributes."""
+        import xarray as xr
+
+        def var(dims: tuple[str, ...], data: Any, units: str, desc: str) -> xr.Variable:
+            return xr.Variable(dims, data, attrs={"units": units, "long_name": desc})
+
+        td, tg = ("time", "dof"), ("time", "gap")
+        data = {
+            "displacement": var(td, self.displacement, "m", "displacement"),
+            "velocity": var(td, self.velocity, "m/s", "velocity"),
+            "acceleration": var(td, self.acceleration, "m/s^2", "acceleration"),
+            "penetration": var(tg, self.gap_penetration, "m", "gap penetration (<0: open)"),
+            "contact_force": var(tg, self.gap_force, "N", "contact force"),
+        }
+        for name in ("kinetic", "strain", "contact_potential", "external_work",
+                     "damping_dissipated", "contact_dissipated"):
+            data[f"energy_{name}"] = var(("time",), getattr(self.energy, name), "J", name)
+        imp = self.impacts
+        for name, (units, desc) in IMPACT_COLUMNS.items():
+            data[f"impact_{name}"] = var(("impact",), getattr(imp, name), units, desc)
+        ds = xr.Dataset(
+            data,
+            coords={
+                "time": xr.Variable(("time",), self.time, {"units": "s"}),
+                "dof": self.dofs,
+                "gap": np.arange(self.gap_force.shape[1]),
+            },
+        )
+        ds.attrs.update(
+            complete=int(self.complete),
+            message=self.message,
+            dt=self.dt,
+            t_end=self.t_end,
+            method=repr(self.method),
+            steps=self.stats.steps,
+            newton_iterations=self.stats.newton_iterations,
+            energy_balance_error=self.energy.balance_error,
+        )
+        return ds

@@ -1,0 +1,43 @@
+use super::{check_stiffness, ContactForce, ContactLaw};
+use crate::error::{invalid, SimError};
+
+/// Linear spring–dashpot (Kelvin–Voigt), `F = k δ + c δ̇` while in contact: the paper's
+/// spring–damping description of a clearance (Fig. 1b). The force is clamped at zero
+/// near separation, where `c δ̇` would pull the bodies together.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct KelvinVoigt {
+    /// Spring stiffness `k`, N/m.
+    pub stiffness: f64,
+    /// Dashpot coefficient `c`, N·s/m.
+    pub damping: f64,
+}
+
+impl KelvinVoigt {
+    pub fn new(stiffness: f64, damping: f64) -> Result<Self, SimError> {
+        check_stiffness("kelvin-voigt", stiffness)?;
+        if !(damping.is_finite() && damping >= 0.0) {
+            return invalid(format!(
+                "kelvin-voigt: damping = {damping} is not valid; expected a finite value >= 0"
+            ));
+        }
+        Ok(Self { stiffness, damping })
+    }
+}
+
+impl ContactLaw for KelvinVoigt {
+    #[inline]
+    fn evaluate(&self, penetration: f64, rate: f64, _impact_speed: f64) -> ContactForce {
+        ContactForce {
+            force: self.stiffness * penetration + self.damping * rate,
+            d_penetration: self.stiffness,
+            d_rate: self.damping,
+        }
+    }
+    fn elastic_force(&self, penetration: f64) -> f64 {
+        self.stiffness * penetration.max(0.0)
+    }
+    fn elastic_energy(&self, penetration: f64) -> f64 {
+        let p = penetration.max(0.0);
+        0.5 * self.stiffness * p * p
+    }
+}

@@ -1,0 +1,148 @@
+//! Cubic Hermite interpolation of a gap's penetration inside one step, used to locate the
+//! instants where a gap closes or opens and the speed at those instants (DESIGN.md §1:
+//! `v_imp` is the speed at the crossing, never the speed at the first step inside the wall).
+
+/// Penetration and its time derivative at both ends of a step of length `h`.
+#[derive(Debug, Clone, Copy)]
+pub struct HermiteSegment {
+    pub y0: f64,
+    pub dy0: f64,
+    pub y1: f64,
+    pub dy1: f64,
+    pub h: f64,
+}
+
+impl HermiteSegment {
+    /// Value at the fraction `s ∈ [0, 1]` of the step.
+    #[inline]
+    pub fn value(&self, s: f64) -> f64 {
+        let s2 = s * s;
+        let s3 = s2 * s;
+        (2.0 * s3 - 3.0 * s2 + 1.0) * self.y0
+            + (s3 - 2.0 * s2 + s) * self.h * self.dy0
+            + (-2.0 * s3 + 3.0 * s2) * self.y1
+            + (s3 - s2) * self.h * self.dy1
+    }
+
+    /// Time derivative at the fraction `s` of the step.
+    #[inline]
+    pub fn rate(&self, s: f64) -> f64 {
+        let s2 = s * s;
+        ((6.0 * s2 - 6.0 * s) * self.y0 + (-6.0 * s2 + 6.0 * s) * self.y1) / self.h
+            + (3.0 * s2 - 4.0 * s + 1.0) * self.dy0
+            + (3.0 * s2 - 2.0 * s) * self.dy1
+    }
+
+    /// Fraction of the step at which the interpolant crosses zero, given that the end values
+    /// have opposite signs (or `y0 == 0`). Safeguarded Newton inside the bracket.
+    pub fn crossing(&self) -> f64 {
+        if self.y0 == 0.0 {
+            return 0.0;
+        }
+        if self.y1 == 0.0 {
+            return 1.0;
+        }
+        let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
+        let rising = self.y1 > self.y0;
+        let mut s = self.y0 / (self.y0 - self.y1);
+        for _ in 0..60 {
+            let f = self.value(s);
+            if (f < 0.0) == rising {
+                lo = s;
+            } else {
+                hi = s;
+            }
+            if f == 0.0 || hi - lo < 1e-15 {
+                break;
+            }
+            let df = self.rate(s) * self.h;
+            let newton = if df != 0.0 { s - f / df } else { f64::NAN };
+            s = if newton > lo && newton < hi {
+                newton
+            } else {
+                0.5 * (lo + hi)
+            };
+            if (self.value(s)).abs() <= 1e-16 * (self.y0.abs() + self.y1.abs()) {
+                break;
+            }
+        }
+        s.clamp(0.0, 1.0)
+    }
+}
+
+/// Vertex of the parabola through three samples `(t, y)`; returns the largest of the samples
+/// and the vertex value when the middle sample is a local maximum.
+pub fn parabola_peak(t: [f64; 3], y: [f64; 3]) -> f64 {
+    let max_sample = y[0].max(y[1]).max(y[2]);
+    if !(y[1] >= y[0] && y[1] >= y[2]) {
+        return max_sample;
+    }
+    let (h0, h1) = (t[1] - t[0], t[2] - t[1]);
+    if h0 <= 0.0 || h1 <= 0.0 {
+        return max_sample;
+    }
+    // Divided differences: y(τ) = y1 + b τ + c τ², τ = t − t1.
+    let d0 = (y[1] - y[0]) / h0;
+    let d1 = (y[2] - y[1]) / h1;
+    let c = (d1 - d0) / (h0 + h1);
+    if c >= 0.0 {
+        return max_sample;
+    }
+    let b = d0 + c * h0;
+    let tau = (-b / (2.0 * c)).clamp(-h0, h1);
+    (y[1] + b * tau + c * tau * tau).max(max_sample)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hermite_is_exact_for_cubics() {
+        let f = |t: f64| 0.3 * t * t * t - 0.2 * t * t + 0.5 * t - 0.01;
+        let df = |t: f64| 0.9 * t * t - 0.4 * t + 0.5;
+        let (t0, h) = (0.1, 0.3);
+        let seg = HermiteSegment {
+            y0: f(t0),
+            dy0: df(t0),
+            y1: f(t0 + h),
+            dy1: df(t0 + h),
+            h,
+        };
+        for &s in &[0.0, 0.2, 0.5, 0.9, 1.0] {
+            assert!((seg.value(s) - f(t0 + s * h)).abs() < 1e-15);
+            assert!((seg.rate(s) - df(t0 + s * h)).abs() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn crossing_of_a_cubic() {
+        // y = (t - 0.37)(1 + t²) crosses zero at t = 0.37.
+        let f = |t: f64| (t - 0.37) * (1.0 + t * t);
+        let df = |t: f64| (1.0 + t * t) + 2.0 * t * (t - 0.37);
+        let seg = HermiteSegment {
+            y0: f(0.0),
+            dy0: df(0.0),
+            y1: f(1.0),
+            dy1: df(1.0),
+            h: 1.0,
+        };
+        assert!((seg.crossing() - 0.37).abs() < 1e-14);
+        let down = HermiteSegment {
+            y0: -seg.y0,
+            dy0: -seg.dy0,
+            y1: -seg.y1,
+            dy1: -seg.dy1,
+            h: 1.0,
+        };
+        assert!((down.crossing() - 0.37).abs() < 1e-14);
+    }
+
+    #[test]
+    fn parabola_vertex() {
+        let f = |t: f64| 2.0 - 3.0 * (t - 0.123).powi(2);
+        let t = [0.0, 0.1, 0.25];
+        let peak = parabola_peak(t, [f(t[0]), f(t[1]), f(t[2])]);
+        assert!((peak - 2.0).abs() < 1e-14);
+    }
+}

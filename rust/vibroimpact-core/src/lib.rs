@@ -1,0 +1,17 @@
+//! vibroimpact-core: the dynamic response of linear structures with clearances.
+//!
+//! `M x'' + C x' + K x = F(t) + Σ_g b_gᵀ f_g` (paper eq. 2): a linear structure
+//! ([`structure`]), gap elements with contact-force laws ([`gap`], [`contact`]), and time
+//! integrators ([`integrators`]) driven by [`simulate::simulate`]. No Python here; the
+//! `vibroimpact-py` crate binds it.
+
+pub mod contact;
+pub mod error;
+pub mod gap;
+pub mod integrators;
+pub mod interpolation;
+pub mod simulate;
+pub mod structure;
+pub mod system;
+
+pub use error::SimError;

@@ -1,0 +1,361 @@
+//! The time loop: steps of a fixed size with automatic step cutting, the impact table, the
+//! energy account and decimated output into preallocated buffers (DESIGN.md §5–6).
+
+use std::time::Instant;
+
+use nalgebra::DVector;
+
+use crate::contact::ContactLaw;
+use crate::error::{invalid, SimError};
+use crate::gap::{ImpactLog, ImpactRecord};
+use crate::integrators::{NewmarkFamily, NewmarkStepper, NewtonSettings, Stepper};
+use crate::system::{State, System};
+
+/// Which integrator advances the run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Method {
+    /// Newmark-β / HHT-α / generalized-α with Newton on the gap forces.
+    NewmarkFamily(NewmarkFamily),
+}
+
+/// Step size, duration and what to record.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunSettings {
+    /// Simulated duration, s.
+    pub t_end: f64,
+    /// Step size, s (reduced slightly if needed so that `t_end` is a whole number of steps).
+    pub dt: f64,
+    /// Record every k-th step (the first and last steps are always recorded).
+    pub every: usize,
+    /// DOFs whose displacement, velocity and acceleration are recorded.
+    pub record_dofs: Vec<usize>,
+    pub newton: NewtonSettings,
+}
+
+/// Solver statistics.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Stats {
+    /// Accepted steps (including the sub-steps of cut steps).
+    pub steps: usize,
+    pub newton_iterations: usize,
+    /// Step attempts that failed and were halved.
+    pub rejected_steps: usize,
+    pub wall_time_s: f64,
+}
+
+/// Energy account at the recorded instants, J (DESIGN.md §6).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct EnergyHistory {
+    pub kinetic: Vec<f64>,
+    pub strain: Vec<f64>,
+    /// Potential stored in the conservative part of the contact forces.
+    pub contact_potential: Vec<f64>,
+    pub external_work: Vec<f64>,
+    pub damping_dissipated: Vec<f64>,
+    pub contact_dissipated: Vec<f64>,
+}
+
+impl EnergyHistory {
+    /// `E + D − E₀ − W_ext` at each recorded instant: zero up to the time discretisation.
+    pub fn balance(&self) -> Vec<f64> {
+        let e0 = self.kinetic[0] + self.strain[0] + self.contact_potential[0];
+        (0..self.kinetic.len())
+            .map(|k| {
+                self.kinetic[k]
+                    + self.strain[k]
+                    + self.contact_potential[k]
+                    + self.damping_dissipated[k]
+                    + self.contact_dissipated[k]
+                    - e0
+                    - self.external_work[k]
+            })
+            .collect()
+    }
+
+    /// Largest balance error relative to the largest energy that entered the system.
+    pub fn relative_balance_error(&self) -> f64 {
+        let e0 = self.kinetic[0] + self.strain[0] + self.contact_potential[0];
+        let scale = (0..self.kinetic.len())
+            .map(|k| {
+                (self.kinetic[k] + self.strain[k] + self.contact_potential[k])
+                    .max(e0 + self.external_work[k].abs())
+            })
+            .fold(0.0, f64::max);
+        let worst = self.balance().iter().fold(0.0f64, |m, e| m.max(e.abs()));
+        if scale > 0.0 {
+            worst / scale
+        } else {
+            worst
+        }
+    }
+}
+
+/// Everything a run returns. Arrays are row-major with time as the first axis.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct RunOutput {
+    pub time: Vec<f64>,
+    pub record_dofs: Vec<usize>,
+    /// Largest |x| of each recorded DOF over every step (not only the recorded ones), m.
+    pub max_abs_displacement: Vec<f64>,
+    pub displacement: Vec<f64>,
+    pub velocity: Vec<f64>,
+    pub acceleration: Vec<f64>,
+    /// Per gap: largest penetration over its walls (negative: open by that much), m.
+    pub gap_penetration: Vec<f64>,
+    /// Per gap: contact force magnitude, N.
+    pub gap_force: Vec<f64>,
+    pub energy: EnergyHistory,
+    pub impacts: Vec<ImpactRecord>,
+    pub stats: Stats,
+    /// Step size actually used, s.
+    pub dt: f64,
+    /// Why the run stopped early; the arrays then hold the results up to that time.
+    pub error: Option<SimError>,
+}
+
+/// Runs `sys` from `x0, v0` at `t = 0`. Invalid settings are refused before the run; a
+/// failure during the run is returned in `RunOutput::error` with the results up to then.
+pub fn simulate(
+    sys: &System,
+    method: Method,
+    settings: &RunSettings,
+    x0: DVector<f64>,
+    v0: DVector<f64>,
+) -> Result<RunOutput, SimError> {
+    let started = Instant::now();
+    let RunSettings {
+        t_end,
+        dt,
+        every,
+        ref record_dofs,
+        newton,
+    } = *settings;
+    if !(t_end.is_finite() && t_end > 0.0) {
+        return invalid(format!(
+            "solver.t_end: {t_end} is not valid; expected a duration > 0 in s"
+        ));
+    }
+    if !(dt.is_finite() && dt > 0.0) {
+        return invalid(format!(
+            "solver.dt: {dt} is not valid; expected a step > 0 in s"
+        ));
+    }
+    if dt > t_end {
+        return invalid(format!(
+            "solver.dt: {dt} is larger than solver.t_end = {t_end}; expected dt <= t_end"
+        ));
+    }
+    if every == 0 {
+        return invalid("output.every: 0 is not valid; expected an integer >= 1");
+    }
+    let n = sys.n_dof();
+    if let Some(d) = record_dofs.iter().find(|&&d| d >= n) {
+        return invalid(format!(
+            "output.dofs: {d} is out of range; expected 0 <= dof < {n}"
+        ));
+    }
+    let n_steps_f = (t_end / dt - 1e-9).ceil();
+    if n_steps_f > 1e10 {
+        return invalid(format!(
+            "solver.dt: {dt} gives {n_steps_f:.3e} steps for t_end = {t_end}; expected at most 1e10"
+        ));
+    }
+    let n_steps = n_steps_f as usize;
+    let h0 = t_end / n_steps as f64;
+
+    let mut stepper = match method {
+        Method::NewmarkFamily(scheme) => {
+            let mut s = NewmarkStepper::new(sys, scheme, newton)?;
+            s.prepare(sys, h0)?;
+            s
+        }
+    };
+    let mut cur = State::initial(sys, x0, v0, 0.0)?;
+    let mut trial = cur.clone();
+    let mut log = ImpactLog::new(sys.walls.len());
+    log.start(&sys.walls, &cur.walls, 0.0);
+
+    let n_rec = n_steps / every + 2;
+    let mut out = Recorder::new(sys, record_dofs.clone(), n_rec);
+    let mut account = Account::default();
+    let mut stats = Stats::default();
+    let mut error = None;
+    out.record(sys, &cur, &account);
+
+    let mut pending: Vec<usize> = Vec::with_capacity(2 * newton.max_step_cuts + 2);
+    'steps: for step in 1..=n_steps {
+        pending.push(0);
+        while let Some(level) = pending.pop() {
+            let h = h0 / (1u64 << level) as f64;
+            match stepper.attempt(sys, &cur, level, h, &mut trial) {
+                Ok(iterations) => {
+                    stats.newton_iterations += iterations;
+                    stats.steps += 1;
+                    if trial.x.iter().chain(trial.v.iter()).any(|v| !v.is_finite()) {
+                        error = Some(SimError::Diverged { t: trial.t });
+                        break 'steps;
+                    }
+                    account.commit(sys, &cur, &trial, &mut out.tmp);
+                    for (m, &d) in out.max_abs.iter_mut().zip(record_dofs) {
+                        *m = m.max(trial.x[d].abs());
+                    }
+                    log.commit(&sys.walls, &cur.walls, &trial.walls, cur.t, h);
+                    std::mem::swap(&mut cur, &mut trial);
+                }
+                Err(failure) => {
+                    stats.rejected_steps += 1;
+                    stats.newton_iterations += failure.iterations;
+                    if level < newton.max_step_cuts {
+                        pending.push(level + 1);
+                        pending.push(level + 1);
+                    } else {
+                        error = Some(SimError::NewtonFailed {
+                            t: cur.t,
+                            gap: failure.gap,
+                            penetration: failure.penetration,
+                            iterations: failure.iterations,
+                            dt: h,
+                        });
+                        break 'steps;
+                    }
+                }
+            }
+        }
+        cur.t = step as f64 * h0;
+        if step % every == 0 || step == n_steps {
+            out.record(sys, &cur, &account);
+        }
+    }
+    if error.is_some() && out.time.last() != Some(&cur.t) {
+        out.record(sys, &cur, &account);
+    }
+    stats.wall_time_s = started.elapsed().as_secs_f64();
+    Ok(RunOutput {
+        time: out.time,
+        record_dofs: record_dofs.clone(),
+        max_abs_displacement: out.max_abs,
+        displacement: out.x,
+        velocity: out.v,
+        acceleration: out.a,
+        gap_penetration: out.penetration,
+        gap_force: out.force,
+        energy: out.energy,
+        impacts: log.records,
+        stats,
+        dt: h0,
+        error,
+    })
+}
+
+/// Work integrals, accumulated every step with the trapezoidal rule in displacement,
+/// `W = Σ Δxᵀ (f₀ + f₁)/2`, which is exact for the average-acceleration rule's linear part.
+#[derive(Debug, Clone, Copy, Default)]
+struct Account {
+    external_work: f64,
+    damping_dissipated: f64,
+    contact_dissipated: f64,
+}
+
+impl Account {
+    fn commit(&mut self, sys: &System, s0: &State, s1: &State, tmp: &mut DVector<f64>) {
+        let mut w_ext = 0.0;
+        for i in 0..s0.x.len() {
+            w_ext += (s1.x[i] - s0.x[i]) * (s0.f_ext[i] + s1.f_ext[i]);
+        }
+        self.external_work += 0.5 * w_ext;
+        if sys.has_damping {
+            tmp.copy_from(&s0.v);
+            *tmp += &s1.v;
+            let mut d = 0.0;
+            let cv = &sys.structure.damping * &*tmp;
+            for i in 0..s0.x.len() {
+                d += (s1.x[i] - s0.x[i]) * cv[i];
+            }
+            self.damping_dissipated += 0.5 * d;
+        }
+        for (w0, w1) in s0.walls.iter().zip(&s1.walls) {
+            if w0.closed() || w1.closed() {
+                let fd0 = w0.force - w0.elastic_force;
+                let fd1 = w1.force - w1.elastic_force;
+                self.contact_dissipated += 0.5 * (w1.penetration - w0.penetration) * (fd0 + fd1);
+            }
+        }
+    }
+}
+
+/// Decimated output buffers.
+struct Recorder {
+    dofs: Vec<usize>,
+    time: Vec<f64>,
+    x: Vec<f64>,
+    v: Vec<f64>,
+    a: Vec<f64>,
+    penetration: Vec<f64>,
+    force: Vec<f64>,
+    energy: EnergyHistory,
+    max_abs: Vec<f64>,
+    tmp: DVector<f64>,
+}
+
+impl Recorder {
+    fn new(sys: &System, dofs: Vec<usize>, n_rec: usize) -> Self {
+        let nd = dofs.len();
+        let ng = sys.gaps.len();
+        let max_abs = vec![0.0; nd];
+        let e = || Vec::with_capacity(n_rec);
+        Self {
+            dofs,
+            time: e(),
+            x: Vec::with_capacity(n_rec * nd),
+            v: Vec::with_capacity(n_rec * nd),
+            a: Vec::with_capacity(n_rec * nd),
+            penetration: Vec::with_capacity(n_rec * ng),
+            force: Vec::with_capacity(n_rec * ng),
+            energy: EnergyHistory {
+                kinetic: e(),
+                strain: e(),
+                contact_potential: e(),
+                external_work: e(),
+                damping_dissipated: e(),
+                contact_dissipated: e(),
+            },
+            max_abs,
+            tmp: DVector::zeros(sys.n_dof()),
+        }
+    }
+
+    fn record(&mut self, sys: &System, s: &State, account: &Account) {
+        self.time.push(s.t);
+        for (m, &d) in self.max_abs.iter_mut().zip(&self.dofs) {
+            *m = m.max(s.x[d].abs());
+        }
+        for &d in &self.dofs {
+            self.x.push(s.x[d]);
+            self.v.push(s.v[d]);
+            self.a.push(s.a[d]);
+        }
+        let ng = sys.gaps.len();
+        let base = self.penetration.len();
+        self.penetration.resize(base + ng, f64::NEG_INFINITY);
+        self.force.resize(base + ng, 0.0);
+        let mut potential = 0.0;
+        for (wall, ws) in sys.walls.iter().zip(&s.walls) {
+            let g = base + wall.gap;
+            self.penetration[g] = self.penetration[g].max(ws.penetration);
+            self.force[g] += ws.force;
+            potential += sys.gaps[wall.gap].law.elastic_energy(ws.penetration);
+        }
+        let st = &sys.structure;
+        self.tmp.gemv(1.0, &st.mass, &s.v, 0.0);
+        let kinetic = 0.5 * s.v.dot(&self.tmp);
+        self.tmp.gemv(1.0, &st.stiffness, &s.x, 0.0);
+        let strain = 0.5 * s.x.dot(&self.tmp);
+        let e = &mut self.energy;
+        e.kinetic.push(kinetic);
+        e.strain.push(strain);
+        e.contact_potential.push(potential);
+        e.external_work.push(account.external_work);
+        e.damping_dissipated.push(account.damping_dissipated);
+        e.contact_dissipated.push(account.contact_dissipated);
+    }
+}

@@ -1,0 +1,201 @@
+//! The model the integrators advance: linear structure + gaps + loads (paper eq. 2),
+//! and the state of a run at one instant.
+
+use nalgebra::DVector;
+
+use crate::contact::MIN_IMPACT_SPEED;
+use crate::error::{invalid, SimError};
+use crate::gap::{evaluate_wall, Gap, Wall, WallState};
+use crate::structure::{external_force, LinearStructure, Load};
+
+/// `M x'' + C x' + K x = F(t) − Σ_g φ_g b_gᵀ`, with `φ_g = Σ_walls s F` the generalized
+/// contact force on gap coordinate `u_g = b_g · x` (it pushes the coordinate out of the wall).
+#[derive(Debug, Clone)]
+pub struct System {
+    pub structure: LinearStructure,
+    pub gaps: Vec<Gap>,
+    pub loads: Vec<Load>,
+    pub walls: Vec<Wall>,
+    pub has_damping: bool,
+}
+
+impl System {
+    pub fn new(
+        structure: LinearStructure,
+        gaps: Vec<Gap>,
+        loads: Vec<Load>,
+    ) -> Result<Self, SimError> {
+        let n = structure.n_dof();
+        for (i, g) in gaps.iter().enumerate() {
+            g.validate(i, n)?;
+        }
+        for (i, l) in loads.iter().enumerate() {
+            l.validate(i, n)?;
+        }
+        let walls = gaps
+            .iter()
+            .enumerate()
+            .flat_map(|(i, g)| {
+                g.side.signs().iter().map(move |&sign| Wall {
+                    gap: i,
+                    sign,
+                    clearance: g.clearance,
+                })
+            })
+            .collect();
+        let has_damping = structure.damping.iter().any(|&c| c != 0.0);
+        Ok(Self {
+            structure,
+            gaps,
+            loads,
+            walls,
+            has_damping,
+        })
+    }
+
+    pub fn n_dof(&self) -> usize {
+        self.structure.n_dof()
+    }
+
+    /// `u_g = b_g · y` for every gap.
+    #[inline]
+    pub fn gap_coordinates(&self, y: &DVector<f64>, out: &mut [f64]) {
+        for (o, g) in out.iter_mut().zip(&self.gaps) {
+            *o = g.dofs.iter().zip(&g.coefficients).map(|(&d, &c)| c * y[d]).sum();
+        }
+    }
+
+    /// Adds `−scale Σ_g φ_g b_gᵀ` (the contact force on the structure, scaled) to `out`.
+    #[inline]
+    pub fn add_contact_force_scaled(&self, phi: &[f64], scale: f64, out: &mut DVector<f64>) {
+        for (g, &p) in self.gaps.iter().zip(phi) {
+            if p != 0.0 {
+                for (&d, &c) in g.dofs.iter().zip(&g.coefficients) {
+                    out[d] -= scale * c * p;
+                }
+            }
+        }
+    }
+
+    /// Evaluates every wall at gap coordinates `u`, `u̇` at the end of a step of length `h`
+    /// that started from `start`; writes wall states and the generalized forces `φ` with
+    /// their derivatives `∂φ/∂u`, `∂φ/∂u̇`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn evaluate_contacts(
+        &self,
+        start: &[WallState],
+        u: &[f64],
+        u_rate: &[f64],
+        h: f64,
+        walls: &mut [WallState],
+        phi: &mut [f64],
+        d_phi_du: &mut [f64],
+        d_phi_drate: &mut [f64],
+    ) {
+        phi.fill(0.0);
+        d_phi_du.fill(0.0);
+        d_phi_drate.fill(0.0);
+        for (j, wall) in self.walls.iter().enumerate() {
+            let g = wall.gap;
+            let s = evaluate_wall(&self.gaps[g].law, wall, &start[j], u[g], u_rate[g], h);
+            phi[g] += wall.sign * s.force;
+            d_phi_du[g] += s.d_penetration;
+            d_phi_drate[g] += s.d_rate;
+            walls[j] = s;
+        }
+    }
+}
+
+/// Everything the integrators carry from one step to the next.
+#[derive(Debug, Clone)]
+pub struct State {
+    pub t: f64,
+    pub x: DVector<f64>,
+    pub v: DVector<f64>,
+    pub a: DVector<f64>,
+    /// External force `F(t)`.
+    pub f_ext: DVector<f64>,
+    /// Generalized contact force per gap.
+    pub phi: Vec<f64>,
+    /// Gap coordinates and their rates.
+    pub u: Vec<f64>,
+    pub u_rate: Vec<f64>,
+    pub u_accel: Vec<f64>,
+    pub walls: Vec<WallState>,
+}
+
+impl State {
+    /// Initial state: contact forces at `x0, v0` and the acceleration from equilibrium.
+    pub fn initial(
+        sys: &System,
+        x0: DVector<f64>,
+        v0: DVector<f64>,
+        t0: f64,
+    ) -> Result<Self, SimError> {
+        let n = sys.n_dof();
+        for (name, vec) in [("initial.displacement", &x0), ("initial.velocity", &v0)] {
+            if vec.len() != n {
+                return invalid(format!(
+                    "{name}: {} values; expected {n} (one per DOF)",
+                    vec.len()
+                ));
+            }
+            if vec.iter().any(|v| !v.is_finite()) {
+                return invalid(format!("{name}: contains a non-finite value"));
+            }
+        }
+        let ng = sys.gaps.len();
+        let nw = sys.walls.len();
+        let mut s = State {
+            t: t0,
+            x: x0,
+            v: v0,
+            a: DVector::zeros(n),
+            f_ext: DVector::zeros(n),
+            phi: vec![0.0; ng],
+            u: vec![0.0; ng],
+            u_rate: vec![0.0; ng],
+            u_accel: vec![0.0; ng],
+            walls: vec![WallState::default(); nw],
+        };
+        sys.gap_coordinates(&s.x, &mut s.u);
+        sys.gap_coordinates(&s.v, &mut s.u_rate);
+        // A wall already closed at t0: its approach speed is the current closing speed.
+        let start: Vec<WallState> = sys
+            .walls
+            .iter()
+            .map(|w| WallState {
+                penetration: w.sign * s.u[w.gap] - w.clearance,
+                rate: w.sign * s.u_rate[w.gap],
+                impact_speed: (w.sign * s.u_rate[w.gap]).abs().max(MIN_IMPACT_SPEED),
+                ..WallState::default()
+            })
+            .collect();
+        let (mut du, mut dv) = (vec![0.0; ng], vec![0.0; ng]);
+        sys.evaluate_contacts(
+            &start,
+            &s.u.clone(),
+            &s.u_rate.clone(),
+            1.0,
+            &mut s.walls,
+            &mut s.phi,
+            &mut du,
+            &mut dv,
+        );
+        external_force(&sys.loads, t0, &mut s.f_ext);
+        let st = &sys.structure;
+        let mut rhs = s.f_ext.clone();
+        sys.add_contact_force_scaled(&s.phi, 1.0, &mut rhs);
+        rhs.gemv(-1.0, &st.damping, &s.v, 1.0);
+        rhs.gemv(-1.0, &st.stiffness, &s.x, 1.0);
+        let chol = st
+            .mass
+            .clone()
+            .cholesky()
+            .ok_or_else(|| SimError::InvalidModel("structure.mass: not positive definite".into()))?;
+        s.a = chol.solve(&rhs);
+        sys.gap_coordinates(&s.a, &mut s.u_accel);
+        Ok(s)
+    }
+}

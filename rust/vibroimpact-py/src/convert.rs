@@ -1,0 +1,211 @@
+//! Spec dict → core types. The Python side has validated the model already; these checks
+//! repeat the essentials so that the core is never handed something malformed.
+
+use nalgebra::{DMatrix, DVector};
+use numpy::{PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+use crate::{to_py_err, ModelError};
+use vibroimpact_core::contact::{
+    Flores, Gonthier, Hertz, HuntCrossley, HuntCrossleyDamping, KelvinVoigt, LankaraniNikravesh,
+    Law,
+};
+use vibroimpact_core::gap::{Gap, Side};
+use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings};
+use vibroimpact_core::simulate::{Method, RunSettings};
+use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
+use vibroimpact_core::system::System;
+
+pub(crate) struct Job {
+    pub system: System,
+    pub method: Method,
+    pub settings: RunSettings,
+    pub x0: DVector<f64>,
+    pub v0: DVector<f64>,
+}
+
+fn item<'py, T: FromPyObjectOwned<'py>>(d: &Bound<'py, PyDict>, key: &str, ctx: &str) -> PyResult<T> {
+    let v = d
+        .get_item(key)?
+        .ok_or_else(|| ModelError::new_err(format!("{ctx}.{key}: missing")))?;
+    v.extract::<T>().map_err(|e| {
+        let e: PyErr = e.into();
+        ModelError::new_err(format!("{ctx}.{key}: {e}"))
+    })
+}
+
+fn opt<'py, T: FromPyObjectOwned<'py>>(
+    d: &Bound<'py, PyDict>,
+    key: &str,
+    ctx: &str,
+) -> PyResult<Option<T>> {
+    match d.get_item(key)? {
+        None => Ok(None),
+        Some(v) if v.is_none() => Ok(None),
+        Some(v) => v
+            .extract::<T>()
+            .map(Some)
+            .map_err(|e| {
+                let e: PyErr = e.into();
+                ModelError::new_err(format!("{ctx}.{key}: {e}"))
+            }),
+    }
+}
+
+fn matrix(d: &Bound<'_, PyDict>, key: &str) -> PyResult<DMatrix<f64>> {
+    let a: PyReadonlyArray2<f64> = item(d, key, "structure")?;
+    let a = a.as_array();
+    let (r, c) = a.dim();
+    Ok(DMatrix::from_fn(r, c, |i, j| a[[i, j]]))
+}
+
+fn vector(d: &Bound<'_, PyDict>, key: &str) -> PyResult<DVector<f64>> {
+    let a: PyReadonlyArray1<f64> = item(d, key, "initial")?;
+    Ok(DVector::from_iterator(a.len()?, a.as_array().iter().copied()))
+}
+
+fn law(d: &Bound<'_, PyDict>, ctx: &str) -> PyResult<Law> {
+    let kind: String = item(d, "kind", ctx)?;
+    let stiffness: f64 = item(d, "stiffness", ctx)?;
+    let exponent: f64 = opt(d, "exponent", ctx)?.unwrap_or(1.5);
+    let restitution = || -> PyResult<f64> { item(d, "restitution", ctx) };
+    let law = match kind.as_str() {
+        "hertz" => Hertz::new(stiffness, exponent).map(Law::Hertz),
+        "kelvin-voigt" => {
+            KelvinVoigt::new(stiffness, item(d, "damping", ctx)?).map(Law::KelvinVoigt)
+        }
+        "hunt-crossley" => {
+            let damping = match opt::<f64>(d, "damping", ctx)? {
+                Some(b) => HuntCrossleyDamping::Coefficient(b),
+                None => HuntCrossleyDamping::Restitution(restitution()?),
+            };
+            HuntCrossley::new(stiffness, exponent, damping).map(Law::HuntCrossley)
+        }
+        "lankarani-nikravesh" => LankaraniNikravesh::new(stiffness, exponent, restitution()?)
+            .map(Law::LankaraniNikravesh),
+        "gonthier" => Gonthier::new(stiffness, exponent, restitution()?).map(Law::Gonthier),
+        "flores" => Flores::new(stiffness, exponent, restitution()?).map(Law::Flores),
+        other => {
+            return Err(ModelError::new_err(format!(
+                "{ctx}.kind: '{other}' is not a known contact law"
+            )))
+        }
+    };
+    law.map_err(to_py_err)
+}
+
+fn gap(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Gap> {
+    let ctx = format!("gaps[{i}]");
+    let side: String = item(d, "side", &ctx)?;
+    let side = match side.as_str() {
+        "positive" => Side::Positive,
+        "negative" => Side::Negative,
+        "both" => Side::Both,
+        other => {
+            return Err(ModelError::new_err(format!(
+                "{ctx}.side: '{other}' is not valid; expected positive, negative or both"
+            )))
+        }
+    };
+    let law_dict: Bound<'_, PyDict> = item(d, "law", &ctx)?;
+    Ok(Gap {
+        dofs: item(d, "dofs", &ctx)?,
+        coefficients: item(d, "coefficients", &ctx)?,
+        clearance: item(d, "clearance", &ctx)?,
+        side,
+        law: law(&law_dict, &format!("{ctx}.law"))?,
+    })
+}
+
+fn load(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Load> {
+    let ctx = format!("loads[{i}]");
+    let kind: String = item(d, "kind", &ctx)?;
+    let history = match kind.as_str() {
+        "constant" => LoadHistory::Constant,
+        "harmonic" => LoadHistory::Harmonic {
+            frequency: item(d, "frequency", &ctx)?,
+            phase: opt(d, "phase", &ctx)?.unwrap_or(0.0),
+        },
+        "table" => LoadHistory::Table {
+            time: item(d, "time", &ctx)?,
+            value: item(d, "value", &ctx)?,
+        },
+        other => {
+            return Err(ModelError::new_err(format!(
+                "{ctx}.kind: '{other}' is not valid; expected constant, harmonic or table"
+            )))
+        }
+    };
+    Ok(Load {
+        dofs: item(d, "dofs", &ctx)?,
+        amplitude: opt(d, "amplitude", &ctx)?.unwrap_or(1.0),
+        history,
+    })
+}
+
+fn method(d: &Bound<'_, PyDict>) -> PyResult<Method> {
+    let kind: String = item(d, "kind", "solver")?;
+    match kind.as_str() {
+        "newmark" | "newmark-family" => {
+            let scheme = NewmarkFamily {
+                beta: item(d, "beta", "solver")?,
+                gamma: item(d, "gamma", "solver")?,
+                alpha_m: opt(d, "alpha_m", "solver")?.unwrap_or(0.0),
+                alpha_f: opt(d, "alpha_f", "solver")?.unwrap_or(0.0),
+            };
+            scheme.validate().map_err(to_py_err)?;
+            Ok(Method::NewmarkFamily(scheme))
+        }
+        other => Err(ModelError::new_err(format!(
+            "solver.method: '{other}' is not available"
+        ))),
+    }
+}
+
+pub(crate) fn job_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Job> {
+    let structure = LinearStructure::new(
+        matrix(spec, "mass")?,
+        matrix(spec, "damping")?,
+        matrix(spec, "stiffness")?,
+    )
+    .map_err(to_py_err)?;
+    let gaps_list: Bound<'_, PyList> = item(spec, "gaps", "model")?;
+    let gaps = gaps_list
+        .iter()
+        .enumerate()
+        .map(|(i, g)| gap(g.cast::<PyDict>()?, i))
+        .collect::<PyResult<Vec<_>>>()?;
+    let loads_list: Bound<'_, PyList> = item(spec, "loads", "model")?;
+    let loads = loads_list
+        .iter()
+        .enumerate()
+        .map(|(i, l)| load(l.cast::<PyDict>()?, i))
+        .collect::<PyResult<Vec<_>>>()?;
+    let system = System::new(structure, gaps, loads).map_err(to_py_err)?;
+    let method_dict: Bound<'_, PyDict> = item(spec, "method", "solver")?;
+    let newton_dict: Bound<'_, PyDict> = item(spec, "newton", "solver")?;
+    let default = NewtonSettings::default();
+    let newton = NewtonSettings {
+        rtol: opt(&newton_dict, "rtol", "solver")?.unwrap_or(default.rtol),
+        atol: opt(&newton_dict, "atol", "solver")?.unwrap_or(default.atol),
+        max_iterations: opt(&newton_dict, "max_iterations", "solver")?
+            .unwrap_or(default.max_iterations),
+        max_step_cuts: opt(&newton_dict, "max_step_cuts", "solver")?
+            .unwrap_or(default.max_step_cuts),
+    };
+    let n = system.n_dof();
+    Ok(Job {
+        method: method(&method_dict)?,
+        settings: RunSettings {
+            t_end: item(spec, "t_end", "solver")?,
+            dt: item(spec, "dt", "solver")?,
+            every: item(spec, "every", "output")?,
+            record_dofs: opt(spec, "record_dofs", "output")?.unwrap_or_else(|| (0..n).collect()),
+            newton,
+        },
+        x0: vector(spec, "x0")?,
+        v0: vector(spec, "v0")?,
+        system,
+    })
+}

@@ -1,0 +1,158 @@
+//! Thin PyO3 binding of `vibroimpact-core`: converts the plain-data model spec built by the
+//! Python package into core types, runs with the GIL released, and returns numpy arrays.
+
+mod convert;
+
+use numpy::{PyArray1, PyArray2, PyArrayMethods};
+use pyo3::create_exception;
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+use vibroimpact_core::contact::{ContactGeometry, Material};
+use vibroimpact_core::simulate::{simulate as run, RunOutput};
+use vibroimpact_core::SimError;
+
+create_exception!(_core, ModelError, PyValueError, "The model or settings are invalid.");
+create_exception!(
+    _core,
+    SolverError,
+    PyRuntimeError,
+    "The solver could not complete the run."
+);
+
+pub(crate) fn to_py_err(e: SimError) -> PyErr {
+    match e {
+        SimError::InvalidModel(msg) => ModelError::new_err(msg),
+        other => SolverError::new_err(other.to_string()),
+    }
+}
+
+/// Runs one model spec (a dict built by `vibroimpact._spec`) and returns a dict of arrays.
+#[pyfunction]
+fn simulate<'py>(py: Python<'py>, spec: &Bound<'py, PyDict>) -> PyResult<Bound<'py, PyDict>> {
+    let job = convert::job_from_spec(spec)?;
+    let out = py
+        .detach(|| run(&job.system, job.method, &job.settings, job.x0, job.v0))
+        .map_err(to_py_err)?;
+    output_to_dict(py, out)
+}
+
+/// Hertz stiffness `K = (4/3) E* √R*` (paper eq. 4), N/m^1.5.
+#[pyfunction]
+#[pyo3(signature = (kind, radius1, radius2, youngs_modulus1, poisson1, youngs_modulus2, poisson2))]
+#[allow(clippy::too_many_arguments)]
+fn hertz_stiffness(
+    kind: &str,
+    radius1: f64,
+    radius2: Option<f64>,
+    youngs_modulus1: f64,
+    poisson1: f64,
+    youngs_modulus2: f64,
+    poisson2: f64,
+) -> PyResult<f64> {
+    let need2 = || {
+        radius2.ok_or_else(|| ModelError::new_err(format!("geometry: {kind} needs radius2")))
+    };
+    let geometry = match kind {
+        "sphere-sphere" => ContactGeometry::SphereSphere {
+            radius1,
+            radius2: need2()?,
+        },
+        "ball-in-socket" => ContactGeometry::BallInSocket {
+            radius1,
+            radius2: need2()?,
+        },
+        "sphere-plane" => ContactGeometry::SpherePlane { radius: radius1 },
+        other => {
+            return Err(ModelError::new_err(format!(
+                "geometry.kind: '{other}' is not known; expected one of sphere-sphere, ball-in-socket, sphere-plane"
+            )))
+        }
+    };
+    geometry
+        .stiffness(
+            Material {
+                youngs_modulus: youngs_modulus1,
+                poisson: poisson1,
+            },
+            Material {
+                youngs_modulus: youngs_modulus2,
+                poisson: poisson2,
+            },
+        )
+        .map_err(to_py_err)
+}
+
+fn output_to_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    let nt = out.time.len();
+    let nd = out.record_dofs.len();
+    let ng = if nt > 0 { out.gap_penetration.len() / nt } else { 0 };
+    let mat = |v: Vec<f64>, cols: usize| -> PyResult<Bound<'_, PyArray2<f64>>> {
+        Ok(PyArray1::from_vec(py, v).reshape([nt, cols])?)
+    };
+    d.set_item("time", PyArray1::from_vec(py, out.time))?;
+    d.set_item("dofs", PyArray1::from_vec(py, out.record_dofs.iter().map(|&x| x as i64).collect()))?;
+    d.set_item("displacement", mat(out.displacement, nd)?)?;
+    d.set_item("velocity", mat(out.velocity, nd)?)?;
+    d.set_item("acceleration", mat(out.acceleration, nd)?)?;
+    d.set_item("gap_penetration", mat(out.gap_penetration, ng)?)?;
+    d.set_item("gap_force", mat(out.gap_force, ng)?)?;
+    d.set_item("max_abs_displacement", PyArray1::from_vec(py, out.max_abs_displacement))?;
+    let balance = out.energy.relative_balance_error();
+    let e = out.energy;
+    let energy = PyDict::new(py);
+    energy.set_item("kinetic", PyArray1::from_vec(py, e.kinetic))?;
+    energy.set_item("strain", PyArray1::from_vec(py, e.strain))?;
+    energy.set_item("contact_potential", PyArray1::from_vec(py, e.contact_potential))?;
+    energy.set_item("external_work", PyArray1::from_vec(py, e.external_work))?;
+    energy.set_item("damping_dissipated", PyArray1::from_vec(py, e.damping_dissipated))?;
+    energy.set_item("contact_dissipated", PyArray1::from_vec(py, e.contact_dissipated))?;
+    d.set_item("energy", energy)?;
+    let imp = PyDict::new(py);
+    let col = |f: &dyn Fn(&vibroimpact_core::gap::ImpactRecord) -> f64| {
+        PyArray1::from_vec(py, out.impacts.iter().map(f).collect())
+    };
+    imp.set_item(
+        "gap",
+        PyArray1::from_vec(py, out.impacts.iter().map(|r| r.gap as i64).collect()),
+    )?;
+    imp.set_item(
+        "side",
+        PyArray1::from_vec(py, out.impacts.iter().map(|r| r.side as i64).collect()),
+    )?;
+    imp.set_item("t_start", col(&|r| r.t_start))?;
+    imp.set_item("t_end", col(&|r| r.t_end))?;
+    imp.set_item("v_in", col(&|r| r.v_in))?;
+    imp.set_item("v_out", col(&|r| r.v_out))?;
+    imp.set_item("restitution", col(&|r| r.restitution()))?;
+    imp.set_item("delta_max", col(&|r| r.delta_max))?;
+    imp.set_item("force_max", col(&|r| r.force_max))?;
+    imp.set_item("impulse", col(&|r| r.impulse))?;
+    d.set_item("impacts", imp)?;
+    let stats = PyDict::new(py);
+    stats.set_item("steps", out.stats.steps)?;
+    stats.set_item("newton_iterations", out.stats.newton_iterations)?;
+    stats.set_item("rejected_steps", out.stats.rejected_steps)?;
+    stats.set_item("step_cuts", out.stats.rejected_steps)?;
+    stats.set_item("wall_time_s", out.stats.wall_time_s)?;
+    stats.set_item("energy_balance_error", balance)?;
+    stats.set_item("dt", out.dt)?;
+    d.set_item("stats", stats)?;
+    match out.error {
+        None => d.set_item("error", py.None())?,
+        Some(e) => d.set_item("error", e.to_string())?,
+    }
+    Ok(d)
+}
+
+#[pymodule]
+fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(hertz_stiffness, m)?)?;
+    m.add("ModelError", m.py().get_type::<ModelError>())?;
+    m.add("SolverError", m.py().get_type::<SolverError>())?;
+    m.add("build_profile", if cfg!(debug_assertions) { "debug" } else { "release" })?;
+    Ok(())
+}
