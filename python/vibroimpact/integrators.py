@@ -4,12 +4,12 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any
 
 from vibroimpact.errors import require
 
-__all__ = ["Integrator", "Newmark", "NewtonOptions"]
+__all__ = ["METHODS", "Integrator", "Newmark", "NewtonOptions", "method_from_options"]
 
 
 @dataclass(frozen=True)
@@ -90,3 +90,32 @@ class Newmark(Integrator):
 
     def to_spec(self) -> dict[str, Any]:
         return {"kind": "newmark", "beta": float(self.beta), "gamma": float(self.gamma)}
+
+
+#: Integrators by their model-file / CLI name (``[solver] method``).
+METHODS: dict[str, type[Integrator]] = {"newmark": Newmark}
+
+#: ``[solver]`` options that belong to Newton rather than to the scheme.
+NEWTON_OPTIONS = ("rtol", "atol", "max_iterations", "max_step_cuts")
+
+
+def method_from_options(name: str, options: dict[str, Any] | None = None) -> Integrator:
+    """Build an integrator from its name and the ``[solver]`` options that belong to it
+    (scheme parameters such as ``gamma``/``beta`` and the Newton options)."""
+    from vibroimpact.errors import ModelError
+
+    if name not in METHODS:
+        raise ModelError(
+            f"solver.method: {name!r} is not valid; expected one of {', '.join(METHODS)}"
+        )
+    options = dict(options or {})
+    newton = NewtonOptions(**{k: options.pop(k) for k in NEWTON_OPTIONS if k in options})
+    cls = METHODS[name]
+    allowed = {f.name for f in fields(cls) if f.init and f.name != "newton"}
+    unknown = sorted(set(options) - allowed)
+    if unknown:
+        raise ModelError(
+            f"solver.{unknown[0]}: not an option of method {name!r}; expected one of "
+            f"{', '.join(sorted(allowed | set(NEWTON_OPTIONS)))}"
+        )
+    return cls(newton=newton, **options)

@@ -91,8 +91,9 @@ pub struct WallState {
     pub rate: f64,
     /// Contact force `F ≥ 0`, N.
     pub force: f64,
-    /// Conservative part of the force, N.
+    /// Conservative part of the force, N, and its potential, J.
     pub elastic_force: f64,
+    pub potential: f64,
     /// `∂F/∂δ`, `∂F/∂δ̇` (zero when open or clamped).
     pub d_penetration: f64,
     pub d_rate: f64,
@@ -146,7 +147,8 @@ pub fn evaluate_wall(
     s.force = f.force;
     s.d_penetration = f.d_penetration;
     s.d_rate = f.d_rate;
-    s.elastic_force = law.elastic_force(penetration);
+    s.elastic_force = f.elastic;
+    s.potential = f.potential;
     s
 }
 
@@ -275,10 +277,9 @@ impl ImpactLog {
                         rec.t_end = t + theta * h;
                         rec.v_out = -seg.rate(theta);
                         let [(ta, fa), (tb, fb)] = self.history[j];
-                        rec.force_max = rec.force_max.max(parabola_peak(
-                            [ta, tb, rec.t_end],
-                            [fa, fb, 0.0],
-                        ));
+                        rec.force_max = rec
+                            .force_max
+                            .max(parabola_peak([ta, tb, rec.t_end], [fa, fb, 0.0]));
                     }
                 }
                 (false, false) => unreachable!(),
@@ -286,7 +287,14 @@ impl ImpactLog {
         }
     }
 
-    fn update_peaks(&mut self, j: usize, seg: &HermiteSegment, s0: &WallState, s1: &WallState, t1: f64) {
+    fn update_peaks(
+        &mut self,
+        j: usize,
+        seg: &HermiteSegment,
+        s0: &WallState,
+        s1: &WallState,
+        t1: f64,
+    ) {
         let Some(r) = self.open[j] else { return };
         let rec = &mut self.records[r];
         // Penetration peaks where δ̇ changes sign: maximise the Hermite interpolant there.

@@ -5,7 +5,6 @@ use std::time::Instant;
 
 use nalgebra::DVector;
 
-use crate::contact::ContactLaw;
 use crate::error::{invalid, SimError};
 use crate::gap::{ImpactLog, ImpactRecord};
 use crate::integrators::{NewmarkFamily, NewmarkStepper, NewtonSettings, Stepper};
@@ -195,7 +194,7 @@ pub fn simulate(
                         error = Some(SimError::Diverged { t: trial.t });
                         break 'steps;
                     }
-                    account.commit(sys, &cur, &trial, &mut out.tmp);
+                    account.commit(sys, &cur, &trial);
                     for (m, &d) in out.max_abs.iter_mut().zip(record_dofs) {
                         *m = m.max(trial.x[d].abs());
                     }
@@ -257,19 +256,19 @@ struct Account {
 }
 
 impl Account {
-    fn commit(&mut self, sys: &System, s0: &State, s1: &State, tmp: &mut DVector<f64>) {
-        let mut w_ext = 0.0;
-        for i in 0..s0.x.len() {
-            w_ext += (s1.x[i] - s0.x[i]) * (s0.f_ext[i] + s1.f_ext[i]);
+    fn commit(&mut self, sys: &System, s0: &State, s1: &State) {
+        for (l, load) in sys.loads.iter().enumerate() {
+            let moved: f64 = load.dofs.iter().map(|&d| s1.x[d] - s0.x[d]).sum();
+            self.external_work += 0.5 * (s0.load[l] + s1.load[l]) * moved;
         }
-        self.external_work += 0.5 * w_ext;
         if sys.has_damping {
-            tmp.copy_from(&s0.v);
-            *tmp += &s1.v;
+            // Δxᵀ C (v₀ + v₁)/2, with C symmetric (its storage read as row-major).
+            let n = s0.x.len();
+            let c = sys.structure.damping.as_slice();
             let mut d = 0.0;
-            let cv = &sys.structure.damping * &*tmp;
-            for i in 0..s0.x.len() {
-                d += (s1.x[i] - s0.x[i]) * cv[i];
+            for i in 0..n {
+                let cv: f64 = (0..n).map(|j| c[i * n + j] * (s0.v[j] + s1.v[j])).sum();
+                d += (s1.x[i] - s0.x[i]) * cv;
             }
             self.damping_dissipated += 0.5 * d;
         }
@@ -283,6 +282,18 @@ impl Account {
     }
 }
 
+/// `½ yᵀ A y` for a symmetric matrix.
+fn quadratic_form(a: &nalgebra::DMatrix<f64>, y: &[f64]) -> f64 {
+    let n = y.len();
+    let a = a.as_slice();
+    let mut sum = 0.0;
+    for i in 0..n {
+        let row: f64 = (0..n).map(|j| a[i * n + j] * y[j]).sum();
+        sum += y[i] * row;
+    }
+    0.5 * sum
+}
+
 /// Decimated output buffers.
 struct Recorder {
     dofs: Vec<usize>,
@@ -294,7 +305,6 @@ struct Recorder {
     force: Vec<f64>,
     energy: EnergyHistory,
     max_abs: Vec<f64>,
-    tmp: DVector<f64>,
 }
 
 impl Recorder {
@@ -320,7 +330,6 @@ impl Recorder {
                 contact_dissipated: e(),
             },
             max_abs,
-            tmp: DVector::zeros(sys.n_dof()),
         }
     }
 
@@ -334,22 +343,22 @@ impl Recorder {
             self.v.push(s.v[d]);
             self.a.push(s.a[d]);
         }
-        let ng = sys.gaps.len();
-        let base = self.penetration.len();
-        self.penetration.resize(base + ng, f64::NEG_INFINITY);
-        self.force.resize(base + ng, 0.0);
+        // Walls of one gap are adjacent: one column per gap (deepest wall, summed force).
         let mut potential = 0.0;
-        for (wall, ws) in sys.walls.iter().zip(&s.walls) {
-            let g = base + wall.gap;
-            self.penetration[g] = self.penetration[g].max(ws.penetration);
-            self.force[g] += ws.force;
-            potential += sys.gaps[wall.gap].law.elastic_energy(ws.penetration);
+        let mut walls = sys.walls.iter().zip(&s.walls).peekable();
+        while let Some((wall, ws)) = walls.next() {
+            let (mut pen, mut force) = (ws.penetration, ws.force);
+            potential += ws.potential;
+            while let Some((_, other)) = walls.next_if(|(w, _)| w.gap == wall.gap) {
+                pen = pen.max(other.penetration);
+                force += other.force;
+                potential += other.potential;
+            }
+            self.penetration.push(pen);
+            self.force.push(force);
         }
-        let st = &sys.structure;
-        self.tmp.gemv(1.0, &st.mass, &s.v, 0.0);
-        let kinetic = 0.5 * s.v.dot(&self.tmp);
-        self.tmp.gemv(1.0, &st.stiffness, &s.x, 0.0);
-        let strain = 0.5 * s.x.dot(&self.tmp);
+        let kinetic = quadratic_form(&sys.structure.mass, &s.v);
+        let strain = quadratic_form(&sys.structure.stiffness, &s.x);
         let e = &mut self.energy;
         e.kinetic.push(kinetic);
         e.strain.push(strain);

@@ -1,6 +1,6 @@
 //! The linear structure `M x'' + C x' + K x = F(t)` (paper eq. 1) and its external loads.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 
 use crate::error::{invalid, SimError};
 
@@ -131,7 +131,9 @@ impl Load {
                         value.len()
                     ));
                 }
-                if time.windows(2).any(|w| !(w[1] > w[0])) || time.iter().any(|t| !t.is_finite()) {
+                if time.windows(2).any(|w| w[1] <= w[0] || w[1].is_nan())
+                    || time.iter().any(|t| !t.is_finite())
+                {
                     return invalid(format!(
                         "{field}.table: times are not strictly increasing; expected increasing finite times in s"
                     ));
@@ -172,17 +174,6 @@ fn interpolate(time: &[f64], value: &[f64], t: f64) -> f64 {
     let i = time.partition_point(|&ti| ti <= t) - 1;
     let w = (t - time[i]) / (time[i + 1] - time[i]);
     value[i] + w * (value[i + 1] - value[i])
-}
-
-/// Sum of all loads at time `t`, written into `out` (length n).
-pub fn external_force(loads: &[Load], t: f64, out: &mut DVector<f64>) {
-    out.fill(0.0);
-    for load in loads {
-        let f = load.value(t);
-        for &d in &load.dofs {
-            out[d] += f;
-        }
-    }
 }
 
 #[cfg(test)]

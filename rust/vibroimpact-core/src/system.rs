@@ -6,7 +6,7 @@ use nalgebra::DVector;
 use crate::contact::MIN_IMPACT_SPEED;
 use crate::error::{invalid, SimError};
 use crate::gap::{evaluate_wall, Gap, Wall, WallState};
-use crate::structure::{external_force, LinearStructure, Load};
+use crate::structure::{LinearStructure, Load};
 
 /// `M x'' + C x' + K x = F(t) − Σ_g φ_g b_gᵀ`, with `φ_g = Σ_walls s F` the generalized
 /// contact force on gap coordinate `u_g = b_g · x` (it pushes the coordinate out of the wall).
@@ -59,20 +59,35 @@ impl System {
 
     /// `u_g = b_g · y` for every gap.
     #[inline]
-    pub fn gap_coordinates(&self, y: &DVector<f64>, out: &mut [f64]) {
+    pub fn gap_coordinates(&self, y: &[f64], out: &mut [f64]) {
         for (o, g) in out.iter_mut().zip(&self.gaps) {
-            *o = g.dofs.iter().zip(&g.coefficients).map(|(&d, &c)| c * y[d]).sum();
+            *o = g
+                .dofs
+                .iter()
+                .zip(&g.coefficients)
+                .map(|(&d, &c)| c * y[d])
+                .sum();
         }
     }
 
     /// Adds `−scale Σ_g φ_g b_gᵀ` (the contact force on the structure, scaled) to `out`.
     #[inline]
-    pub fn add_contact_force_scaled(&self, phi: &[f64], scale: f64, out: &mut DVector<f64>) {
+    pub fn add_contact_force_scaled(&self, phi: &[f64], scale: f64, out: &mut [f64]) {
         for (g, &p) in self.gaps.iter().zip(phi) {
             if p != 0.0 {
                 for (&d, &c) in g.dofs.iter().zip(&g.coefficients) {
                     out[d] -= scale * c * p;
                 }
+            }
+        }
+    }
+
+    /// Adds `scale Σ_l g_l b_l` (the external loads with values `g_l`) to `out`.
+    #[inline]
+    pub fn add_loads(&self, values: &[f64], scale: f64, out: &mut [f64]) {
+        for (load, &g) in self.loads.iter().zip(values) {
+            for &d in &load.dofs {
+                out[d] += scale * g;
             }
         }
     }
@@ -111,11 +126,11 @@ impl System {
 #[derive(Debug, Clone)]
 pub struct State {
     pub t: f64,
-    pub x: DVector<f64>,
-    pub v: DVector<f64>,
-    pub a: DVector<f64>,
-    /// External force `F(t)`.
-    pub f_ext: DVector<f64>,
+    pub x: Vec<f64>,
+    pub v: Vec<f64>,
+    pub a: Vec<f64>,
+    /// Value of each load at `t`, N.
+    pub load: Vec<f64>,
     /// Generalized contact force per gap.
     pub phi: Vec<f64>,
     /// Gap coordinates and their rates.
@@ -146,56 +161,50 @@ impl State {
             }
         }
         let ng = sys.gaps.len();
-        let nw = sys.walls.len();
-        let mut s = State {
-            t: t0,
-            x: x0,
-            v: v0,
-            a: DVector::zeros(n),
-            f_ext: DVector::zeros(n),
-            phi: vec![0.0; ng],
-            u: vec![0.0; ng],
-            u_rate: vec![0.0; ng],
-            u_accel: vec![0.0; ng],
-            walls: vec![WallState::default(); nw],
-        };
-        sys.gap_coordinates(&s.x, &mut s.u);
-        sys.gap_coordinates(&s.v, &mut s.u_rate);
+        let (mut u, mut u_rate) = (vec![0.0; ng], vec![0.0; ng]);
+        sys.gap_coordinates(x0.as_slice(), &mut u);
+        sys.gap_coordinates(v0.as_slice(), &mut u_rate);
         // A wall already closed at t0: its approach speed is the current closing speed.
         let start: Vec<WallState> = sys
             .walls
             .iter()
             .map(|w| WallState {
-                penetration: w.sign * s.u[w.gap] - w.clearance,
-                rate: w.sign * s.u_rate[w.gap],
-                impact_speed: (w.sign * s.u_rate[w.gap]).abs().max(MIN_IMPACT_SPEED),
+                penetration: w.sign * u[w.gap] - w.clearance,
+                rate: w.sign * u_rate[w.gap],
+                impact_speed: (w.sign * u_rate[w.gap]).abs().max(MIN_IMPACT_SPEED),
                 ..WallState::default()
             })
             .collect();
+        let mut walls = vec![WallState::default(); sys.walls.len()];
+        let mut phi = vec![0.0; ng];
         let (mut du, mut dv) = (vec![0.0; ng], vec![0.0; ng]);
         sys.evaluate_contacts(
-            &start,
-            &s.u.clone(),
-            &s.u_rate.clone(),
-            1.0,
-            &mut s.walls,
-            &mut s.phi,
-            &mut du,
-            &mut dv,
+            &start, &u, &u_rate, 1.0, &mut walls, &mut phi, &mut du, &mut dv,
         );
-        external_force(&sys.loads, t0, &mut s.f_ext);
+        let load: Vec<f64> = sys.loads.iter().map(|l| l.value(t0)).collect();
         let st = &sys.structure;
-        let mut rhs = s.f_ext.clone();
-        sys.add_contact_force_scaled(&s.phi, 1.0, &mut rhs);
-        rhs.gemv(-1.0, &st.damping, &s.v, 1.0);
-        rhs.gemv(-1.0, &st.stiffness, &s.x, 1.0);
-        let chol = st
-            .mass
-            .clone()
-            .cholesky()
-            .ok_or_else(|| SimError::InvalidModel("structure.mass: not positive definite".into()))?;
-        s.a = chol.solve(&rhs);
-        sys.gap_coordinates(&s.a, &mut s.u_accel);
-        Ok(s)
+        let mut rhs = DVector::zeros(n);
+        sys.add_loads(&load, 1.0, rhs.as_mut_slice());
+        sys.add_contact_force_scaled(&phi, 1.0, rhs.as_mut_slice());
+        rhs.gemv(-1.0, &st.damping, &v0, 1.0);
+        rhs.gemv(-1.0, &st.stiffness, &x0, 1.0);
+        let chol = st.mass.clone().cholesky().ok_or_else(|| {
+            SimError::InvalidModel("structure.mass: not positive definite".into())
+        })?;
+        let a = chol.solve(&rhs);
+        let mut u_accel = vec![0.0; ng];
+        sys.gap_coordinates(a.as_slice(), &mut u_accel);
+        Ok(State {
+            t: t0,
+            x: x0.as_slice().to_vec(),
+            v: v0.as_slice().to_vec(),
+            a: a.as_slice().to_vec(),
+            load,
+            phi,
+            u,
+            u_rate,
+            u_accel,
+            walls,
+        })
     }
 }

@@ -1,7 +1,7 @@
 //! End-to-end checks of the engine against closed forms.
 
 use nalgebra::{DMatrix, DVector};
-use vibroimpact_core::contact::{Hertz, Law, LankaraniNikravesh};
+use vibroimpact_core::contact::{Hertz, LankaraniNikravesh, Law};
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings};
 use vibroimpact_core::simulate::{simulate, Method, RunOutput, RunSettings};
@@ -50,8 +50,8 @@ fn hertz_impact_matches_closed_form() {
     };
     let sys = sdof(m, 0.0, 0.0, vec![gap]);
     let delta_max = (5.0 * m * v0 * v0 / (4.0 * k)).powf(0.4);
-    // 2·(2/5)·B(2/5,1/2) with B(2/5,1/2) = Γ(2/5)Γ(1/2)/Γ(9/10) = 3.679037...
-    let duration = 2.943_21 * delta_max / v0;
+    // 2·(2/5)·B(2/5, 1/2) = 2.9432752 (Γ(2/5)Γ(1/2)/Γ(9/10) = B(2/5, 1/2))
+    let duration = 2.943_275_2 * delta_max / v0;
     let out = run(&sys, 1.2 * duration, duration / 4000.0, 0.0, v0);
     assert!(out.error.is_none());
     assert_eq!(out.impacts.len(), 1);
@@ -59,10 +59,23 @@ fn hertz_impact_matches_closed_form() {
     assert_eq!(imp.t_start, 0.0);
     assert!((imp.v_in - v0).abs() < 1e-12);
     let rel = |a: f64, b: f64| (a - b).abs() / b.abs();
-    assert!(rel(imp.delta_max, delta_max) < 1e-5, "{} {}", imp.delta_max, delta_max);
-    assert!(rel(imp.t_end - imp.t_start, duration) < 1e-4);
+    assert!(
+        rel(imp.delta_max, delta_max) < 1e-5,
+        "{} {}",
+        imp.delta_max,
+        delta_max
+    );
+    assert!(
+        rel(imp.t_end - imp.t_start, duration) < 2e-6,
+        "{}",
+        rel(imp.t_end - imp.t_start, duration)
+    );
     assert!(rel(imp.force_max, k * delta_max.powf(1.5)) < 1e-5);
-    assert!((imp.restitution() - 1.0).abs() < 1e-6, "{}", imp.restitution());
+    assert!(
+        (imp.restitution() - 1.0).abs() < 1e-6,
+        "{}",
+        imp.restitution()
+    );
     assert!(rel(imp.impulse, 2.0 * m * v0) < 1e-5);
     assert!(out.energy.relative_balance_error() < 1e-6);
 }
@@ -76,8 +89,7 @@ fn newmark_free_vibration_converges_at_second_order() {
     let wd = wn * (1.0 - zeta * zeta).sqrt();
     let (x0, v0) = (0.01, 0.3);
     let exact = |t: f64| {
-        (-zeta * wn * t).exp()
-            * (x0 * (wd * t).cos() + (v0 + zeta * wn * x0) / wd * (wd * t).sin())
+        (-zeta * wn * t).exp() * (x0 * (wd * t).cos() + (v0 + zeta * wn * x0) / wd * (wd * t).sin())
     };
     let sys = sdof(m, k, c, vec![]);
     let t_end = 1.0;
@@ -119,7 +131,11 @@ fn bilateral_clearance_energy_account_balances() {
     for w in out.impacts.windows(2) {
         assert_ne!(w[0].side, w[1].side);
         if w[1].complete() {
-            assert!((w[1].v_in - w[0].v_out).abs() < 1e-6 * w[0].v_out, "{:?}", w);
+            assert!(
+                (w[1].v_in - w[0].v_out).abs() < 1e-6 * w[0].v_out,
+                "{:?}",
+                w
+            );
         }
     }
     let first = &out.impacts[0];

@@ -25,7 +25,11 @@ pub(crate) struct Job {
     pub v0: DVector<f64>,
 }
 
-fn item<'py, T: FromPyObjectOwned<'py>>(d: &Bound<'py, PyDict>, key: &str, ctx: &str) -> PyResult<T> {
+fn item<'py, T: FromPyObjectOwned<'py>>(
+    d: &Bound<'py, PyDict>,
+    key: &str,
+    ctx: &str,
+) -> PyResult<T> {
     let v = d
         .get_item(key)?
         .ok_or_else(|| ModelError::new_err(format!("{ctx}.{key}: missing")))?;
@@ -43,13 +47,10 @@ fn opt<'py, T: FromPyObjectOwned<'py>>(
     match d.get_item(key)? {
         None => Ok(None),
         Some(v) if v.is_none() => Ok(None),
-        Some(v) => v
-            .extract::<T>()
-            .map(Some)
-            .map_err(|e| {
-                let e: PyErr = e.into();
-                ModelError::new_err(format!("{ctx}.{key}: {e}"))
-            }),
+        Some(v) => v.extract::<T>().map(Some).map_err(|e| {
+            let e: PyErr = e.into();
+            ModelError::new_err(format!("{ctx}.{key}: {e}"))
+        }),
     }
 }
 
@@ -62,7 +63,10 @@ fn matrix(d: &Bound<'_, PyDict>, key: &str) -> PyResult<DMatrix<f64>> {
 
 fn vector(d: &Bound<'_, PyDict>, key: &str) -> PyResult<DVector<f64>> {
     let a: PyReadonlyArray1<f64> = item(d, key, "initial")?;
-    Ok(DVector::from_iterator(a.len()?, a.as_array().iter().copied()))
+    Ok(DVector::from_iterator(
+        a.len()?,
+        a.as_array().iter().copied(),
+    ))
 }
 
 fn law(d: &Bound<'_, PyDict>, ctx: &str) -> PyResult<Law> {

@@ -13,7 +13,12 @@ use vibroimpact_core::contact::{ContactGeometry, Material};
 use vibroimpact_core::simulate::{simulate as run, RunOutput};
 use vibroimpact_core::SimError;
 
-create_exception!(_core, ModelError, PyValueError, "The model or settings are invalid.");
+create_exception!(
+    _core,
+    ModelError,
+    PyValueError,
+    "The model or settings are invalid."
+);
 create_exception!(
     _core,
     SolverError,
@@ -51,9 +56,8 @@ fn hertz_stiffness(
     youngs_modulus2: f64,
     poisson2: f64,
 ) -> PyResult<f64> {
-    let need2 = || {
-        radius2.ok_or_else(|| ModelError::new_err(format!("geometry: {kind} needs radius2")))
-    };
+    let need2 =
+        || radius2.ok_or_else(|| ModelError::new_err(format!("geometry: {kind} needs radius2")));
     let geometry = match kind {
         "sphere-sphere" => ContactGeometry::SphereSphere {
             radius1,
@@ -88,27 +92,42 @@ fn output_to_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>>
     let d = PyDict::new(py);
     let nt = out.time.len();
     let nd = out.record_dofs.len();
-    let ng = if nt > 0 { out.gap_penetration.len() / nt } else { 0 };
+    let ng = out.gap_penetration.len().checked_div(nt).unwrap_or(0);
     let mat = |v: Vec<f64>, cols: usize| -> PyResult<Bound<'_, PyArray2<f64>>> {
-        Ok(PyArray1::from_vec(py, v).reshape([nt, cols])?)
+        PyArray1::from_vec(py, v).reshape([nt, cols])
     };
     d.set_item("time", PyArray1::from_vec(py, out.time))?;
-    d.set_item("dofs", PyArray1::from_vec(py, out.record_dofs.iter().map(|&x| x as i64).collect()))?;
+    d.set_item(
+        "dofs",
+        PyArray1::from_vec(py, out.record_dofs.iter().map(|&x| x as i64).collect()),
+    )?;
     d.set_item("displacement", mat(out.displacement, nd)?)?;
     d.set_item("velocity", mat(out.velocity, nd)?)?;
     d.set_item("acceleration", mat(out.acceleration, nd)?)?;
     d.set_item("gap_penetration", mat(out.gap_penetration, ng)?)?;
     d.set_item("gap_force", mat(out.gap_force, ng)?)?;
-    d.set_item("max_abs_displacement", PyArray1::from_vec(py, out.max_abs_displacement))?;
+    d.set_item(
+        "max_abs_displacement",
+        PyArray1::from_vec(py, out.max_abs_displacement),
+    )?;
     let balance = out.energy.relative_balance_error();
     let e = out.energy;
     let energy = PyDict::new(py);
     energy.set_item("kinetic", PyArray1::from_vec(py, e.kinetic))?;
     energy.set_item("strain", PyArray1::from_vec(py, e.strain))?;
-    energy.set_item("contact_potential", PyArray1::from_vec(py, e.contact_potential))?;
+    energy.set_item(
+        "contact_potential",
+        PyArray1::from_vec(py, e.contact_potential),
+    )?;
     energy.set_item("external_work", PyArray1::from_vec(py, e.external_work))?;
-    energy.set_item("damping_dissipated", PyArray1::from_vec(py, e.damping_dissipated))?;
-    energy.set_item("contact_dissipated", PyArray1::from_vec(py, e.contact_dissipated))?;
+    energy.set_item(
+        "damping_dissipated",
+        PyArray1::from_vec(py, e.damping_dissipated),
+    )?;
+    energy.set_item(
+        "contact_dissipated",
+        PyArray1::from_vec(py, e.contact_dissipated),
+    )?;
     d.set_item("energy", energy)?;
     let imp = PyDict::new(py);
     let col = |f: &dyn Fn(&vibroimpact_core::gap::ImpactRecord) -> f64| {
@@ -153,6 +172,13 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(hertz_stiffness, m)?)?;
     m.add("ModelError", m.py().get_type::<ModelError>())?;
     m.add("SolverError", m.py().get_type::<SolverError>())?;
-    m.add("build_profile", if cfg!(debug_assertions) { "debug" } else { "release" })?;
+    m.add(
+        "build_profile",
+        if cfg!(debug_assertions) {
+            "debug"
+        } else {
+            "release"
+        },
+    )?;
     Ok(())
 }

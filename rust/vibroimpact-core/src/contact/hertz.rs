@@ -21,39 +21,24 @@ impl Hertz {
     }
 }
 
-/// `K δⁿ` and its derivative: the elastic backbone shared by the Hertzian laws.
+/// `K δⁿ` with its derivative and potential `K δⁿ⁺¹/(n+1)`: the elastic backbone shared by
+/// the Hertzian laws, for `δ > 0` (one `powf`).
 #[inline]
-pub(crate) fn power_law(stiffness: f64, exponent: f64, penetration: f64) -> (f64, f64) {
+pub(crate) fn power_law(stiffness: f64, exponent: f64, penetration: f64) -> ContactForce {
     let pow_nm1 = penetration.powf(exponent - 1.0);
     let force = stiffness * pow_nm1 * penetration;
-    (force, stiffness * exponent * pow_nm1)
-}
-
-#[inline]
-pub(crate) fn power_law_energy(stiffness: f64, exponent: f64, penetration: f64) -> f64 {
-    if penetration <= 0.0 {
-        return 0.0;
+    ContactForce {
+        force,
+        d_penetration: stiffness * exponent * pow_nm1,
+        d_rate: 0.0,
+        elastic: force,
+        potential: force * penetration / (exponent + 1.0),
     }
-    stiffness * penetration.powf(exponent + 1.0) / (exponent + 1.0)
 }
 
 impl ContactLaw for Hertz {
     #[inline]
     fn evaluate(&self, penetration: f64, _rate: f64, _impact_speed: f64) -> ContactForce {
-        let (force, d_penetration) = power_law(self.stiffness, self.exponent, penetration);
-        ContactForce {
-            force,
-            d_penetration,
-            d_rate: 0.0,
-        }
-    }
-    fn elastic_force(&self, penetration: f64) -> f64 {
-        if penetration <= 0.0 {
-            return 0.0;
-        }
-        power_law(self.stiffness, self.exponent, penetration).0
-    }
-    fn elastic_energy(&self, penetration: f64) -> f64 {
-        power_law_energy(self.stiffness, self.exponent, penetration)
+        power_law(self.stiffness, self.exponent, penetration)
     }
 }

@@ -1,7 +1,7 @@
 //! Hertzian laws with hysteresis damping, `F = K δⁿ (1 + χ δ̇ / v_imp)` (paper eqs. 5–13).
 //! They differ only in how the hysteresis factor `χ` follows from the restitution `ce`.
 
-use super::hertz::{power_law, power_law_energy};
+use super::hertz::power_law;
 use super::{
     check_exponent, check_restitution, check_stiffness, ContactForce, ContactLaw, MIN_IMPACT_SPEED,
 };
@@ -17,13 +17,19 @@ fn hysteretic_force(
     rate: f64,
     impact_speed: f64,
 ) -> ContactForce {
-    let (elastic, d_elastic) = power_law(stiffness, exponent, penetration);
     let c = factor / impact_speed.max(MIN_IMPACT_SPEED);
+    with_damping(power_law(stiffness, exponent, penetration), c, rate)
+}
+
+/// `F_el (1 + c δ̇)` and its derivatives, from the elastic backbone `F_el`.
+#[inline]
+fn with_damping(elastic: ContactForce, c: f64, rate: f64) -> ContactForce {
     let damping = 1.0 + c * rate;
     ContactForce {
-        force: elastic * damping,
-        d_penetration: d_elastic * damping,
-        d_rate: elastic * c,
+        force: elastic.force * damping,
+        d_penetration: elastic.d_penetration * damping,
+        d_rate: elastic.force * c,
+        ..elastic
     }
 }
 
@@ -60,13 +66,6 @@ macro_rules! hysteresis_law {
             #[inline]
             fn evaluate(&self, penetration: f64, rate: f64, impact_speed: f64) -> ContactForce {
                 hysteretic_force(self.stiffness, self.exponent, self.factor, penetration, rate, impact_speed)
-            }
-            fn elastic_force(&self, penetration: f64) -> f64 {
-                if penetration <= 0.0 { return 0.0; }
-                power_law(self.stiffness, self.exponent, penetration).0
-            }
-            fn elastic_energy(&self, penetration: f64) -> f64 {
-                power_law_energy(self.stiffness, self.exponent, penetration)
             }
         }
     };
@@ -149,26 +148,13 @@ impl ContactLaw for HuntCrossley {
                 rate,
                 impact_speed,
             ),
-            HuntCrossleyDamping::Coefficient(b) => {
-                // K δⁿ + b δⁿ δ̇ = K δⁿ (1 + (b/K) δ̇): the same shape with v_imp = K/b.
-                let (elastic, d_elastic) = power_law(self.stiffness, self.exponent, penetration);
-                let c = b / self.stiffness;
-                ContactForce {
-                    force: elastic * (1.0 + c * rate),
-                    d_penetration: d_elastic * (1.0 + c * rate),
-                    d_rate: elastic * c,
-                }
-            }
+            // K δⁿ + b δⁿ δ̇ = K δⁿ (1 + (b/K) δ̇).
+            HuntCrossleyDamping::Coefficient(b) => with_damping(
+                power_law(self.stiffness, self.exponent, penetration),
+                b / self.stiffness,
+                rate,
+            ),
         }
-    }
-    fn elastic_force(&self, penetration: f64) -> f64 {
-        if penetration <= 0.0 {
-            return 0.0;
-        }
-        power_law(self.stiffness, self.exponent, penetration).0
-    }
-    fn elastic_energy(&self, penetration: f64) -> f64 {
-        power_law_energy(self.stiffness, self.exponent, penetration)
     }
 }
 

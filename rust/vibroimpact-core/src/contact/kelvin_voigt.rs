@@ -27,17 +27,13 @@ impl KelvinVoigt {
 impl ContactLaw for KelvinVoigt {
     #[inline]
     fn evaluate(&self, penetration: f64, rate: f64, _impact_speed: f64) -> ContactForce {
+        let elastic = self.stiffness * penetration;
         ContactForce {
-            force: self.stiffness * penetration + self.damping * rate,
+            force: elastic + self.damping * rate,
             d_penetration: self.stiffness,
             d_rate: self.damping,
+            elastic,
+            potential: 0.5 * elastic * penetration,
         }
-    }
-    fn elastic_force(&self, penetration: f64) -> f64 {
-        self.stiffness * penetration.max(0.0)
-    }
-    fn elastic_energy(&self, penetration: f64) -> f64 {
-        let p = penetration.max(0.0);
-        0.5 * self.stiffness * p * p
     }
 }

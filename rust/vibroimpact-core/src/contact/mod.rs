@@ -30,6 +30,10 @@ pub struct ContactForce {
     pub d_penetration: f64,
     /// `∂F/∂δ̇`, N·s/m.
     pub d_rate: f64,
+    /// Conservative part of the force, `F_el(δ)`, N (for the energy account).
+    pub elastic: f64,
+    /// Potential stored in the conservative part, `∫₀^δ F_el`, J.
+    pub potential: f64,
 }
 
 /// A contact-force law.
@@ -38,13 +42,25 @@ pub trait ContactLaw {
     /// `v_imp > 0`, before clamping (the value may be negative for damped laws).
     fn evaluate(&self, penetration: f64, rate: f64, impact_speed: f64) -> ContactForce;
 
-    /// Conservative part of the force, `F_el(δ)`, N (for the energy account).
-    fn elastic_force(&self, penetration: f64) -> f64;
+    /// Conservative part of the force, `F_el(δ)`, N.
+    fn elastic_force(&self, penetration: f64) -> f64 {
+        if penetration <= 0.0 {
+            return 0.0;
+        }
+        self.evaluate(penetration, 0.0, 1.0).elastic
+    }
 
     /// Potential stored in the conservative part, `∫₀^δ F_el`, J.
-    fn elastic_energy(&self, penetration: f64) -> f64;
+    fn elastic_energy(&self, penetration: f64) -> f64 {
+        if penetration <= 0.0 {
+            return 0.0;
+        }
+        self.evaluate(penetration, 0.0, 1.0).potential
+    }
 
-    /// Force clamped to be compressive: zero force and zero tangent where the formula is tensile.
+    /// Force clamped to be compressive: zero force and zero tangent where the formula is
+    /// tensile (the conservative part and its potential are still reported).
+    #[inline]
     fn force(&self, penetration: f64, rate: f64, impact_speed: f64) -> ContactForce {
         if penetration <= 0.0 {
             return ContactForce::default();
@@ -53,7 +69,12 @@ pub trait ContactLaw {
         if f.force > 0.0 {
             f
         } else {
-            ContactForce::default()
+            ContactForce {
+                force: 0.0,
+                d_penetration: 0.0,
+                d_rate: 0.0,
+                ..f
+            }
         }
     }
 }
@@ -86,14 +107,6 @@ impl ContactLaw for Law {
     #[inline]
     fn evaluate(&self, penetration: f64, rate: f64, impact_speed: f64) -> ContactForce {
         dispatch!(self, law => law.evaluate(penetration, rate, impact_speed))
-    }
-    #[inline]
-    fn elastic_force(&self, penetration: f64) -> f64 {
-        dispatch!(self, law => law.elastic_force(penetration))
-    }
-    #[inline]
-    fn elastic_energy(&self, penetration: f64) -> f64 {
-        dispatch!(self, law => law.elastic_energy(penetration))
     }
 }
 

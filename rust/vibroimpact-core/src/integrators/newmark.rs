@@ -8,12 +8,11 @@
 //! dividing by `(1−α_f)` gives `K̃ Δx = R + f₁(Δx)` with `K̃ = K + c_m a₀ M + a₁ C` (eq. 21),
 //! `c_m = (1−α_m)/(1−α_f)`, factorised once per step size.
 
-use nalgebra::{DMatrix, DVector, LU};
+use nalgebra::DMatrix;
 
 use super::newton::{solve_small, NewtonSettings};
 use super::{StepFailure, Stepper};
 use crate::error::{invalid, SimError};
-use crate::structure::external_force;
 use crate::system::{State, System};
 
 /// Parameters of a Newmark-family scheme.
@@ -77,12 +76,22 @@ impl NewmarkFamily {
 }
 
 /// What a step of one size needs, computed once per size (never per step).
+///
+/// The linear predictor is `Δx_lin = Pₓ x₀ + P_v v₀ + P_a a₀ + Σ_l (g_l(t₁) + c_f g_l(t₀)) L_l
+/// − c_f Σ_g φ_g(t₀) G_g` with `c_f = α_f/(1−α_f)`, `L_l = K̃⁻¹ b_l` (load shapes) and
+/// `G_g = K̃⁻¹ b_gᵀ` (gap shapes): the factorisation is applied once here, so a step costs
+/// three dense mat-vecs and no solve.
 struct StepOperator {
     /// Newmark coefficients `a₀ … a₅`.
     a: [f64; 6],
-    lu: LU<f64, nalgebra::Dyn, nalgebra::Dyn>,
-    /// Columns `K̃⁻¹ b_gᵀ`, one per gap.
-    g: Vec<DVector<f64>>,
+    /// `Pₓ`, `P_v`, `P_a`, row-major n×n.
+    p_x: Vec<f64>,
+    p_v: Vec<f64>,
+    p_a: Vec<f64>,
+    /// `K̃⁻¹ b_l`, one per load.
+    loads: Vec<Vec<f64>>,
+    /// `K̃⁻¹ b_gᵀ`, one per gap.
+    gaps: Vec<Vec<f64>>,
     /// `W = B K̃⁻¹ Bᵀ`, row-major, gaps × gaps.
     w: Vec<f64>,
 }
@@ -105,33 +114,62 @@ impl StepOperator {
         ];
         let c_m = (1.0 - alpha_m) / (1.0 - alpha_f);
         let st = &sys.structure;
-        let k_eff: DMatrix<f64> = &st.stiffness + &st.mass * (c_m * a[0]) + &st.damping * a[1];
-        let lu = k_eff.lu();
+        let (m, c, k) = (&st.mass, &st.damping, &st.stiffness);
+        let lu = (k + m * (c_m * a[0]) + c * a[1]).lu();
         if !lu.is_invertible() {
             return Err(SimError::SingularTangent { dt: h });
         }
-        let n = sys.n_dof();
-        let ng = sys.gaps.len();
-        let mut g = Vec::with_capacity(ng);
-        for gap in &sys.gaps {
-            let mut col = DVector::zeros(n);
-            for (&d, &c) in gap.dofs.iter().zip(&gap.coefficients) {
-                col[d] += c;
-            }
-            if !lu.solve_mut(&mut col) {
+        let scale = -1.0 / (1.0 - alpha_f);
+        let solve = |rhs: DMatrix<f64>| -> Result<Vec<f64>, SimError> {
+            let sol = lu.solve(&rhs).ok_or(SimError::SingularTangent { dt: h })?;
+            if sol.iter().any(|v| !v.is_finite()) {
                 return Err(SimError::SingularTangent { dt: h });
             }
-            g.push(col);
-        }
+            Ok(sol.transpose().as_slice().to_vec()) // row-major
+        };
+        let p_x = solve(k * scale)?;
+        let p_v = solve(
+            (m * (-(1.0 - alpha_m) * a[2]) + c * (alpha_f - (1.0 - alpha_f) * a[4])) * scale,
+        )?;
+        let p_a =
+            solve((m * (alpha_m - (1.0 - alpha_m) * a[3]) - c * ((1.0 - alpha_f) * a[5])) * scale)?;
+        let n = sys.n_dof();
+        let shape =
+            |entries: &mut dyn Iterator<Item = (usize, f64)>| -> Result<Vec<f64>, SimError> {
+                let mut col = DMatrix::zeros(n, 1);
+                for (d, c) in entries {
+                    col[d] += c;
+                }
+                solve(col)
+            };
+        let loads = sys
+            .loads
+            .iter()
+            .map(|l| shape(&mut l.dofs.iter().map(|&d| (d, 1.0))))
+            .collect::<Result<Vec<_>, _>>()?;
+        let gaps = sys
+            .gaps
+            .iter()
+            .map(|g| shape(&mut g.dofs.iter().copied().zip(g.coefficients.iter().copied())))
+            .collect::<Result<Vec<_>, _>>()?;
+        let ng = gaps.len();
         let mut w = vec![0.0; ng * ng];
         let mut row = vec![0.0; ng];
-        for (h_idx, col) in g.iter().enumerate() {
+        for (hi, col) in gaps.iter().enumerate() {
             sys.gap_coordinates(col, &mut row);
             for (gi, &v) in row.iter().enumerate() {
-                w[gi * ng + h_idx] = v;
+                w[gi * ng + hi] = v;
             }
         }
-        Ok(Self { a, lu, g, w })
+        Ok(Self {
+            a,
+            p_x,
+            p_v,
+            p_a,
+            loads,
+            gaps,
+            w,
+        })
     }
 }
 
@@ -140,8 +178,7 @@ pub struct NewmarkStepper {
     scheme: NewmarkFamily,
     newton: NewtonSettings,
     operators: Vec<Option<StepOperator>>,
-    rhs: DVector<f64>,
-    tmp: DVector<f64>,
+    dx: Vec<f64>,
     du_lin: Vec<f64>,
     du: Vec<f64>,
     u1: Vec<f64>,
@@ -168,8 +205,7 @@ impl NewmarkStepper {
             scheme,
             newton,
             operators: (0..=newton.max_step_cuts).map(|_| None).collect(),
-            rhs: DVector::zeros(n),
-            tmp: DVector::zeros(n),
+            dx: vec![0.0; n],
             du_lin: vec![0.0; ng],
             du: vec![0.0; ng],
             u1: vec![0.0; ng],
@@ -182,6 +218,16 @@ impl NewmarkStepper {
             step: vec![0.0; ng],
             active: Vec::with_capacity(ng),
         })
+    }
+
+    /// Gap with the largest residual relative to its tolerance (for failure reports).
+    fn worst_gap(&self, s1: &State) -> usize {
+        let scaled = |gi: usize| {
+            self.residual[gi].abs() / (self.newton.rtol * s1.u[gi].abs() + self.newton.atol)
+        };
+        (0..self.residual.len())
+            .max_by(|&a, &b| scaled(a).total_cmp(&scaled(b)))
+            .unwrap_or(0)
     }
 
     /// Builds the operator of the largest step now, so that a singular tangent is reported
@@ -210,50 +256,45 @@ impl Stepper for NewmarkStepper {
             self.operators[level] = Some(op);
         }
         let op = self.operators[level].as_ref().expect("built above");
-        let NewmarkFamily {
-            gamma,
-            alpha_m,
-            alpha_f,
-            ..
-        } = self.scheme;
+        let NewmarkFamily { gamma, alpha_f, .. } = self.scheme;
         let [a0, a1, a2, a3, a4, a5] = op.a;
-        let st = &sys.structure;
+        let n = s0.x.len();
         let ng = sys.gaps.len();
+        let c_f = alpha_f / (1.0 - alpha_f);
 
-        // Known part of the right-hand side: R = F₁ + [α_f (F₀ + f₀) − K x₀ − M m − C c]/(1−α_f).
+        // Linear predictor (see StepOperator).
         s1.t = s0.t + h;
-        external_force(&sys.loads, s1.t, &mut s1.f_ext);
-        let scale = 1.0 / (1.0 - alpha_f);
-        // tmp = m = α_m a₀ − (1−α_m)(a₂ v₀ + a₃ a₀)
-        self.tmp.copy_from(&s0.a);
-        self.tmp.axpy(-(1.0 - alpha_m) * a2, &s0.v, alpha_m - (1.0 - alpha_m) * a3);
-        self.rhs.copy_from(&s1.f_ext);
-        self.rhs.gemv(-scale, &st.mass, &self.tmp, 1.0);
-        self.rhs.gemv(-scale, &st.stiffness, &s0.x, 1.0);
-        if sys.has_damping {
-            // tmp = c = α_f v₀ − (1−α_f)(a₄ v₀ + a₅ a₀)
-            self.tmp.copy_from(&s0.v);
-            self.tmp.axpy(
-                -(1.0 - alpha_f) * a5,
-                &s0.a,
-                alpha_f - (1.0 - alpha_f) * a4,
-            );
-            self.rhs.gemv(-scale, &st.damping, &self.tmp, 1.0);
+        for (g, load) in s1.load.iter_mut().zip(&sys.loads) {
+            *g = load.value(s1.t);
         }
-        if alpha_f != 0.0 {
-            self.rhs.axpy(alpha_f * scale, &s0.f_ext, 1.0);
-            sys.add_contact_force_scaled(&s0.phi, alpha_f * scale, &mut self.rhs);
+        for i in 0..n {
+            let row = i * n..(i + 1) * n;
+            let (px, pv, pa) = (&op.p_x[row.clone()], &op.p_v[row.clone()], &op.p_a[row]);
+            let mut acc = 0.0;
+            for j in 0..n {
+                acc += px[j] * s0.x[j] + pv[j] * s0.v[j] + pa[j] * s0.a[j];
+            }
+            self.dx[i] = acc;
         }
-        // Linear predictor: Δx_lin = K̃⁻¹ R.
-        op.lu.solve_mut(&mut self.rhs);
-        sys.gap_coordinates(&self.rhs, &mut self.du_lin);
+        for (l, col) in op.loads.iter().enumerate() {
+            let coef = s1.load[l] + c_f * s0.load[l];
+            if coef != 0.0 {
+                axpy(coef, col, &mut self.dx);
+            }
+        }
+        if c_f != 0.0 {
+            for (col, &p) in op.gaps.iter().zip(&s0.phi) {
+                if p != 0.0 {
+                    axpy(-c_f * p, col, &mut self.dx);
+                }
+            }
+        }
+        sys.gap_coordinates(&self.dx, &mut self.du_lin);
 
         // Newton on the gap coordinates, starting from the previous step's contact forces.
         for gi in 0..ng {
-            let mut wphi = 0.0;
-            for hi in 0..ng {
-                wphi += op.w[gi * ng + hi] * s0.phi[hi];
-            }
+            let wrow = &op.w[gi * ng..(gi + 1) * ng];
+            let wphi: f64 = wrow.iter().zip(&s0.phi).map(|(w, p)| w * p).sum();
             self.du[gi] = self.du_lin[gi] - wphi;
         }
         let mut iterations = 0;
@@ -274,22 +315,16 @@ impl Stepper for NewmarkStepper {
                 &mut self.d_phi_drate,
             );
             let mut residual_small = true;
-            let mut worst = (0usize, 0.0f64);
             self.active.clear();
             for gi in 0..ng {
-                let mut wphi = 0.0;
-                for hi in 0..ng {
-                    wphi += op.w[gi * ng + hi] * s1.phi[hi];
-                }
+                let wrow = &op.w[gi * ng..(gi + 1) * ng];
+                let wphi: f64 = wrow.iter().zip(&s1.phi).map(|(w, p)| w * p).sum();
                 let r = self.du[gi] - self.du_lin[gi] + wphi;
                 self.residual[gi] = r;
                 self.stiffness[gi] = self.d_phi_du[gi] + a1 * self.d_phi_drate[gi];
                 let tol = self.newton.rtol * self.u1[gi].abs() + self.newton.atol;
                 if r.abs() > tol {
                     residual_small = false;
-                }
-                if r.abs() / tol > worst.1 {
-                    worst = (gi, r.abs() / tol);
                 }
                 if r != 0.0 || self.stiffness[gi] != 0.0 {
                     self.active.push(gi);
@@ -299,7 +334,7 @@ impl Stepper for NewmarkStepper {
                 break;
             }
             if iterations >= self.newton.max_iterations {
-                let gi = worst.0;
+                let gi = self.worst_gap(s1);
                 let penetration = sys
                     .walls
                     .iter()
@@ -317,14 +352,14 @@ impl Stepper for NewmarkStepper {
             let m = self.active.len();
             for (ia, &gi) in self.active.iter().enumerate() {
                 for (ib, &hi) in self.active.iter().enumerate() {
-                    self.jacobian[ia * m + ib] = op.w[gi * ng + hi] * self.stiffness[hi]
-                        + if ia == ib { 1.0 } else { 0.0 };
+                    self.jacobian[ia * m + ib] =
+                        op.w[gi * ng + hi] * self.stiffness[hi] + if ia == ib { 1.0 } else { 0.0 };
                 }
                 self.step[ia] = -self.residual[gi];
             }
             if !solve_small(&mut self.jacobian[..m * m], &mut self.step[..m], m) {
                 return Err(StepFailure {
-                    gap: worst.0,
+                    gap: self.worst_gap(s1),
                     penetration: 0.0,
                     iterations,
                 });
@@ -349,23 +384,18 @@ impl Stepper for NewmarkStepper {
             }
         }
 
-        // Δx = Δx_lin − Σ_g K̃⁻¹ b_gᵀ φ_g; then the Newmark relations for a₁, v₁.
-        let dx = &mut self.rhs;
-        for (col, &p) in op.g.iter().zip(&s1.phi) {
+        // Δx = Δx_lin − Σ_g G_g φ_g; then the Newmark relations (eqs. 14, 18) for a₁, v₁.
+        for (col, &p) in op.gaps.iter().zip(&s1.phi) {
             if p != 0.0 {
-                dx.axpy(-p, col, 1.0);
+                axpy(-p, col, &mut self.dx);
             }
         }
-        s1.x.copy_from(&s0.x);
-        s1.x += &*dx;
-        // a₁ = a₀' Δx − a₂ v₀ − a₃ a₀
-        s1.a.copy_from(&s0.a);
-        s1.a.axpy(-a2, &s0.v, -a3);
-        s1.a.axpy(a0, dx, 1.0);
-        // v₁ = v₀ + h[(1−γ) a₀ + γ a₁]
-        s1.v.copy_from(&s0.v);
-        s1.v.axpy(h * (1.0 - gamma), &s0.a, 1.0);
-        s1.v.axpy(h * gamma, &s1.a, 1.0);
+        for i in 0..n {
+            let dx = self.dx[i];
+            s1.x[i] = s0.x[i] + dx;
+            s1.a[i] = a0 * dx - a2 * s0.v[i] - a3 * s0.a[i];
+            s1.v[i] = s0.v[i] + h * ((1.0 - gamma) * s0.a[i] + gamma * s1.a[i]);
+        }
         s1.u.copy_from_slice(&self.u1);
         s1.u_rate.copy_from_slice(&self.u1_rate);
         sys.gap_coordinates(&s1.a, &mut s1.u_accel);
@@ -373,3 +403,9 @@ impl Stepper for NewmarkStepper {
     }
 }
 
+#[inline]
+fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
+    for (yi, xi) in y.iter_mut().zip(x) {
+        *yi += alpha * xi;
+    }
+}

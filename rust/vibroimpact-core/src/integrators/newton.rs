@@ -87,7 +87,10 @@ mod tests {
         let (mut aa, mut bb) = (a, b);
         assert!(solve_small(&mut aa, &mut bb, 3));
         let m = nalgebra::Matrix3::from_row_slice(&a);
-        let x = m.lu().solve(&nalgebra::Vector3::from_row_slice(&b)).unwrap();
+        let x = m
+            .lu()
+            .solve(&nalgebra::Vector3::from_row_slice(&b))
+            .unwrap();
         for i in 0..3 {
             assert!((bb[i] - x[i]).abs() < 1e-14);
         }

@@ -1,0 +1,5 @@
+import sys
+
+from vibroimpact.cli import main
+
+sys.exit(main())
