@@ -17,3 +17,6 @@ def hertz_stiffness(
     youngs_modulus2: float,
     poisson2: float,
 ) -> float: ...
+def contact_force(
+    law: dict[str, Any], penetration: float, rate: float, impact_speed: float
+) -> tuple[float, float, float]: ...

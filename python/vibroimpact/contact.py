@@ -119,6 +119,15 @@ class ContactLaw:
         """Plain dict for the core."""
         return {"kind": self.kind, "stiffness": self.contact_stiffness, "exponent": self.exponent}
 
+    def force(
+        self, penetration: float, rate: float, impact_speed: float
+    ) -> tuple[float, float, float]:
+        """``(F, ∂F/∂δ, ∂F/∂δ̇)`` at penetration δ (m), rate δ̇ (m/s) and approach speed
+        ``v_imp`` (m/s), evaluated by the core (zero when δ <= 0; never tensile)."""
+        return _core.contact_force(
+            self.to_spec(), float(penetration), float(rate), float(impact_speed)
+        )
+
 
 def _check_restitution(value: float | None) -> None:
     require(

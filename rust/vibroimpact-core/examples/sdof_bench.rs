@@ -3,6 +3,9 @@
 
 use std::time::Instant;
 
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use nalgebra::{DMatrix, DVector};
 use vibroimpact_core::contact::{Hertz, LankaraniNikravesh, Law};
 use vibroimpact_core::gap::{Gap, Side};

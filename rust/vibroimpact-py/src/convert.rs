@@ -69,7 +69,7 @@ fn vector(d: &Bound<'_, PyDict>, key: &str) -> PyResult<DVector<f64>> {
     ))
 }
 
-fn law(d: &Bound<'_, PyDict>, ctx: &str) -> PyResult<Law> {
+pub(crate) fn law(d: &Bound<'_, PyDict>, ctx: &str) -> PyResult<Law> {
     let kind: String = item(d, "kind", ctx)?;
     let stiffness: f64 = item(d, "stiffness", ctx)?;
     let exponent: f64 = opt(d, "exponent", ctx)?.unwrap_or(1.5);

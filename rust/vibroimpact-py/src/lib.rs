@@ -3,13 +3,16 @@
 
 mod convert;
 
+#[global_allocator]
+static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 use numpy::{PyArray1, PyArray2, PyArrayMethods};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use vibroimpact_core::contact::{ContactGeometry, Material};
+use vibroimpact_core::contact::{ContactGeometry, ContactLaw, Material};
 use vibroimpact_core::simulate::{simulate as run, RunOutput};
 use vibroimpact_core::SimError;
 
@@ -41,6 +44,20 @@ fn simulate<'py>(py: Python<'py>, spec: &Bound<'py, PyDict>) -> PyResult<Bound<'
         .detach(|| run(&job.system, job.method, &job.settings, job.x0, job.v0))
         .map_err(to_py_err)?;
     output_to_dict(py, out)
+}
+
+/// Force of a law (spec dict as in a gap's `law`) at penetration δ (m), rate δ̇ (m/s) and
+/// approach speed v_imp (m/s): `(F, ∂F/∂δ, ∂F/∂δ̇)`, clamped to be compressive.
+#[pyfunction]
+fn contact_force(
+    law: &Bound<'_, PyDict>,
+    penetration: f64,
+    rate: f64,
+    impact_speed: f64,
+) -> PyResult<(f64, f64, f64)> {
+    let law = convert::law(law, "law")?;
+    let f = law.force(penetration, rate, impact_speed);
+    Ok((f.force, f.d_penetration, f.d_rate))
 }
 
 /// Hertz stiffness `K = (4/3) E* √R*` (paper eq. 4), N/m^1.5.
@@ -170,6 +187,7 @@ fn output_to_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>>
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(hertz_stiffness, m)?)?;
+    m.add_function(wrap_pyfunction!(contact_force, m)?)?;
     m.add("ModelError", m.py().get_type::<ModelError>())?;
     m.add("SolverError", m.py().get_type::<SolverError>())?;
     m.add(

@@ -1,0 +1,61 @@
+"""``vibroimpact impact``: one central impact of a body on a rigid wall."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+from vibroimpact.contact import LAWS, law_from_name
+from vibroimpact.impact import single_impact
+
+UNITS = {
+    "delta_max": "m",
+    "force_max": "N",
+    "duration": "s",
+    "v_out": "m/s",
+    "restitution_effective": "",
+}
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "impact",
+        help="one central impact of a body on a rigid wall",
+        description=(
+            "A body of mass M touches a rigid wall at t = 0 moving toward it at speed V0 and "
+            "is followed until it separates. Prints the peak indentation delta_max, the peak "
+            "force force_max, the contact duration, the separation speed v_out and the "
+            "effective restitution v_out/V0."
+        ),
+    )
+    p.add_argument("--law", required=True, choices=sorted(LAWS), help="contact law")
+    p.add_argument("--stiffness", type=float, required=True, help="contact stiffness K, N/m^n")
+    p.add_argument("--exponent", type=float, default=None, help="exponent n (default 1.5)")
+    p.add_argument("--restitution", type=float, default=None, help="restitution ce, 0 < ce <= 1")
+    p.add_argument(
+        "--damping", type=float, default=None,
+        help="damping: c in N s/m (kelvin-voigt) or b (hunt-crossley, instead of ce)",
+    )
+    p.add_argument("--mass", type=float, required=True, help="mass M of the body, kg")
+    p.add_argument("--velocity", type=float, required=True, help="approach speed V0, m/s")
+    p.add_argument("--json", action="store_true", help="print a JSON object")
+    p.set_defaults(handler=main)
+
+
+def main(args: argparse.Namespace) -> int:
+    params: dict[str, float] = {"stiffness": args.stiffness}
+    for name in ("exponent", "restitution", "damping"):
+        value = getattr(args, name)
+        if value is not None:
+            params[name] = value
+    if args.law == "kelvin-voigt":
+        params.setdefault("exponent", 1.0)
+    law = law_from_name(args.law, **params)
+    out = single_impact(law, mass=args.mass, velocity=args.velocity)
+    if args.json:
+        print(json.dumps(out))
+    else:
+        print(f"{args.law} impact, m = {args.mass} kg, v0 = {args.velocity} m/s")
+        for key, unit in UNITS.items():
+            print(f"  {key:22s} {out[key]:.6e} {unit}")
+    return 0
