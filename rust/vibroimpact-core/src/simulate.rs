@@ -37,8 +37,10 @@ pub struct Stats {
     /// Accepted steps (including the sub-steps of cut steps).
     pub steps: usize,
     pub newton_iterations: usize,
-    /// Step attempts that failed and were halved.
+    /// Step attempts that failed (Newton did not converge).
     pub rejected_steps: usize,
+    /// Failed steps that were halved and retried.
+    pub step_cuts: usize,
     pub wall_time_s: f64,
 }
 
@@ -205,6 +207,7 @@ pub fn simulate(
                     stats.rejected_steps += 1;
                     stats.newton_iterations += failure.iterations;
                     if level < newton.max_step_cuts {
+                        stats.step_cuts += 1;
                         pending.push(level + 1);
                         pending.push(level + 1);
                     } else {

@@ -171,7 +171,7 @@ fn output_to_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>>
     stats.set_item("steps", out.stats.steps)?;
     stats.set_item("newton_iterations", out.stats.newton_iterations)?;
     stats.set_item("rejected_steps", out.stats.rejected_steps)?;
-    stats.set_item("step_cuts", out.stats.rejected_steps)?;
+    stats.set_item("step_cuts", out.stats.step_cuts)?;
     stats.set_item("wall_time_s", out.stats.wall_time_s)?;
     stats.set_item("energy_balance_error", balance)?;
     stats.set_item("dt", out.dt)?;

@@ -1,0 +1,115 @@
+"""The Python API: model validation, result views, loads."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import vibroimpact as vi
+from vibroimpact import cases
+
+
+@pytest.fixture(scope="module")
+def sdof_result() -> vi.Result:
+    return vi.simulate(cases.sdof_model("lankarani-nikravesh"), t_end=0.005, dt=1e-6, every=5)
+
+
+def test_dataframe_columns_carry_units(sdof_result: vi.Result) -> None:
+    df = sdof_result.to_dataframe()
+    assert df.index.name == "time [s]"
+    for col in ("x0 [m]", "v0 [m/s]", "a0 [m/s^2]", "gap0 penetration [m]", "gap0 force [N]",
+                "energy kinetic [J]"):
+        assert col in df.columns
+    assert np.array_equal(df["x0 [m]"].to_numpy(), sdof_result.displacement[:, 0])
+    table = sdof_result.impacts.to_dataframe()
+    assert list(table.columns)[:4] == ["gap", "side", "t_start", "t_end"]
+    assert len(table) == len(sdof_result.impacts) == 3
+
+
+def test_xarray_dataset_has_dims_units_and_settings(sdof_result: vi.Result) -> None:
+    ds = sdof_result.to_xarray()
+    assert ds["displacement"].dims == ("time", "dof")
+    assert ds["contact_force"].dims == ("time", "gap")
+    assert ds["displacement"].attrs["units"] == "m"
+    assert ds["impact_force_max"].attrs["units"] == "N"
+    assert ds.attrs["complete"] == 1
+    assert ds.attrs["steps"] == 5000
+    assert np.array_equal(ds["time"].values, sdof_result.time)
+
+
+def test_summary_is_json_ready(sdof_result: vi.Result) -> None:
+    import json
+
+    s = json.loads(json.dumps(sdof_result.summary()))
+    for key in ("max_abs_displacement", "impacts", "steps", "newton_iterations", "wall_time_s",
+                "energy_balance_error"):
+        assert key in s
+    assert s["impacts"][0]["side"] == "positive"
+    assert set(s["impacts"][0]) >= {"gap", "side", "t_start", "t_end", "v_in", "v_out",
+                                    "restitution_effective", "delta_max", "force_max", "impulse"}
+    # the last contact is still closed at 5 ms: its end is null, not NaN
+    assert s["impacts"][-1]["t_end"] is None or s["impacts"][-1]["t_end"] > 0
+
+
+def test_table_load_equals_the_same_constant_load() -> None:
+    law = vi.contact.Hertz(stiffness=1e8)
+    gap = vi.Gap(dof=0, clearance=1e-3, law=law)
+    s = vi.Structure.sdof(mass=1.0, stiffness=1e3)
+    const = vi.Model(s, gaps=[gap], loads=[vi.ConstantLoad(dof=0, amplitude=20.0)])
+    table = vi.Model(s, gaps=[gap], loads=[vi.TableLoad(dof=0, time=[0, 1], force=[20.0, 20.0])])
+    a = vi.simulate(const, t_end=0.2, dt=1e-5)
+    b = vi.simulate(table, t_end=0.2, dt=1e-5)
+    assert len(a.impacts) > 0
+    assert np.array_equal(a.displacement, b.displacement)
+
+
+def test_ramp_table_load_on_free_mass() -> None:
+    """m x'' = F t / T: x = F t³ / (6 m T); Newmark's error is O(dt²)."""
+    model = vi.Model(vi.Structure.sdof(mass=2.0),
+                     loads=[vi.TableLoad(dof=0, time=[0.0, 1.0], force=[0.0, 10.0])])
+    r = vi.simulate(model, t_end=1.0, dt=1e-3)
+    exact = 10.0 * r.time**3 / (6 * 2.0)
+    assert np.max(np.abs(r.displacement[:, 0] - exact)) < 1e-6 * exact[-1]
+
+
+@pytest.mark.parametrize(
+    ("build", "field"),
+    [
+        (lambda: vi.Structure([[1.0, 0.2], [0.0, 1.0]]), "structure.mass"),
+        (lambda: vi.Structure([[1.0, 0.0], [0.0, -1.0]]), "structure.mass"),
+        (lambda: vi.Structure.sdof(mass=0.0), "structure.mass"),
+        (lambda: vi.Gap(dof=0, clearance=-1e-3, law=vi.contact.Hertz(stiffness=1e9)),
+         "gap.clearance"),
+        (lambda: vi.Gap(dof=0, side="left", law=vi.contact.Hertz(stiffness=1e9)), "gap.side"),
+        (lambda: vi.Model(vi.Structure.sdof(mass=1.0),
+                          gaps=[vi.Gap(dof=3, law=vi.contact.Hertz(stiffness=1e9))]),
+         "gaps[0].dof"),
+        (lambda: vi.Model(vi.Structure.sdof(mass=1.0), initial_velocity=[1.0, 2.0]),
+         "initial.velocity"),
+        (lambda: vi.simulate(vi.Model(vi.Structure.sdof(mass=1.0)), t_end=1.0, dt=0.0),
+         "solver.dt"),
+        (lambda: vi.simulate(vi.Model(vi.Structure.sdof(mass=1.0)), t_end=1.0, dt=2.0),
+         "solver.dt"),
+        (lambda: vi.simulate(vi.Model(vi.Structure.sdof(mass=1.0)), t_end=-1.0, dt=0.1),
+         "solver.t_end"),
+        (lambda: vi.simulate(vi.Model(vi.Structure.sdof(mass=1.0)), t_end=1.0, dt=0.1, every=0),
+         "output.every"),
+        (lambda: vi.simulate(vi.Model(vi.Structure.sdof(mass=1.0)), t_end=1.0, dt=0.1,
+                             dofs=[2]), "output.dofs"),
+        (lambda: vi.Newmark(gamma=0.4), "solver.gamma"),
+        (lambda: vi.NewtonOptions(max_iterations=0), "solver.max_iterations"),
+        (lambda: vi.HarmonicLoad(dof=0, amplitude=1.0, frequency=-2.0), "load.frequency"),
+        (lambda: vi.TableLoad(dof=0, time=[0.0, 0.0], force=[1.0, 2.0]), "load.table.time"),
+    ],
+)
+def test_bad_input_is_a_one_line_model_error(build, field: str) -> None:
+    with pytest.raises(vi.ModelError) as err:
+        build()
+    msg = str(err.value)
+    assert msg.startswith(field)
+    assert "\n" not in msg
+
+
+def test_dt_is_adjusted_to_a_whole_number_of_steps() -> None:
+    r = vi.simulate(vi.Model(vi.Structure.sdof(mass=1.0, stiffness=1.0)), t_end=1.0, dt=0.3)
+    assert r.stats.steps == 4 and r.dt == pytest.approx(0.25)
+    assert r.time[-1] == pytest.approx(1.0)

@@ -1,0 +1,114 @@
+"""One impact per law, against closed forms (Hertz) and an independent SciPy reference."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import reference
+import vibroimpact as vi
+from vibroimpact import contact
+from vibroimpact.impact import single_impact
+
+K = reference.paper_stiffness()  # ≈ 1.509e11 N/m^1.5, paper eq. 4
+MASS, V0 = 0.04, 0.3  # the paper's two-sphere case
+
+
+def test_hertz_impact_matches_closed_form() -> None:
+    """delta_max = (5 m v0²/(4K))^(2/5); duration = 2·(2/5)·B(2/5, 1/2)·delta_max/v0."""
+    out = single_impact(contact.Hertz(stiffness=K), MASS, V0)
+    delta_max = (5 * MASS * V0**2 / (4 * K)) ** 0.4
+    duration = 2 * 0.4 * math.gamma(0.4) * math.gamma(0.5) / math.gamma(0.9) * delta_max / V0
+    assert out["delta_max"] == pytest.approx(delta_max, rel=1e-4)
+    assert out["duration"] == pytest.approx(duration, rel=1e-4)
+    assert out["force_max"] == pytest.approx(K * delta_max**1.5, rel=1e-4)
+    assert out["restitution_effective"] == pytest.approx(1.0, abs=1e-5)
+
+
+LAW_CASES = [
+    ("hunt-crossley", {"restitution": 0.5}),
+    ("hunt-crossley", {"damping": 2.0e11}),
+    ("lankarani-nikravesh", {"restitution": 0.5}),
+    ("lankarani-nikravesh", {"restitution": 0.9}),
+    ("gonthier", {"restitution": 0.5}),
+    ("gonthier", {"restitution": 0.2}),
+    ("flores", {"restitution": 0.5}),
+    ("flores", {"restitution": 0.1}),
+]
+
+
+@pytest.mark.parametrize(("law", "params"), LAW_CASES)
+def test_dissipative_law_matches_scipy_reference(law: str, params: dict) -> None:
+    """Effective restitution within 1e-4 (the issue asks 1e-3). The duration is compared at
+    1e-3: at low ce the damped force clamps to zero and the body leaves at the clamp speed,
+    a non-smooth phase where the fixed-step result converges to within 6e-4 at the default
+    20,000 steps per contact."""
+    ours = single_impact(contact.law_from_name(law, stiffness=K, **params), MASS, V0)
+    ref = reference.single_impact(law, MASS, V0, stiffness=K, exponent=1.5, **params)
+    assert ours["restitution_effective"] == pytest.approx(ref["restitution_effective"], abs=1e-4)
+    assert ours["delta_max"] == pytest.approx(ref["delta_max"], rel=1e-4)
+    assert ours["force_max"] == pytest.approx(ref["force_max"], rel=1e-4)
+    assert ours["duration"] == pytest.approx(ref["duration"], rel=1e-3)
+
+
+def test_kelvin_voigt_clamps_and_matches_reference() -> None:
+    """A linear spring-dashpot whose force would turn tensile before separation."""
+    law = contact.KelvinVoigt(stiffness=4.0e6, damping=150.0)
+    ours = single_impact(law, MASS, V0)
+    ref = reference.single_impact("kelvin-voigt", MASS, V0, stiffness=4.0e6, damping=150.0)
+    assert ours["restitution_effective"] == pytest.approx(ref["restitution_effective"], abs=1e-4)
+    assert ours["duration"] == pytest.approx(ref["duration"], rel=1e-4)
+    assert ours["restitution_effective"] < 0.9
+
+
+def test_paper_two_spheres_separation_speeds() -> None:
+    """Paper §2.2: 0.3 m/s for Hertz, about 0.2 for HC and LN, about 0.15 for Gonthier and
+    Flores (ce = 0.5)."""
+    from vibroimpact import cases
+
+    v = {law: cases.two_spheres(law)["v_out"] for law in cases.PAPER_LAWS}
+    assert v["hertz"] == pytest.approx(0.3, rel=1e-6)
+    assert v["hunt-crossley"] == pytest.approx(0.2, abs=0.02)
+    assert v["lankarani-nikravesh"] == pytest.approx(0.2, abs=0.02)
+    assert v["gonthier"] == pytest.approx(0.15, abs=0.01)
+    assert v["flores"] == pytest.approx(0.15, abs=0.01)
+
+
+def test_geometry_stiffness_matches_paper_equation_4() -> None:
+    g = contact.Geometry("ball-in-socket", radius1=0.010, radius2=0.0099,
+                         youngs_modulus=207e9, poisson=0.3)
+    sigma = (1 - 0.3**2) / (math.pi * 207e9)
+    r = 0.010 * 0.0099 / (0.010 - 0.0099)
+    assert g.stiffness() == pytest.approx(4 / (3 * math.pi * 2 * sigma) * math.sqrt(r), rel=1e-12)
+    plane = contact.Geometry("sphere-plane", radius1=0.01, youngs_modulus=207e9, poisson=0.3)
+    e_star = 207e9 / (2 * (1 - 0.09))
+    assert plane.stiffness() == pytest.approx(4 / 3 * e_star * math.sqrt(0.01), rel=1e-12)
+
+
+def test_force_is_clamped_and_matches_formula() -> None:
+    law = contact.LankaraniNikravesh(stiffness=K, restitution=0.5)
+    f, dpen, drate = law.force(1e-6, 0.1, 0.3)
+    chi = 0.75 * (1 - 0.25)
+    assert f == pytest.approx(K * 1e-6**1.5 * (1 + chi * 0.1 / 0.3), rel=1e-12)
+    assert dpen == pytest.approx(1.5 * K * 1e-6**0.5 * (1 + chi * 0.1 / 0.3), rel=1e-12)
+    assert drate == pytest.approx(K * 1e-6**1.5 * chi / 0.3, rel=1e-12)
+    assert law.force(1e-6, -10.0, 0.3) == (0.0, 0.0, 0.0)
+    assert law.force(-1e-6, 0.1, 0.3) == (0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize(
+    ("cls", "kwargs", "field"),
+    [
+        (contact.Hertz, {"stiffness": -1.0}, "law.stiffness"),
+        (contact.Hertz, {"stiffness": 1e9, "exponent": 0.5}, "law.exponent"),
+        (contact.LankaraniNikravesh, {"stiffness": 1e9, "restitution": 0.0}, "law.restitution"),
+        (contact.Flores, {"stiffness": 1e9, "restitution": 1.5}, "law.restitution"),
+        (contact.Gonthier, {"stiffness": 1e9}, "law.restitution"),
+        (contact.HuntCrossley, {"stiffness": 1e9}, "law"),
+        (contact.KelvinVoigt, {"stiffness": 1e9, "damping": -1.0}, "law.damping"),
+    ],
+)
+def test_bad_law_parameters_are_refused(cls: type, kwargs: dict, field: str) -> None:
+    with pytest.raises(vi.ModelError, match=field.replace(".", r"\.")) as err:
+        cls(**kwargs)
+    assert "\n" not in str(err.value)
