@@ -20,14 +20,16 @@ pieces, and every crossing is located by root finding on the dense output.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
-from scipy.optimize import minimize_scalar
+from scipy.optimize import brentq, minimize_scalar
 from scipy.special import beta
 
 __all__ = [
@@ -48,7 +50,70 @@ LAWS: tuple[str, ...] = (
     "gonthier",
     "flores",
     "kelvin-voigt",
+    "herbert-mcwhannell",
+    "lee-wang",
+    "zhiying-qishao",
+    "hu-guo",
+    "gharib-hurmuzlu",
+    "ye",
+    "carvalho-martins",
+    "safaeifar-karimi",
+    "tabulated",
 )
+
+#: Laws ``K delta^n (1 + chi(ce) delta_dot / v_imp)`` that take only a restitution ce.
+_CE_LAWS: tuple[str, ...] = (
+    "lankarani-nikravesh",
+    "gonthier",
+    "flores",
+    "herbert-mcwhannell",
+    "lee-wang",
+    "zhiying-qishao",
+    "hu-guo",
+    "gharib-hurmuzlu",
+    "ye",
+    "carvalho-martins",
+    "safaeifar-karimi",
+)
+
+_TABLE_KEYS: tuple[str, ...] = (
+    "loading_penetration",
+    "loading_force",
+    "unloading_penetration",
+    "unloading_force",
+)
+
+
+def exact_hunt_crossley_factor(ce: float) -> float:
+    """The factor ``chi`` for which ``K d^n (1 + chi d_dot/v_imp)`` restitutes exactly ``ce``
+    in one impact of a free mass on a rigid wall.
+
+    Energy integral of ``m v dv/dd = -K d^n (1 + chi v/v_imp)`` from ``v_imp`` to 0 and from 0
+    to ``-ce v_imp`` (``u = chi v / v_imp``): ``int u/(1+u) du`` over both phases gives
+    ``chi - ln(1 + chi) = -chi ce - ln(1 - chi ce)``, whose root in ``(0, 1/ce)`` is returned.
+    """
+    if ce >= 1.0:
+        return 0.0
+
+    def g(chi: float) -> float:
+        return chi - math.log1p(chi) + chi * ce + math.log1p(-chi * ce)
+
+    hi = 1.0 / ce
+    lo = hi * 1e-12
+    while g(lo) <= 0.0:  # pragma: no cover - g > 0 near 0 for every ce < 1
+        lo *= 0.5
+    # g -> -inf as chi -> 1/ce; bracket from below that pole.
+    top = hi * (1.0 - 1e-15)
+    return float(brentq(g, lo, top, xtol=1e-300, rtol=4 * np.finfo(float).eps, maxiter=500))
+
+
+def _table_eval(x: tuple[float, ...], y: tuple[float, ...], d: Any) -> Any:
+    """Piecewise-linear interpolation through ``(x, y)``, continued linearly past the end."""
+    d = np.asarray(d, dtype=float)
+    xa, ya = np.asarray(x), np.asarray(y)
+    inside = np.interp(d, xa, ya)
+    slope = (ya[-1] - ya[-2]) / (xa[-1] - xa[-2])
+    return np.where(d > xa[-1], ya[-1] + slope * (d - xa[-1]), inside)
 
 # Short names accepted as keyword aliases (paper symbols).
 _ALIASES: dict[str, str] = {
@@ -83,6 +148,21 @@ class ContactLaw:
     * flores: ``h = 1 + 8(1-ce)/(5 ce) * delta_dot/v_imp``
 
     Kelvin-Voigt is linear: ``F = k delta + c delta_dot`` and its "bracket" is that same value.
+
+    Further restitution laws (factor ``chi`` of ``delta_dot/v_imp``, from the papers):
+
+    * herbert-mcwhannell (1977): ``6(1-ce)/((2ce-1)^2+3)``
+    * lee-wang (1983): ``3(1-ce)/4``
+    * zhiying-qishao (2006): ``3(1-ce^2) exp(2(1-ce))/4``
+    * hu-guo (2015): ``3(1-ce)/(2ce)``
+    * gharib-hurmuzlu (2012): ``1/ce - 1``
+    * ye (Ye, Li & Zhu 2009): ``8(1-ce)/(5ce)``
+    * carvalho-martins (2019): ``3(1-ce)(11-ce)/(2(1+9ce))``
+    * safaeifar-karimi: the exact factor (:func:`exact_hunt_crossley_factor`)
+
+    tabulated: loading curve ``F_L`` while ``delta_dot >= 0``, unloading curve ``F_U`` while
+    ``delta_dot <= -w``, ``F_U + (F_L - F_U)(3x^2 - 2x^3)`` with ``x = 1 + delta_dot/w`` in
+    between, ``w = reversal_band * v_imp``; both piecewise linear, continued linearly.
     """
 
     name: str
@@ -90,8 +170,11 @@ class ContactLaw:
     exponent: float = 1.5
     restitution: float | None = None
     damping: float | None = None
+    loading: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+    unloading: tuple[tuple[float, ...], tuple[float, ...]] | None = None
+    reversal_band: float = 0.01
 
-    @property
+    @cached_property
     def alpha(self) -> float:
         """Coefficient of ``delta_dot / v_imp`` in the bracket (0 if not v_imp-scaled)."""
         ce = self.restitution
@@ -106,11 +189,31 @@ class ContactLaw:
         if self.name == "flores":
             assert ce is not None
             return 8.0 * (1.0 - ce) / (5.0 * ce)
+        if ce is None:
+            return 0.0
+        if self.name == "herbert-mcwhannell":
+            return 6.0 * (1.0 - ce) / ((2.0 * ce - 1.0) ** 2 + 3.0)
+        if self.name == "lee-wang":
+            return 3.0 * (1.0 - ce) / 4.0
+        if self.name == "zhiying-qishao":
+            return 3.0 * (1.0 - ce**2) * math.exp(2.0 * (1.0 - ce)) / 4.0
+        if self.name == "hu-guo":
+            return 3.0 * (1.0 - ce) / (2.0 * ce)
+        if self.name == "gharib-hurmuzlu":
+            return 1.0 / ce - 1.0
+        if self.name == "ye":
+            return 8.0 * (1.0 - ce) / (5.0 * ce)
+        if self.name == "carvalho-martins":
+            return 3.0 * (1.0 - ce) * (11.0 - ce) / (2.0 * (1.0 + 9.0 * ce))
+        if self.name == "safaeifar-karimi":
+            return exact_hunt_crossley_factor(ce)
         return 0.0
 
     @property
     def can_clamp(self) -> bool:
         """True when the unclamped formula can turn negative while in contact."""
+        if self.name == "tabulated":
+            return False
         if self.name == "kelvin-voigt":
             return bool(self.damping)
         if self.name == "hunt-crossley" and self.restitution is None:
@@ -135,6 +238,16 @@ class ContactLaw:
         d = np.asarray(delta, dtype=float)
         dd = np.asarray(delta_dot, dtype=float)
         pen = np.maximum(d, 0.0)
+        if self.name == "tabulated":
+            assert self.loading is not None and self.unloading is not None
+            f_load = _table_eval(*self.loading, pen)
+            f_unload = _table_eval(*self.unloading, pen)
+            w = self.reversal_band * v_imp
+            x = np.clip(1.0 + dd / w, 0.0, 1.0)
+            s = x * x * (3.0 - 2.0 * x)
+            raw = np.where(dd >= 0.0, f_load, f_unload + (f_load - f_unload) * s)
+            out = np.where(d > 0.0, raw, 0.0)
+            return float(out) if out.ndim == 0 else out
         if self.name == "kelvin-voigt":
             raw = self.bracket(pen, dd, v_imp)
         else:
@@ -143,15 +256,19 @@ class ContactLaw:
         return float(out) if out.ndim == 0 else out
 
 
-def make_law(law: str, **params: float) -> ContactLaw:
+def make_law(law: str, **params: Any) -> ContactLaw:
     """Build and validate a :class:`ContactLaw`.
 
     Keywords: ``stiffness`` (alias ``K``/``k``), ``exponent`` (``n``, default 1.5),
-    ``restitution`` (``ce``), ``damping`` (``c`` for kelvin-voigt, ``b`` for hunt-crossley).
+    ``restitution`` (``ce``), ``damping`` (``c`` for kelvin-voigt, ``b`` for hunt-crossley);
+    tabulated: ``loading_penetration``, ``loading_force``, ``unloading_penetration``,
+    ``unloading_force`` (sequences) and ``reversal_band`` (default 0.01).
     """
     name = law.lower().replace("_", "-")
     if name not in LAWS:
         raise ValueError(f"unknown law {law!r}; expected one of {LAWS}")
+    if name == "tabulated":
+        return _make_tabulated(params)
     norm: dict[str, float] = {}
     for key, value in params.items():
         full = _ALIASES.get(key, key)
@@ -189,10 +306,32 @@ def make_law(law: str, **params: float) -> ContactLaw:
     elif ce is None:
         raise ValueError(f"{name}: restitution ce must be given")
     if ce is not None:
-        lo_ok = ce > 0.0 if name in ("gonthier", "flores") else ce >= 0.0
+        lo_ok = ce >= 0.0 if name in ("hunt-crossley", "lankarani-nikravesh") else ce > 0.0
         if not (lo_ok and ce <= 1.0):
             raise ValueError(f"{name}: restitution must be in (0, 1] (got {ce})")
     return ContactLaw(name, norm["stiffness"], exponent, ce, damping)
+
+
+def _make_tabulated(params: dict[str, Any]) -> ContactLaw:
+    unknown = set(params) - {*_TABLE_KEYS, "reversal_band"}
+    if unknown:
+        raise TypeError(f"tabulated: unknown parameters {sorted(unknown)}")
+    curves = []
+    for which in ("loading", "unloading"):
+        x = tuple(float(v) for v in params[f"{which}_penetration"])
+        y = tuple(float(v) for v in params[f"{which}_force"])
+        if len(x) != len(y) or len(x) < 2 or x[0] != 0.0 or y[0] != 0.0:
+            raise ValueError(f"tabulated: {which} curve must start at (0, 0), >= 2 points")
+        if any(b <= a for a, b in itertools.pairwise(x)):
+            raise ValueError(f"tabulated: {which} penetrations must increase")
+        curves.append((x, y))
+    band = float(params.get("reversal_band", 0.01))
+    if not 0.0 < band <= 1.0:
+        raise ValueError("tabulated: reversal_band must be in (0, 1]")
+    (lx, ly), _ = curves
+    secant = ly[-1] / lx[-1]
+    return ContactLaw("tabulated", secant, 1.0, loading=curves[0], unloading=curves[1],
+                      reversal_band=band)
 
 
 def contact_force(law: str, delta: float, delta_dot: float, v_imp: float, **params: float) -> float:
@@ -236,6 +375,16 @@ def hertz_closed_form(
 def _penetration_scale(law: ContactLaw, mass: float, speed: float) -> float:
     """Rough size of the penetration of ``mass`` arriving at ``speed`` (for tolerances)."""
     speed = max(abs(speed), 1e-300)
+    if law.name == "tabulated":  # where the loading curve has stored the kinetic energy
+        assert law.loading is not None
+        x, y = np.asarray(law.loading[0]), np.asarray(law.loading[1])
+        work = np.concatenate([[0.0], np.cumsum(0.5 * np.diff(x) * (y[1:] + y[:-1]))])
+        energy = 0.5 * mass * speed**2
+        if energy <= work[-1]:
+            return float(np.interp(energy, work, x))
+        slope = (y[-1] - y[-2]) / (x[-1] - x[-2])
+        rest = energy - work[-1]  # y[-1] u + slope u^2 / 2 = rest
+        return float(x[-1] + 2.0 * rest / (y[-1] + math.sqrt(y[-1] ** 2 + 2.0 * slope * rest)))
     if law.name == "kelvin-voigt":
         return speed * math.sqrt(mass / law.stiffness)
     p = law.exponent + 1.0
@@ -488,7 +637,7 @@ def single_impact(
     velocity: float,
     rtol: float = 1e-12,
     atol: float | Sequence[float] | None = None,
-    **law_params: float,
+    **law_params: Any,
 ) -> dict[str, float]:
     """One impact of a free mass on a rigid wall, touched at ``t = 0`` with speed ``velocity``.
 

@@ -16,9 +16,15 @@ from vibroimpact import contact as contact
 from vibroimpact._core import build_profile as build_profile
 from vibroimpact.errors import ModelError as ModelError
 from vibroimpact.errors import SolverError as SolverError
+from vibroimpact.integrators import HHT as HHT
+from vibroimpact.integrators import Adaptive as Adaptive
+from vibroimpact.integrators import Bathe as Bathe
+from vibroimpact.integrators import GeneralizedAlpha as GeneralizedAlpha
 from vibroimpact.integrators import Integrator as Integrator
 from vibroimpact.integrators import Newmark as Newmark
 from vibroimpact.integrators import NewtonOptions as NewtonOptions
+from vibroimpact.integrators import PreciseIntegration as PreciseIntegration
+from vibroimpact.io import load_model as load_model
 from vibroimpact.model import ConstantLoad as ConstantLoad
 from vibroimpact.model import Gap as Gap
 from vibroimpact.model import HarmonicLoad as HarmonicLoad

@@ -2,12 +2,22 @@
 
 from typing import Any
 
+import numpy as np
+from numpy.typing import NDArray
+
 build_profile: str
 
 class ModelError(ValueError): ...
 class SolverError(RuntimeError): ...
 
 def simulate(spec: dict[str, Any]) -> dict[str, Any]: ...
+def expm(a: NDArray[np.float64]) -> NDArray[np.float64]: ...
+def precise_matrices(
+    mass: NDArray[np.float64],
+    damping: NDArray[np.float64],
+    stiffness: NDArray[np.float64],
+    dt: float,
+) -> dict[str, Any]: ...
 def hertz_stiffness(
     kind: str,
     radius1: float,
@@ -20,3 +30,27 @@ def hertz_stiffness(
 def contact_force(
     law: dict[str, Any], penetration: float, rate: float, impact_speed: float
 ) -> tuple[float, float, float]: ...
+def contact_law_evaluate(
+    law: dict[str, Any],
+    penetration: NDArray[np.float64],
+    rate: NDArray[np.float64],
+    impact_speed: NDArray[np.float64],
+    clamp: bool = False,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]: ...
+def geometry_stiffness(
+    kind: str,
+    radius1: float,
+    radius2: float | None,
+    length: float | None,
+    load: float | None,
+    youngs_modulus1: float,
+    poisson1: float,
+    youngs_modulus2: float,
+    poisson2: float,
+) -> tuple[float, float]: ...
+def sweep(
+    specs: list[dict[str, Any]],
+    chains: list[list[int]] | None = None,
+    threads: int | None = None,
+) -> dict[str, Any]: ...
+def sweep_check(specs: list[dict[str, Any]], labels: list[str] | None = None) -> None: ...

@@ -13,9 +13,23 @@ from scipy.integrate import solve_ivp
 
 from vibroimpact import cases
 from vibroimpact.contact import ContactLaw
+from vibroimpact.integrators import (
+    HHT,
+    Bathe,
+    GeneralizedAlpha,
+    Integrator,
+    Newmark,
+    PreciseIntegration,
+)
 from vibroimpact.simulate import simulate
 
-__all__ = ["median_time", "scipy_bilateral_sdof", "sdof_benchmark"]
+__all__ = [
+    "integrator_table",
+    "median_time",
+    "scipy_bilateral_sdof",
+    "sdof_benchmark",
+    "sweep_benchmark",
+]
 
 
 def median_time(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:
@@ -130,3 +144,63 @@ def sdof_benchmark(repeats: int = 20, laws: tuple[str, ...] = ("hertz", "lankara
             "scipy_peak_displacement_m": ref["max_abs_displacement"],
         })
     return rows
+
+
+#: The paper's Table 3: MATLAB time for the SDOF case (0.02 s), s.
+PAPER_TABLE3_S = {"newmark": 1.3, "generalized-alpha": 2.1, "precise": 25.0}
+
+
+def integrator_table(repeats: int = 20, dt: float = cases.SDOF_DT) -> list[dict[str, Any]]:
+    """The paper's Table 3 for our integrators: the SDOF case (Lankarani–Nikravesh, ce = 0.9,
+    0.02 s at dt = 1 µs, every step recorded) through the Python API, median wall time per
+    method and its ratio to Newmark, with the paper's MATLAB times beside them."""
+    methods: list[tuple[str, str, Integrator]] = [
+        ("newmark", "Newmark-β + Newton", Newmark()),
+        ("generalized-alpha", "generalized-α (ρ∞ = 0.8)", GeneralizedAlpha(rho_inf=0.8)),
+        ("hht", "HHT-α (α = 0.1)", HHT(alpha=0.1)),
+        ("precise", "precise (Adams)", PreciseIntegration()),
+        ("precise-pc", "precise (predictor–corrector)",
+         PreciseIntegration(predictor_corrector=True)),
+        ("bathe", "Bathe (γ = 1/2)", Bathe()),
+    ]
+    model = cases.sdof_model("lankarani-nikravesh", 0.9)
+
+    def run(method: Integrator) -> Any:
+        return simulate(model, t_end=cases.SDOF_T_END, dt=dt, method=method)
+
+    # Round-robin over the methods, so that a burst of load on the machine hits all of them.
+    results = [run(method) for _, _, method in methods]
+    times: list[list[float]] = [[] for _ in methods]
+    for _ in range(repeats):
+        for i, (_, _, method) in enumerate(methods):
+            t0 = time.perf_counter()
+            run(method)
+            times[i].append(time.perf_counter() - t0)
+    rows = []
+    for (key, label, _), result, ts in zip(methods, results, times, strict=True):
+        rows.append({
+            "method": key,
+            "label": label,
+            "median_s": statistics.median(ts),
+            "steps": result.stats.steps,
+            "newton_iterations": result.stats.newton_iterations,
+            "peak_displacement_m": float(result.max_abs_displacement[0]),
+            "paper_s": PAPER_TABLE3_S.get(key),
+        })
+    base = rows[0]["median_s"]
+    for r in rows:
+        r["ratio_to_newmark"] = r["median_s"] / base
+        r["paper_ratio_to_newmark"] = (
+            None if r["paper_s"] is None else r["paper_s"] / PAPER_TABLE3_S["newmark"]
+        )
+    return rows
+
+
+def sweep_benchmark(points: int = 400, dask: bool = True, repeats: int = 2
+                    ) -> list[dict[str, Any]]:
+    """Parameter sweeps (issue 8): ``points`` forcing frequencies x 300 forcing periods of the
+    SDOF impact oscillator in this process on 1 and 2 threads and on a Dask LocalCluster of 2
+    workers, fastest of ``repeats`` (:func:`vibroimpact.sweeps.bench.sweep_benchmark`)."""
+    from vibroimpact.sweeps.bench import sweep_benchmark as run
+
+    return run(points=points, dask=dask, repeats=repeats)

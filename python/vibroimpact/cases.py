@@ -1,6 +1,6 @@
 """The paper's cases (DESIGN.md §7), built from the public API so that users can start from
 them: the two-sphere single impact (§2.2, Figs. 3–4) and the SDOF block between two walls
-(§3.1, Figs. 5–13, Table 3)."""
+(§3.1, Figs. 5–13, Table 3), and the hollow shaft on sliders (§3.2, Figs. 14–17, Table 4)."""
 
 from __future__ import annotations
 
@@ -8,13 +8,18 @@ from typing import Any
 
 from vibroimpact.contact import LAWS, PAPER_LAWS, ContactLaw, Geometry
 from vibroimpact.impact import single_impact
-from vibroimpact.model import Gap, Model, Structure
+from vibroimpact.model import Gap, HarmonicLoad, Model, Structure
 
 __all__ = [
+    "HOLLOW_SHAFT_DT",
+    "HOLLOW_SHAFT_PAPER_FREQUENCIES_HZ",
+    "HOLLOW_SHAFT_T_END",
     "PAPER_LAWS",
     "SDOF_DT",
     "SDOF_T_END",
     "TWO_SPHERES_PAPER_V_OUT",
+    "hollow_shaft_beam",
+    "hollow_shaft_model",
     "paper_geometry",
     "paper_law",
     "sdof_model",
@@ -63,3 +68,63 @@ def sdof_model(law: str = "lankarani-nikravesh", restitution: float = 0.9) -> Mo
 def two_spheres(law: str, restitution: float = 0.5) -> dict[str, Any]:
     """Case 1: the 0.04 kg sphere hitting the socket at 0.3 m/s (DESIGN.md §7.1)."""
     return single_impact(paper_law(law, restitution), mass=0.04, velocity=0.3)
+
+
+#: The hollow shaft's first three free–free bending frequencies in the paper (Hz; §3.2,
+#: Table 4, ABAQUS shell reference model; the paper's beam model gives 477, 1035, 1637).
+HOLLOW_SHAFT_PAPER_FREQUENCIES_HZ = (477.0, 1035.0, 1614.0)
+
+#: The hollow shaft's forced run: duration and step (s). 0.5 s is five periods of the 10 Hz
+#: load; 2 µs resolves every contact (≈ 0.1–0.5 ms long) with over 50 steps.
+HOLLOW_SHAFT_T_END = 0.5
+HOLLOW_SHAFT_DT = 2e-6
+
+#: Where the sliders sit (nodes of the beam): both ends and the middle.
+HOLLOW_SHAFT_SLIDERS = ("start", "middle", "end")
+
+
+def hollow_shaft_beam(theory: str = "timoshenko", elements: int = 20) -> Any:
+    """Case 3's tube as a planar beam (``vibroimpact.fe.Beam``): Ø190 mm × 5 mm wall ×
+    1000 mm, E = 207 GPa, ν = 0.3, ρ = 34.41 g/cm³ (≈ 100 kg), free–free, ``elements`` equal
+    elements of ``theory`` ``"timoshenko"`` (Cowper's thin-tube shear coefficient, rotary
+    inertia) or ``"euler-bernoulli"``; consistent mass (DESIGN.md §7.3)."""
+    from vibroimpact.fe import Beam, Material, Section
+
+    return Beam(
+        length=1.0,
+        elements=elements,
+        section=Section.tube(outer_diameter=0.190, wall_thickness=0.005),
+        material=Material(youngs_modulus=207e9, poisson=0.3, density=34410.0),
+        theory=theory,
+    )
+
+
+def hollow_shaft_model(
+    theory: str = "timoshenko",
+    elements: int = 20,
+    *,
+    law: ContactLaw | None = None,
+    clearance: float = 0.003,
+    load: bool = True,
+    initial_velocity: Any = None,
+) -> Model:
+    """Case 3 (paper §3.2, Figs. 14–17): the hollow shaft of :func:`hollow_shaft_beam` between
+    sliders at both ends and the middle, ``clearance`` (m) on both sides in x (gaps named
+    ``start``, ``middle``, ``end``), and with ``load`` the force F = 100 sin(20πt) N in x at
+    every node.
+
+    Contact law (``law``, default Hertz): the paper does not give this case's contact
+    stiffness, so we use the one Hertz stiffness it derives, eq. 4 with the case-1 steel
+    ball-in-socket geometry, K = 1.509e11 N/m^1.5, exponent 1.5."""
+    beam = hollow_shaft_beam(theory, elements)
+    law = paper_law("hertz", 1.0) if law is None else law
+    gaps = [
+        beam.gap(law, node=name, direction="x", clearance=clearance, side="both", name=name)
+        for name in HOLLOW_SHAFT_SLIDERS
+    ]
+    loads = []
+    if load:
+        loads.append(
+            beam.load(HarmonicLoad, nodes="all", direction="x", amplitude=100.0, frequency=10.0)
+        )
+    return beam.model(gaps, loads, initial_velocity=initial_velocity)

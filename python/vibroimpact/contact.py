@@ -1,8 +1,15 @@
-"""Contact-force laws ``F(δ, δ̇, v_imp)`` (paper §2.2, Table 2; DESIGN.md §3).
+"""Contact-force laws ``F(δ, δ̇, v_imp)`` (paper §2.2, Table 2; DESIGN.md §3) and contact
+stiffness from geometry and material.
 
 Each law is plain data; the force, its derivatives and the time loop live in the Rust core.
-``stiffness`` is either a number (N/mⁿ) or a :class:`Geometry` from which the Hertz stiffness
-``K = (4/3) E* √R*`` is computed (paper eq. 4).
+``stiffness`` is either a number (N/mⁿ) or a :class:`Geometry` from which the stiffness is
+computed (paper eq. 4 for the Hertzian point contacts).
+
+The Hertzian laws with hysteresis damping all read ``F = K δⁿ (1 + χ δ̇ / v_imp)``, i.e. a
+damping coefficient ``D = χ K / v_imp`` in ``F = K δⁿ + D δⁿ δ̇``: the damping grows as the
+restitution ``ce`` falls (through ``χ(ce)``) and is inversely proportional to the approach
+speed ``v_imp`` of the current impact. They differ only in ``χ(ce)``; the sources and the
+effective restitution each one gives are in ``docs/contact-laws.md``.
 
 Example::
 
@@ -16,32 +23,66 @@ Example::
 
 from __future__ import annotations
 
+import dataclasses
+import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, Literal
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from vibroimpact import _core
 from vibroimpact.errors import ModelError, require
 
 __all__ = [
+    "GEOMETRY_KINDS",
     "LAWS",
+    "PAPER_LAWS",
+    "RESTITUTION_LAWS",
+    "CarvalhoMartins",
     "ContactLaw",
     "Flores",
     "Geometry",
+    "GharibHurmuzlu",
     "Gonthier",
+    "HerbertMcWhannell",
     "Hertz",
+    "HuGuo",
     "HuntCrossley",
     "KelvinVoigt",
     "LankaraniNikravesh",
+    "LeeWang",
+    "PowerLaw",
+    "SafaeifarKarimi",
+    "Tabulated",
+    "Ye",
+    "ZhiyingQishao",
     "law_from_name",
 ]
 
-GeometryKind = Literal["sphere-sphere", "ball-in-socket", "sphere-plane"]
+GeometryKind = Literal[
+    "sphere-sphere", "ball-in-socket", "sphere-plane", "cylinder-in-hole", "flat-punch"
+]
+
+#: The shapes :class:`Geometry` knows.
+GEOMETRY_KINDS: tuple[str, ...] = (
+    "sphere-sphere",
+    "ball-in-socket",
+    "sphere-plane",
+    "cylinder-in-hole",
+    "flat-punch",
+)
 
 
-def _positive(value: float, field: str, unit: str) -> None:
+def _is_number(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _positive(value: Any, field: str, unit: str) -> None:
     require(
-        isinstance(value, (int, float)) and math.isfinite(value) and value > 0,
+        _is_number(value) and math.isfinite(value) and value > 0,
         field,
         value,
         f"a number > 0 in {unit}",
@@ -50,11 +91,26 @@ def _positive(value: float, field: str, unit: str) -> None:
 
 @dataclass(frozen=True)
 class Geometry:
-    """Two elastic bodies whose Hertz stiffness follows from shape and material (paper eq. 4).
+    """Two elastic bodies whose contact stiffness follows from shape and material.
 
-    ``kind``: ``"sphere-sphere"`` (outside each other, ``R* = R1R2/(R1+R2)``),
-    ``"ball-in-socket"`` (``R* = R1R2/|R1−R2|``, the paper's case) or ``"sphere-plane"``
-    (``R* = R1``). Radii in m, Young's moduli in Pa; body 2 has body 1's material unless
+    ``kind`` (radii in m, Young's moduli in Pa):
+
+    * ``"sphere-sphere"``: spheres outside each other, ``R* = R1R2/(R1+R2)``;
+    * ``"ball-in-socket"``: ``R* = R1R2/|R1−R2|`` (the paper's case);
+    * ``"sphere-plane"``: ``R* = R1``;
+
+      these three are Hertzian point contacts, ``K = (4/3) E* √R*`` (paper eq. 4), for a law
+      with exponent 1.5;
+    * ``"cylinder-in-hole"``: a pin of radius ``radius1`` in a hole of radius ``radius2``
+      over a contact ``length`` (the journal-bearing clearance joint). Johnson's relation
+      ``δ = F/(π L E*) [ln(4π L E* ΔR/F) − 1]`` (``ΔR = radius2 − radius1``) is nonlinear and
+      implicit in ``F``; it is linearised here by its secant at the reference force ``load``
+      (N): ``K = load / δ(load)``, for a linear law (exponent 1). Valid for elastic long
+      cylinders with a contact half-width small against the radii, near ``load``;
+    * ``"flat-punch"``: a rigid flat circular punch of radius ``radius1`` on an elastic body,
+      ``K = 2 a E*`` (linear, exponent 1).
+
+    ``1/E* = (1−ν1²)/E1 + (1−ν2²)/E2``; body 2 has body 1's material unless
     ``youngs_modulus2``/``poisson2`` are given.
     """
 
@@ -65,34 +121,96 @@ class Geometry:
     radius2: float | None = None
     youngs_modulus2: float | None = None
     poisson2: float | None = None
+    length: float | None = None
+    load: float | None = None
 
     def __post_init__(self) -> None:
-        kinds = ("sphere-sphere", "ball-in-socket", "sphere-plane")
-        require(self.kind in kinds, "geometry.kind", self.kind, "one of " + ", ".join(kinds))
-        if self.kind != "sphere-plane":
+        require(
+            self.kind in GEOMETRY_KINDS, "geometry.kind", self.kind,
+            "one of " + ", ".join(GEOMETRY_KINDS),
+        )
+        if self.kind in ("sphere-sphere", "ball-in-socket", "cylinder-in-hole"):
             require(self.radius2 is not None, "geometry.radius2", None, "a radius in m")
+        if self.kind == "cylinder-in-hole":
+            require(self.length is not None, "geometry.length", None, "a contact length in m")
+            require(self.load is not None, "geometry.load", None,
+                    "a reference force in N (the linearisation point)")
         self.stiffness()  # validates radii and materials in the core
 
+    @property
+    def exponent(self) -> float:
+        """Exponent ``n`` of the law ``K δⁿ`` the stiffness is for (1.5 or 1)."""
+        return 1.0 if self.kind in ("cylinder-in-hole", "flat-punch") else 1.5
+
     def stiffness(self) -> float:
-        """Hertz contact stiffness ``K``, N/m^1.5."""
+        """Contact stiffness ``K``: N/m^1.5 for the point contacts, N/m for the others."""
         e2 = self.youngs_modulus if self.youngs_modulus2 is None else self.youngs_modulus2
         nu2 = self.poisson if self.poisson2 is None else self.poisson2
-        return _core.hertz_stiffness(
+        opt = lambda v: None if v is None else float(v)  # noqa: E731
+        k, _ = _core.geometry_stiffness(
             self.kind,
             float(self.radius1),
-            None if self.radius2 is None else float(self.radius2),
+            opt(self.radius2),
+            opt(self.length),
+            opt(self.load),
             float(self.youngs_modulus),
             float(self.poisson),
             float(e2),
             float(nu2),
         )
+        return float(k)
 
 
 @dataclass(frozen=True)
 class ContactLaw:
-    """Base of the laws: a stiffness (number or :class:`Geometry`) and an exponent."""
+    """Base of the laws. Every law has a kebab-case ``kind``, a spec dict for the core
+    (:meth:`to_spec`), and the stiffness ``contact_stiffness`` and ``exponent`` of the
+    Hertz-like law that estimates its impact (used to choose step sizes)."""
 
     kind: ClassVar[str] = ""
+
+    @property
+    def contact_stiffness(self) -> float:  # pragma: no cover - every law overrides it
+        raise NotImplementedError
+
+    def to_spec(self) -> dict[str, Any]:  # pragma: no cover - every law overrides it
+        raise NotImplementedError
+
+    def force(
+        self, penetration: float, rate: float, impact_speed: float
+    ) -> tuple[float, float, float]:
+        """``(F, ∂F/∂δ, ∂F/∂δ̇)`` at penetration δ (m), rate δ̇ (m/s) and approach speed
+        ``v_imp`` (m/s), evaluated by the core (zero when δ <= 0; never tensile)."""
+        return _core.contact_force(
+            self.to_spec(), float(penetration), float(rate), float(impact_speed)
+        )
+
+    def evaluate(
+        self,
+        penetration: ArrayLike,
+        rate: ArrayLike,
+        impact_speed: ArrayLike,
+        clamp: bool = False,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Vectorised ``(F, ∂F/∂δ, ∂F/∂δ̇)`` over broadcast arrays of δ (m, > 0), δ̇ (m/s)
+        and ``v_imp`` (m/s): the law's formula as is (``clamp=False``, may be tensile), or
+        clamped to be compressive as in a run."""
+        pen, r, v = np.broadcast_arrays(
+            np.asarray(penetration, float), np.asarray(rate, float),
+            np.asarray(impact_speed, float),
+        )
+        f, dp, dr = _core.contact_law_evaluate(
+            self.to_spec(), np.ascontiguousarray(pen.ravel()), np.ascontiguousarray(r.ravel()),
+            np.ascontiguousarray(v.ravel()), clamp,
+        )
+        return f.reshape(pen.shape), dp.reshape(pen.shape), dr.reshape(pen.shape)
+
+
+@dataclass(frozen=True)
+class PowerLaw(ContactLaw):
+    """Base of the laws built on ``K δⁿ``: a stiffness (number or :class:`Geometry`) and an
+    exponent."""
+
     stiffness: float | Geometry
     exponent: float = 1.5
 
@@ -100,13 +218,19 @@ class ContactLaw:
         if not isinstance(self.stiffness, Geometry):
             _positive(self.stiffness, "law.stiffness", "N/m^n")
         require(
-            isinstance(self.exponent, (int, float))
+            _is_number(self.exponent)
             and math.isfinite(self.exponent)
             and self.exponent >= 1,
             "law.exponent",
             self.exponent,
             "a number >= 1 (1.5 for Hertzian point contact)",
         )
+        if isinstance(self.stiffness, Geometry) and self.exponent != self.stiffness.exponent:
+            raise ModelError(
+                f"law.exponent: {self.exponent!r} is not valid with geometry "
+                f"{self.stiffness.kind!r}; expected {self.stiffness.exponent:g} (the exponent "
+                "its stiffness is computed for)"
+            )
 
     @property
     def contact_stiffness(self) -> float:
@@ -119,19 +243,10 @@ class ContactLaw:
         """Plain dict for the core."""
         return {"kind": self.kind, "stiffness": self.contact_stiffness, "exponent": self.exponent}
 
-    def force(
-        self, penetration: float, rate: float, impact_speed: float
-    ) -> tuple[float, float, float]:
-        """``(F, ∂F/∂δ, ∂F/∂δ̇)`` at penetration δ (m), rate δ̇ (m/s) and approach speed
-        ``v_imp`` (m/s), evaluated by the core (zero when δ <= 0; never tensile)."""
-        return _core.contact_force(
-            self.to_spec(), float(penetration), float(rate), float(impact_speed)
-        )
 
-
-def _check_restitution(value: float | None) -> None:
+def _check_restitution(value: Any) -> None:
     require(
-        isinstance(value, (int, float)) and 0 < value <= 1,
+        _is_number(value) and 0 < value <= 1,
         "law.restitution",
         value,
         "0 < restitution <= 1",
@@ -139,16 +254,19 @@ def _check_restitution(value: float | None) -> None:
 
 
 @dataclass(frozen=True)
-class Hertz(ContactLaw):
-    """``F = K δⁿ`` (Hertz 1882; paper eq. 3). Elastic: no energy lost."""
+class Hertz(PowerLaw):
+    """``F = K δⁿ`` (Hertz 1882; paper eq. 3). Elastic: no energy lost, no damping."""
 
     kind: ClassVar[str] = "hertz"
 
 
 @dataclass(frozen=True)
-class KelvinVoigt(ContactLaw):
-    """Linear spring–dashpot ``F = k δ + c δ̇`` (the spring–damping description, paper Fig. 1b),
-    clamped to zero when it would pull. ``stiffness`` in N/m, ``damping`` in N·s/m."""
+class KelvinVoigt(PowerLaw):
+    """Linear spring–dashpot ``F = k δ + c δ̇`` (Kelvin–Voigt; the spring–damping description,
+    paper Fig. 1b), clamped to zero when it would pull. ``stiffness`` in N/m, ``damping`` in
+    N·s/m. Its damping is a constant ``c``, independent of ``ce`` and ``v_imp`` (for a mass
+    ``m`` without clamping ``ce = exp(−ζπ/√(1−ζ²))``, ``ζ = c/(2√(k m))``); the force jumps to
+    ``c v_imp`` at first touch."""
 
     kind: ClassVar[str] = "kelvin-voigt"
     exponent: float = 1.0
@@ -158,8 +276,7 @@ class KelvinVoigt(ContactLaw):
         super().__post_init__()
         require(self.exponent == 1, "law.exponent", self.exponent, "1 for kelvin-voigt")
         require(
-            isinstance(self.damping, (int, float)) and math.isfinite(self.damping)
-            and self.damping >= 0,
+            _is_number(self.damping) and math.isfinite(self.damping) and self.damping >= 0,
             "law.damping",
             self.damping,
             "a number >= 0 in N·s/m",
@@ -170,10 +287,10 @@ class KelvinVoigt(ContactLaw):
 
 
 @dataclass(frozen=True)
-class HuntCrossley(ContactLaw):
-    """``F = K δⁿ + b δⁿ δ̇`` (Hunt & Crossley 1975; paper eq. 5). Give either the damping
-    ``b`` (N·s/m^(n+1)) or the restitution ``ce``, from which ``b = 3K(1 − ce)/(2 v_imp)``
-    (paper eq. 6)."""
+class HuntCrossley(PowerLaw):
+    """``F = K δⁿ + b δⁿ δ̇`` (Hunt & Crossley 1975, J. Appl. Mech. 42:440; paper eq. 5).
+    Give either the damping ``b`` (N·s/m^(n+1)) or the restitution ``ce``, from which
+    ``b = 3K(1 − ce)/(2 v_imp)``, i.e. ``χ = 3(1 − ce)/2`` (paper eq. 6; derived for ce near 1)."""
 
     kind: ClassVar[str] = "hunt-crossley"
     restitution: float | None = None
@@ -190,7 +307,7 @@ class HuntCrossley(ContactLaw):
             _check_restitution(self.restitution)
         else:
             require(
-                isinstance(self.damping, (int, float)) and self.damping >= 0,
+                _is_number(self.damping) and math.isfinite(self.damping) and self.damping >= 0,
                 "law.damping",
                 self.damping,
                 "a number >= 0",
@@ -201,7 +318,10 @@ class HuntCrossley(ContactLaw):
 
 
 @dataclass(frozen=True)
-class _RestitutionLaw(ContactLaw):
+class _RestitutionLaw(PowerLaw):
+    """``F = K δⁿ [1 + χ(ce) δ̇/v_imp]``: a Hertzian law whose hysteresis damping
+    ``D = χ(ce) K/v_imp`` follows from the restitution ``ce`` (0 < ce <= 1)."""
+
     restitution: float | None = None
 
     def __post_init__(self) -> None:
@@ -214,31 +334,200 @@ class _RestitutionLaw(ContactLaw):
 
 
 @dataclass(frozen=True)
+class HerbertMcWhannell(_RestitutionLaw):
+    """Herbert & McWhannell (1977, J. Eng. Ind. 99:513): ``χ = 6(1 − ce)/[(2ce − 1)² + 3]``;
+    Hunt–Crossley's factor as ce → 1, finite (1.5) as ce → 0."""
+
+    kind: ClassVar[str] = "herbert-mcwhannell"
+
+
+@dataclass(frozen=True)
+class LeeWang(_RestitutionLaw):
+    """Lee & Wang (1983, J. Mech. Transm. Autom. Des. 105:534): ``χ = 3(1 − ce)/4``."""
+
+    kind: ClassVar[str] = "lee-wang"
+
+
+@dataclass(frozen=True)
 class LankaraniNikravesh(_RestitutionLaw):
-    """``F = K δⁿ [1 + 3(1 − ce²)/4 · δ̇/v_imp]`` (Lankarani & Nikravesh 1990; paper eq. 8)."""
+    """``F = K δⁿ [1 + 3(1 − ce²)/4 · δ̇/v_imp]`` (Lankarani & Nikravesh 1990, J. Mech. Des.
+    112:369; paper eq. 8): ``χ = 3(1 − ce²)/4``, derived for ce near 1."""
 
     kind: ClassVar[str] = "lankarani-nikravesh"
 
 
 @dataclass(frozen=True)
 class Gonthier(_RestitutionLaw):
-    """``F = K δⁿ [1 + (1 − ce²)/ce · δ̇/v_imp]`` (Gonthier et al. 2004; paper eq. 9, whose
-    ``ce²`` denominator is a misprint of Table 2's ``ce``)."""
+    """``F = K δⁿ [1 + (1 − ce²)/ce · δ̇/v_imp]`` (Gonthier et al. 2004, Multibody Syst. Dyn.
+    11:209; paper eq. 9, whose ``ce²`` denominator is a misprint of Table 2's ``ce``):
+    ``χ = (1 − ce²)/ce``."""
 
     kind: ClassVar[str] = "gonthier"
 
 
 @dataclass(frozen=True)
+class ZhiyingQishao(_RestitutionLaw):
+    """Zhiying & Qishao (2006, J. Dyn. Control 4:294): ``χ = 3(1 − ce²) e^{2(1−ce)}/4``."""
+
+    kind: ClassVar[str] = "zhiying-qishao"
+
+
+@dataclass(frozen=True)
 class Flores(_RestitutionLaw):
-    """``F = K δⁿ [1 + 8(1 − ce)/(5 ce) · δ̇/v_imp]`` (Flores et al. 2011; paper eq. 13)."""
+    """``F = K δⁿ [1 + 8(1 − ce)/(5 ce) · δ̇/v_imp]`` (Flores et al. 2011, Multibody Syst. Dyn.
+    25:357; paper eq. 13): ``χ = 8(1 − ce)/(5 ce)``, for the whole range of ce."""
 
     kind: ClassVar[str] = "flores"
 
 
-LAWS: dict[str, type[ContactLaw]] = {
-    cls.kind: cls
-    for cls in (Hertz, KelvinVoigt, HuntCrossley, LankaraniNikravesh, Gonthier, Flores)
-}
+@dataclass(frozen=True)
+class HuGuo(_RestitutionLaw):
+    """Hu & Guo (2015, Multibody Syst. Dyn. 35:131): ``χ = 3(1 − ce)/(2 ce)``."""
+
+    kind: ClassVar[str] = "hu-guo"
+
+
+@dataclass(frozen=True)
+class GharibHurmuzlu(_RestitutionLaw):
+    """Gharib & Hurmuzlu (2012, J. Appl. Mech. 79:064506), for low restitutions:
+    ``χ = 1/ce − 1``."""
+
+    kind: ClassVar[str] = "gharib-hurmuzlu"
+
+
+@dataclass(frozen=True)
+class Ye(_RestitutionLaw):
+    """Ye, Li & Zhu (2009, Earthq. Eng. Struct. Dyn. 38:1135; the "Hertzdamp" pounding law):
+    ``χ = 8(1 − ce)/(5 ce)`` (the factor Flores et al. 2011 reached independently)."""
+
+    kind: ClassVar[str] = "ye"
+
+
+@dataclass(frozen=True)
+class CarvalhoMartins(_RestitutionLaw):
+    """Carvalho & Martins (2019, Mech. Mach. Theory 139:174): the closed form
+    ``χ = 3(1 − ce)(11 − ce)/[2(1 + 9 ce)]`` of the exact Hunt–Crossley restitution, for
+    ce ≳ 1/3 (it equals Gonthier's factor at ce = 1/3)."""
+
+    kind: ClassVar[str] = "carvalho-martins"
+
+
+@dataclass(frozen=True)
+class SafaeifarKarimi(_RestitutionLaw):
+    """Safaeifar & Karimi (2020, Multibody Syst. Dyn. 50:233), a factor for the whole range of
+    ce. Their closed form could not be checked against a public copy; this law uses the exact
+    relation such factors approximate: ``χ`` is the root of
+    ``χ − ln(1 + χ) = −χ ce − ln(1 − χ ce)``, so that one impact restitutes exactly ``ce``."""
+
+    kind: ClassVar[str] = "safaeifar-karimi"
+
+
+def _curve(
+    name: str, penetration: Sequence[float], force: Sequence[float]
+) -> tuple[tuple[float, ...], tuple[float, ...]]:
+    px, fx = f"law.{name}_penetration", f"law.{name}_force"
+    for field, values in ((px, penetration), (fx, force)):
+        require(
+            isinstance(values, (list, tuple, np.ndarray)) and len(values) >= 2
+            and all(_is_number(v) or isinstance(v, np.floating) for v in values)
+            and all(math.isfinite(v) for v in values),
+            field, values, "a list of at least 2 finite numbers",
+        )
+    x, f = tuple(float(v) for v in penetration), tuple(float(v) for v in force)
+    require(len(x) == len(f), fx, force,
+            f"{len(x)} numbers, one per {name}_penetration value")
+    require(x[0] == 0 and f[0] == 0, f"law.{name}", ((x[0], f[0]), "..."),
+            "a curve starting at penetration 0 with force 0")
+    require(all(b > a for a, b in itertools.pairwise(x)), px, penetration,
+            "increasing penetrations in m, from 0")
+    require(all(b >= a for a, b in itertools.pairwise(f)), fx, force,
+            "forces in N that do not decrease with penetration")
+    return x, f
+
+
+@dataclass(frozen=True)
+class Tabulated(ContactLaw):
+    """A user law from tabulated force–indentation data: a loading curve (``δ`` in m, ``F`` in
+    N, piecewise linear, from ``(0, 0)``) and an unloading curve on or below it.
+
+    Rule (the law is stateless: it does not know the largest penetration of the impact):
+    while ``δ̇ >= 0`` the force is the loading curve ``F_L(δ)``; while ``δ̇ <= −w`` it is the
+    unloading curve ``F_U(δ)`` as given (not scaled or shifted); in between it passes smoothly,
+    ``F = F_U + (F_L − F_U) s(1 + δ̇/w)`` with ``s(x) = 3x² − 2x³``, ``w = reversal_band ·
+    v_imp``. Beyond their last points both curves are continued linearly. The damping is
+    rate-independent: the loop between the curves is what one impact dissipates.
+    """
+
+    kind: ClassVar[str] = "tabulated"
+    loading_penetration: Sequence[float]
+    loading_force: Sequence[float]
+    unloading_penetration: Sequence[float]
+    unloading_force: Sequence[float]
+    reversal_band: float = 0.01
+
+    def __post_init__(self) -> None:
+        lx, lf = _curve("loading", self.loading_penetration, self.loading_force)
+        ux, uf = _curve("unloading", self.unloading_penetration, self.unloading_force)
+        object.__setattr__(self, "loading_penetration", lx)
+        object.__setattr__(self, "loading_force", lf)
+        object.__setattr__(self, "unloading_penetration", ux)
+        object.__setattr__(self, "unloading_force", uf)
+        require(lf[-1] > lf[-2], "law.loading_force", self.loading_force,
+                "a curve whose last two points rise (it is continued beyond them)")
+        require(
+            _is_number(self.reversal_band) and 0 < self.reversal_band <= 1,
+            "law.reversal_band", self.reversal_band,
+            "0 < reversal_band <= 1 (a fraction of the approach speed)",
+        )
+        # The core checks that unloading <= loading everywhere.
+        _core.contact_force(self.to_spec(), 1e-300, 0.0, 1.0)
+
+    @classmethod
+    def from_curves(
+        cls,
+        loading: Sequence[tuple[float, float]],
+        unloading: Sequence[tuple[float, float]],
+        reversal_band: float = 0.01,
+    ) -> Tabulated:
+        """From sequences of ``(δ, F)`` points."""
+        lx, lf = zip(*loading, strict=True)
+        ux, uf = zip(*unloading, strict=True)
+        return cls(lx, lf, ux, uf, reversal_band)
+
+    @property
+    def contact_stiffness(self) -> float:
+        """Secant stiffness of the loading curve at its last point, N/m."""
+        return self.loading_force[-1] / self.loading_penetration[-1]
+
+    @property
+    def exponent(self) -> float:
+        """1: :attr:`contact_stiffness` is that of a linear estimate."""
+        return 1.0
+
+    def to_spec(self) -> dict[str, Any]:
+        return {
+            "kind": self.kind,
+            "loading_penetration": list(self.loading_penetration),
+            "loading_force": list(self.loading_force),
+            "unloading_penetration": list(self.unloading_penetration),
+            "unloading_force": list(self.unloading_force),
+            "reversal_band": float(self.reversal_band),
+        }
+
+
+_ALL: tuple[type[ContactLaw], ...] = (
+    Hertz, KelvinVoigt, HuntCrossley, HerbertMcWhannell, LeeWang, LankaraniNikravesh, Gonthier,
+    ZhiyingQishao, Flores, HuGuo, GharibHurmuzlu, Ye, CarvalhoMartins, SafaeifarKarimi,
+    Tabulated,
+)
+
+#: Every law by its kebab-case name (model files, CLI, JSON), in the order of the issue.
+LAWS: dict[str, type[ContactLaw]] = {cls.kind: cls for cls in _ALL}
+
+#: The laws whose damping follows from a restitution ``ce`` they require.
+RESTITUTION_LAWS: tuple[str, ...] = tuple(
+    cls.kind for cls in _ALL if issubclass(cls, _RestitutionLaw)
+)
 
 #: The paper's five laws, in its order (Table 2).
 PAPER_LAWS = ("hertz", "hunt-crossley", "lankarani-nikravesh", "gonthier", "flores")
@@ -250,4 +539,18 @@ def law_from_name(name: str, **params: Any) -> ContactLaw:
         raise ModelError(
             f"law.kind: {name!r} is not a known contact law; expected one of {', '.join(LAWS)}"
         )
-    return LAWS[name](**params)
+    cls = LAWS[name]
+    accepted = [f.name for f in dataclasses.fields(cls) if f.init]
+    unknown = [k for k in params if k not in accepted]
+    if unknown:
+        raise ModelError(
+            f"law.{unknown[0]}: not a parameter of {name}; expected some of "
+            f"{', '.join(accepted)}"
+        )
+    missing = [
+        f.name for f in dataclasses.fields(cls)
+        if f.init and f.default is dataclasses.MISSING and f.name not in params
+    ]
+    if missing:
+        raise ModelError(f"law.{missing[0]}: missing; {name} needs {', '.join(missing)}")
+    return cls(**params)

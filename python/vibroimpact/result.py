@@ -11,8 +11,13 @@ import numpy as np
 from numpy.typing import NDArray
 
 if TYPE_CHECKING:
+    import os
+    from pathlib import Path
+
     import pandas as pd
     import xarray as xr
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
 
     from vibroimpact.integrators import Integrator
     from vibroimpact.model import Model
@@ -262,4 +267,34 @@ class Result:
             newton_iterations=self.stats.newton_iterations,
             energy_balance_error=self.energy.balance_error,
         )
+        from vibroimpact.io.results_file import run_metadata
+
+        attrs, variables = run_metadata(self)  # model, integrator, version: how it was made
+        ds.attrs.update(attrs)
+        for name, (dims, values, var_attrs) in variables.items():
+            ds[name] = xr.Variable(dims, values, attrs=var_attrs)
         return ds
+
+    def save(self, path: str | os.PathLike[str]) -> list[Path]:
+        """Write the result atomically to ``path``: ``.nc``/``.h5`` (NetCDF-4) or ``.csv``
+        (plus ``_impacts.csv``, ``_energy.csv``, ``_meta.json``); see
+        :mod:`vibroimpact.io.results_file`. Returns the files written."""
+        from vibroimpact.io.results_file import save
+
+        return save(self, path)
+
+    def plot(
+        self,
+        kind: str = "displacement",
+        *,
+        ax: Axes | None = None,
+        path: str | os.PathLike[str] | None = None,
+        **options: Any,
+    ) -> Figure:
+        """Draw one of :data:`vibroimpact.plotting.KINDS` (``"displacement"``,
+        ``"contact-force"``, ``"force-indentation"``, ``"phase"``, ``"energy"``,
+        ``"impact-map"``, ``"spectrum"``, ...) into ``ax`` or a new figure, and save it to
+        ``path`` (PNG/SVG/PDF) if given; see :func:`vibroimpact.plotting.plot`."""
+        from vibroimpact.plotting import plot
+
+        return plot(self, kind, ax=ax, path=path, **options)

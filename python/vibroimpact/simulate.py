@@ -36,7 +36,9 @@ def simulate(
       :class:`~vibroimpact.SolverError` carrying the partial result; with ``throw=False`` return
       the partial result with ``complete = False`` and ``message`` set instead.
 
-    ``dt`` is reduced slightly, if needed, so that ``t_end`` is a whole number of steps.
+    ``dt`` is reduced slightly, if needed, so that ``t_end`` is a whole number of steps. With
+    adaptive stepping (``method.adaptive``), ``dt`` is the first step and ``every`` counts
+    accepted steps.
 
     **Example:** ``vi.simulate(model, t_end=0.02, dt=1e-6).impacts``
     """
@@ -68,6 +70,7 @@ def simulate(
         record_dofs=record,
         method=method.to_spec(),
         newton=method.newton.to_spec(),
+        adaptive=None if method.adaptive is None else method.adaptive.to_spec(t_end, dt),
     )
     raw = _core.simulate(spec)
     result = Result.from_core(raw, model=model, method=method, t_end=float(t_end))

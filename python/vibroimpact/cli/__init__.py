@@ -14,14 +14,14 @@ __all__ = ["main"]
 
 
 def _build_parser() -> argparse.ArgumentParser:
-    from vibroimpact.cli import bench, impact, reproduce, run
+    from vibroimpact.cli import bench, impact, laws, modal, plot, reproduce, run, sweep
 
     parser = argparse.ArgumentParser(
         prog="vibroimpact",
         description="Dynamic response of structures with clearance (vibro-impact).",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (run, impact, reproduce, bench):
+    for module in (run, impact, laws, reproduce, modal, plot, sweep, bench):
         module.add_parser(sub)
     return parser
 
@@ -33,7 +33,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.handler(args))
     except ModelError as e:
-        print(f"vibroimpact: error: {e}", file=sys.stderr)
+        for line in str(e).splitlines() or [""]:
+            print(f"vibroimpact: error: {line}", file=sys.stderr)
         return 2
     except SolverError as e:
         print(f"vibroimpact: solver failed: {e}", file=sys.stderr)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from vibroimpact.bench import sdof_benchmark
+from vibroimpact.bench import integrator_table, sdof_benchmark
 
 TARGET_S = 1e-3
 PAPER_MATLAB_S = 1.3
@@ -24,6 +24,10 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--repeats", type=int, default=20, help="timed runs per case (default 20)")
     p.add_argument("--quick", action="store_true", help="fewer repeats, for a smoke test")
     p.add_argument("--json", action="store_true", help="print the rows as JSON")
+    p.add_argument("--sweep-points", type=int, default=None, metavar="N",
+                   help="sweep rows (text output): N frequencies x 300 periods of the impact "
+                   "oscillator, in-process on 1 and 2 threads and on Dask (default 400, 40 "
+                   "with --quick; 0 skips them; JSON: python benchmarks/bench_sweep.py)")
     p.set_defaults(handler=main)
 
 
@@ -42,4 +46,23 @@ def main(args: argparse.Namespace) -> int:
         )
     print(f"target: <= {TARGET_S * 1e3:.0f} ms per run; the paper's MATLAB Newmark: "
           f"{PAPER_MATLAB_S} s")
+    print()
+    print("Integrators (paper Table 3): SDOF case, Lankarani-Nikravesh, 0.02 s at dt = 1 us")
+    print(f"{'method':32s} {'median':>10s} {'vs Newmark':>11s} {'paper (MATLAB)':>15s} "
+          f"{'paper ratio':>12s}")
+    for r in integrator_table(repeats=repeats):
+        paper = "" if r["paper_s"] is None else f"{r['paper_s']:.1f} s"
+        paper_ratio = ("" if r["paper_ratio_to_newmark"] is None
+                       else f"{r['paper_ratio_to_newmark']:.1f}x")
+        print(f"{r['label']:32s} {r['median_s'] * 1e3:8.3f} ms {r['ratio_to_newmark']:10.2f}x "
+              f"{paper:>15s} {paper_ratio:>12s}")
+    print("targets: generalized-alpha <= 1.3x Newmark, precise <= 3x Newmark (paper: 19x)")
+    points = args.sweep_points if args.sweep_points is not None else (40 if args.quick else 400)
+    if points > 0:
+        from vibroimpact.bench import sweep_benchmark
+        from vibroimpact.sweeps.bench import format_rows
+
+        print()
+        rows = sweep_benchmark(points=points, repeats=1 if args.quick else 2)
+        print("\n".join(format_rows(rows)))
     return 0

@@ -43,6 +43,7 @@ fn main() {
             every: 1,
             record_dofs: vec![0],
             newton: NewtonSettings::default(),
+            adaptive: None,
         };
         let mut times = vec![];
         let runs: usize = std::env::var("RUNS")

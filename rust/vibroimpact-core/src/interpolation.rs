@@ -42,9 +42,50 @@ impl HermiteSegment {
         if self.y1 == 0.0 {
             return 1.0;
         }
-        let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
-        let rising = self.y1 > self.y0;
-        let mut s = self.y0 / (self.y0 - self.y1);
+        self.crossing_between(0.0, 1.0)
+    }
+
+    /// Largest value inside the step and where it is, if the interpolant has an interior
+    /// maximum (rate positive at the start and negative at the end).
+    pub fn interior_peak(&self) -> Option<(f64, f64)> {
+        if !(self.dy0 > 0.0 && self.dy1 < 0.0) {
+            return None;
+        }
+        // rate(s)·h = A s² + B s + C, with C = h·dy0 > 0 and A + B + C = h·dy1 < 0:
+        // exactly one root in (0, 1).
+        let (y0, y1, m0, m1) = (self.y0, self.y1, self.h * self.dy0, self.h * self.dy1);
+        let a = 6.0 * y0 - 6.0 * y1 + 3.0 * m0 + 3.0 * m1;
+        let b = -6.0 * y0 + 6.0 * y1 - 4.0 * m0 - 2.0 * m1;
+        let c = m0;
+        let s = if a.abs() < 1e-14 * (b.abs() + c.abs()) {
+            -c / b
+        } else {
+            let disc = (b * b - 4.0 * a * c).max(0.0).sqrt();
+            // the root in (0, 1), computed without cancellation
+            let q = -0.5 * (b + b.signum() * disc);
+            let (r1, r2) = (q / a, c / q);
+            if (0.0..=1.0).contains(&r1) {
+                r1
+            } else {
+                r2
+            }
+        };
+        let s = s.clamp(0.0, 1.0);
+        Some((s, self.value(s)))
+    }
+
+    /// Zero of the interpolant in `[lo, hi]`, where its values have opposite signs.
+    pub fn crossing_between(&self, lo: f64, hi: f64) -> f64 {
+        let (mut lo, mut hi) = (lo, hi);
+        let (f_lo, f_hi) = (self.value(lo), self.value(hi));
+        if f_lo == 0.0 {
+            return lo;
+        }
+        if f_hi == 0.0 {
+            return hi;
+        }
+        let rising = f_hi > f_lo;
+        let mut s = lo + (hi - lo) * f_lo / (f_lo - f_hi);
         for _ in 0..60 {
             let f = self.value(s);
             if (f < 0.0) == rising {
@@ -62,11 +103,11 @@ impl HermiteSegment {
             } else {
                 0.5 * (lo + hi)
             };
-            if (self.value(s)).abs() <= 1e-16 * (self.y0.abs() + self.y1.abs()) {
+            if (self.value(s)).abs() <= 1e-16 * (f_lo.abs() + f_hi.abs()) {
                 break;
             }
         }
-        s.clamp(0.0, 1.0)
+        s.clamp(lo, hi)
     }
 }
 
@@ -136,6 +177,25 @@ mod tests {
             h: 1.0,
         };
         assert!((down.crossing() - 0.37).abs() < 1e-14);
+    }
+
+    #[test]
+    fn interior_peak_of_a_cubic() {
+        // y = 1e-3 - (t - 0.3)² + 0.1 (t - 0.3)³: peak at t = 0.3 (rate 0 there).
+        let f = |t: f64| 1e-3 - (t - 0.3).powi(2) + 0.1 * (t - 0.3).powi(3);
+        let df = |t: f64| -2.0 * (t - 0.3) + 0.3 * (t - 0.3).powi(2);
+        let seg = HermiteSegment {
+            y0: f(0.0),
+            dy0: df(0.0),
+            y1: f(1.0),
+            dy1: df(1.0),
+            h: 1.0,
+        };
+        let (s, peak) = seg.interior_peak().unwrap();
+        assert!((s - 0.3).abs() < 1e-12);
+        assert!((peak - 1e-3).abs() < 1e-15);
+        let up = seg.crossing_between(0.0, s);
+        assert!(f(up).abs() < 1e-15 && up < 0.3);
     }
 
     #[test]

@@ -11,7 +11,9 @@ pub mod gap;
 pub mod integrators;
 pub mod interpolation;
 pub mod simulate;
+pub mod step_control;
 pub mod structure;
+pub mod sweep;
 pub mod system;
 
 pub use error::SimError;

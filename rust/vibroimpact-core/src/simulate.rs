@@ -7,7 +7,11 @@ use nalgebra::DVector;
 
 use crate::error::{invalid, SimError};
 use crate::gap::{ImpactLog, ImpactRecord};
-use crate::integrators::{NewmarkFamily, NewmarkStepper, NewtonSettings, Stepper};
+use crate::integrators::{
+    Bathe, BatheStepper, NewmarkFamily, NewmarkStepper, NewtonSettings, PreciseIntegration,
+    PreciseStepper, Stepper,
+};
+use crate::step_control::{Adaptive, StepControl};
 use crate::system::{State, System};
 
 /// Which integrator advances the run.
@@ -15,6 +19,10 @@ use crate::system::{State, System};
 pub enum Method {
     /// Newmark-β / HHT-α / generalized-α with Newton on the gap forces.
     NewmarkFamily(NewmarkFamily),
+    /// Precise integration with the Adams treatment of the gap forces (paper eqs. 32–43).
+    Precise(PreciseIntegration),
+    /// Bathe's composite trapezoidal / three-point backward scheme with Newton on the gaps.
+    Bathe(Bathe),
 }
 
 /// Step size, duration and what to record.
@@ -29,6 +37,8 @@ pub struct RunSettings {
     /// DOFs whose displacement, velocity and acceleration are recorded.
     pub record_dofs: Vec<usize>,
     pub newton: NewtonSettings,
+    /// Adaptive step control (Newmark family only); `dt` is then the first step.
+    pub adaptive: Option<Adaptive>,
 }
 
 /// Solver statistics.
@@ -114,6 +124,13 @@ pub struct RunOutput {
     pub error: Option<SimError>,
 }
 
+/// Sees every accepted step of a run: streaming reducers (sweeps: Poincaré samples, peaks,
+/// impact statistics; `crate::sweep`) that need more than the decimated output without
+/// storing the history. Called after each accepted step from `s0` to `s1` of length `h`.
+pub trait StepObserver {
+    fn accepted(&mut self, sys: &System, s0: &State, s1: &State, h: f64);
+}
+
 /// Runs `sys` from `x0, v0` at `t = 0`. Invalid settings are refused before the run; a
 /// failure during the run is returned in `RunOutput::error` with the results up to then.
 pub fn simulate(
@@ -123,6 +140,18 @@ pub fn simulate(
     x0: DVector<f64>,
     v0: DVector<f64>,
 ) -> Result<RunOutput, SimError> {
+    simulate_observed(sys, method, settings, x0, v0, None)
+}
+
+/// [`simulate`], with `observer` called on every accepted step.
+pub fn simulate_observed(
+    sys: &System,
+    method: Method,
+    settings: &RunSettings,
+    x0: DVector<f64>,
+    v0: DVector<f64>,
+    observer: Option<&mut dyn StepObserver>,
+) -> Result<RunOutput, SimError> {
     let started = Instant::now();
     let RunSettings {
         t_end,
@@ -130,6 +159,7 @@ pub fn simulate(
         every,
         ref record_dofs,
         newton,
+        adaptive,
     } = *settings;
     if !(t_end.is_finite() && t_end > 0.0) {
         return invalid(format!(
@@ -155,83 +185,83 @@ pub fn simulate(
             "output.dofs: {d} is out of range; expected 0 <= dof < {n}"
         ));
     }
+    // Fixed steps: dt is shortened so that t_end is a whole number of steps. Adaptive steps:
+    // the cached sizes are dt_max / 2^k, with dt_max likewise a whole fraction of t_end.
+    let control = match adaptive {
+        Some(a) => Some(StepControl::new(a, method, t_end, dt)?),
+        None => None,
+    };
     let n_steps_f = (t_end / dt - 1e-9).ceil();
-    if n_steps_f > 1e10 {
+    if control.is_none() && n_steps_f > 1e10 {
         return invalid(format!(
             "solver.dt: {dt} gives {n_steps_f:.3e} steps for t_end = {t_end}; expected at most 1e10"
         ));
     }
     let n_steps = n_steps_f as usize;
-    let h0 = t_end / n_steps as f64;
+    let h0 = match &control {
+        Some(c) => c.dt_max,
+        None => t_end / n_steps as f64,
+    };
+    let max_levels = match &control {
+        Some(c) => c.levels(),
+        None => newton.max_step_cuts,
+    };
 
-    let mut stepper = match method {
+    let mut stepper: Box<dyn Stepper> = match method {
         Method::NewmarkFamily(scheme) => {
-            let mut s = NewmarkStepper::new(sys, scheme, newton)?;
+            let mut s = NewmarkStepper::new(
+                sys,
+                scheme,
+                NewtonSettings {
+                    max_step_cuts: max_levels,
+                    ..newton
+                },
+            )?;
             s.prepare(sys, h0)?;
-            s
+            Box::new(s)
+        }
+        Method::Precise(variant) => {
+            let settings = NewtonSettings {
+                max_step_cuts: max_levels,
+                ..newton
+            };
+            let mut s = PreciseStepper::new(sys, variant, settings)?;
+            s.prepare(sys, h0)?;
+            Box::new(s)
+        }
+        Method::Bathe(scheme) => {
+            let settings = NewtonSettings {
+                max_step_cuts: max_levels,
+                ..newton
+            };
+            let mut s = BatheStepper::new(sys, scheme, settings)?;
+            s.prepare(sys, h0)?;
+            Box::new(s)
         }
     };
-    let mut cur = State::initial(sys, x0, v0, 0.0)?;
-    let mut trial = cur.clone();
-    let mut log = ImpactLog::new(sys.walls.len());
-    log.start(&sys.walls, &cur.walls, 0.0);
-
-    let n_rec = n_steps / every + 2;
-    let mut out = Recorder::new(sys, record_dofs.clone(), n_rec);
-    let mut account = Account::default();
-    let mut stats = Stats::default();
-    let mut error = None;
-    out.record(sys, &cur, &account);
-
-    let mut pending: Vec<usize> = Vec::with_capacity(2 * newton.max_step_cuts + 2);
-    'steps: for step in 1..=n_steps {
-        pending.push(0);
-        while let Some(level) = pending.pop() {
-            let h = h0 / (1u64 << level) as f64;
-            match stepper.attempt(sys, &cur, level, h, &mut trial) {
-                Ok(iterations) => {
-                    stats.newton_iterations += iterations;
-                    stats.steps += 1;
-                    if trial.x.iter().chain(trial.v.iter()).any(|v| !v.is_finite()) {
-                        error = Some(SimError::Diverged { t: trial.t });
-                        break 'steps;
-                    }
-                    account.commit(sys, &cur, &trial);
-                    for (m, &d) in out.max_abs.iter_mut().zip(record_dofs) {
-                        *m = m.max(trial.x[d].abs());
-                    }
-                    log.commit(&sys.walls, &cur.walls, &trial.walls, cur.t, h);
-                    std::mem::swap(&mut cur, &mut trial);
-                }
-                Err(failure) => {
-                    stats.rejected_steps += 1;
-                    stats.newton_iterations += failure.iterations;
-                    if level < newton.max_step_cuts {
-                        stats.step_cuts += 1;
-                        pending.push(level + 1);
-                        pending.push(level + 1);
-                    } else {
-                        error = Some(SimError::NewtonFailed {
-                            t: cur.t,
-                            gap: failure.gap,
-                            penetration: failure.penetration,
-                            iterations: failure.iterations,
-                            dt: h,
-                        });
-                        break 'steps;
-                    }
-                }
-            }
-        }
-        cur.t = step as f64 * h0;
-        if step % every == 0 || step == n_steps {
-            out.record(sys, &cur, &account);
-        }
+    let n_rec = if control.is_some() {
+        1024
+    } else {
+        n_steps / every + 2
+    };
+    let mut run = Run::new(sys, x0, v0, record_dofs.clone(), n_rec)?;
+    run.observer = observer;
+    let error = match &control {
+        None => run.fixed_steps(
+            sys,
+            stepper.as_mut(),
+            h0,
+            n_steps,
+            every,
+            newton.max_step_cuts,
+        ),
+        Some(c) => c.run(&mut run, sys, stepper.as_mut(), every),
+    };
+    if error.is_some() && run.out.time.last() != Some(&run.cur.t) {
+        run.out.record(sys, &run.cur, &run.account);
     }
-    if error.is_some() && out.time.last() != Some(&cur.t) {
-        out.record(sys, &cur, &account);
-    }
-    stats.wall_time_s = started.elapsed().as_secs_f64();
+    run.stats.wall_time_s = started.elapsed().as_secs_f64();
+    let out = run.out;
     Ok(RunOutput {
         time: out.time,
         record_dofs: record_dofs.clone(),
@@ -242,17 +272,132 @@ pub fn simulate(
         gap_penetration: out.penetration,
         gap_force: out.force,
         energy: out.energy,
-        impacts: log.records,
-        stats,
+        impacts: run.log.records,
+        stats: run.stats,
         dt: h0,
         error,
     })
 }
 
+/// The state of a run and everything accumulated from its accepted steps.
+pub(crate) struct Run<'o> {
+    pub cur: State,
+    pub trial: State,
+    pub log: ImpactLog,
+    pub out: Recorder,
+    pub account: Account,
+    pub stats: Stats,
+    pub observer: Option<&'o mut dyn StepObserver>,
+}
+
+impl Run<'_> {
+    fn new(
+        sys: &System,
+        x0: DVector<f64>,
+        v0: DVector<f64>,
+        record_dofs: Vec<usize>,
+        n_rec: usize,
+    ) -> Result<Self, SimError> {
+        let cur = State::initial(sys, x0, v0, 0.0)?;
+        let mut log = ImpactLog::new(sys.walls.len());
+        log.start(&sys.walls, &cur.walls, 0.0);
+        let account = Account::default();
+        let mut out = Recorder::new(sys, record_dofs, n_rec);
+        out.record(sys, &cur, &account);
+        Ok(Self {
+            trial: cur.clone(),
+            cur,
+            log,
+            out,
+            account,
+            stats: Stats::default(),
+            observer: None,
+        })
+    }
+
+    /// Makes the trial state of a successful attempt of length `h` the current one: energy
+    /// account, peaks and impact table. Returns an error if the state is not finite.
+    pub fn accept(
+        &mut self,
+        sys: &System,
+        stepper: &mut dyn Stepper,
+        h: f64,
+        iterations: usize,
+    ) -> Result<(), SimError> {
+        self.stats.newton_iterations += iterations;
+        self.stats.steps += 1;
+        let trial = &self.trial;
+        if trial.x.iter().chain(trial.v.iter()).any(|v| !v.is_finite()) {
+            return Err(SimError::Diverged { t: trial.t });
+        }
+        self.account.commit(sys, &self.cur, trial);
+        for (m, &d) in self.out.max_abs.iter_mut().zip(&self.out.dofs) {
+            *m = m.max(trial.x[d].abs());
+        }
+        self.log
+            .commit(&sys.walls, &self.cur.walls, &trial.walls, self.cur.t, h);
+        if let Some(observer) = self.observer.as_deref_mut() {
+            observer.accepted(sys, &self.cur, &self.trial, h);
+        }
+        std::mem::swap(&mut self.cur, &mut self.trial);
+        stepper.accept(sys, &self.cur);
+        Ok(())
+    }
+
+    /// `n_steps` steps of `h0`, each halved (recursively, up to `max_cuts` times) when
+    /// Newton fails.
+    fn fixed_steps(
+        &mut self,
+        sys: &System,
+        stepper: &mut dyn Stepper,
+        h0: f64,
+        n_steps: usize,
+        every: usize,
+        max_cuts: usize,
+    ) -> Option<SimError> {
+        let mut pending: Vec<usize> = Vec::with_capacity(2 * max_cuts + 2);
+        for step in 1..=n_steps {
+            pending.push(0);
+            while let Some(level) = pending.pop() {
+                let h = h0 / (1u64 << level) as f64;
+                match stepper.attempt(sys, &self.cur, level, h, &mut self.trial) {
+                    Ok(iterations) => {
+                        if let Err(e) = self.accept(sys, stepper, h, iterations) {
+                            return Some(e);
+                        }
+                    }
+                    Err(failure) => {
+                        self.stats.rejected_steps += 1;
+                        self.stats.newton_iterations += failure.iterations;
+                        if level < max_cuts {
+                            self.stats.step_cuts += 1;
+                            pending.push(level + 1);
+                            pending.push(level + 1);
+                        } else {
+                            return Some(SimError::NewtonFailed {
+                                t: self.cur.t,
+                                gap: failure.gap,
+                                penetration: failure.penetration,
+                                iterations: failure.iterations,
+                                dt: h,
+                            });
+                        }
+                    }
+                }
+            }
+            self.cur.t = step as f64 * h0;
+            if step % every == 0 || step == n_steps {
+                self.out.record(sys, &self.cur, &self.account);
+            }
+        }
+        None
+    }
+}
+
 /// Work integrals, accumulated every step with the trapezoidal rule in displacement,
 /// `W = Σ Δxᵀ (f₀ + f₁)/2`, which is exact for the average-acceleration rule's linear part.
 #[derive(Debug, Clone, Copy, Default)]
-struct Account {
+pub(crate) struct Account {
     external_work: f64,
     damping_dissipated: f64,
     contact_dissipated: f64,
@@ -298,7 +443,7 @@ fn quadratic_form(a: &nalgebra::DMatrix<f64>, y: &[f64]) -> f64 {
 }
 
 /// Decimated output buffers.
-struct Recorder {
+pub(crate) struct Recorder {
     dofs: Vec<usize>,
     time: Vec<f64>,
     x: Vec<f64>,
@@ -336,7 +481,7 @@ impl Recorder {
         }
     }
 
-    fn record(&mut self, sys: &System, s: &State, account: &Account) {
+    pub fn record(&mut self, sys: &System, s: &State, account: &Account) {
         self.time.push(s.t);
         for (m, &d) in self.max_abs.iter_mut().zip(&self.dofs) {
             *m = m.max(s.x[d].abs());

@@ -25,6 +25,7 @@ fn run(sys: &System, t_end: f64, dt: f64, x0: f64, v0: f64) -> RunOutput {
         every: 1,
         record_dofs: vec![0],
         newton: NewtonSettings::default(),
+        adaptive: None,
     };
     simulate(
         sys,

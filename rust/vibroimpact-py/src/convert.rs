@@ -8,12 +8,12 @@ use pyo3::types::{PyDict, PyList};
 
 use crate::{to_py_err, ModelError};
 use vibroimpact_core::contact::{
-    Flores, Gonthier, Hertz, HuntCrossley, HuntCrossleyDamping, KelvinVoigt, LankaraniNikravesh,
-    Law,
+    Hertz, HuntCrossley, HuntCrossleyDamping, KelvinVoigt, Law, Tabulated, LAW_NAMES,
 };
 use vibroimpact_core::gap::{Gap, Side};
-use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings};
+use vibroimpact_core::integrators::{Bathe, NewmarkFamily, NewtonSettings, PreciseIntegration};
 use vibroimpact_core::simulate::{Method, RunSettings};
+use vibroimpact_core::step_control::Adaptive;
 use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
 use vibroimpact_core::system::System;
 
@@ -71,6 +71,17 @@ fn vector(d: &Bound<'_, PyDict>, key: &str) -> PyResult<DVector<f64>> {
 
 pub(crate) fn law(d: &Bound<'_, PyDict>, ctx: &str) -> PyResult<Law> {
     let kind: String = item(d, "kind", ctx)?;
+    if kind == "tabulated" {
+        return Tabulated::new(
+            item(d, "loading_penetration", ctx)?,
+            item(d, "loading_force", ctx)?,
+            item(d, "unloading_penetration", ctx)?,
+            item(d, "unloading_force", ctx)?,
+            opt(d, "reversal_band", ctx)?.unwrap_or(0.01),
+        )
+        .map(Law::Tabulated)
+        .map_err(to_py_err);
+    }
     let stiffness: f64 = item(d, "stiffness", ctx)?;
     let exponent: f64 = opt(d, "exponent", ctx)?.unwrap_or(1.5);
     let restitution = || -> PyResult<f64> { item(d, "restitution", ctx) };
@@ -86,14 +97,17 @@ pub(crate) fn law(d: &Bound<'_, PyDict>, ctx: &str) -> PyResult<Law> {
             };
             HuntCrossley::new(stiffness, exponent, damping).map(Law::HuntCrossley)
         }
-        "lankarani-nikravesh" => LankaraniNikravesh::new(stiffness, exponent, restitution()?)
-            .map(Law::LankaraniNikravesh),
-        "gonthier" => Gonthier::new(stiffness, exponent, restitution()?).map(Law::Gonthier),
-        "flores" => Flores::new(stiffness, exponent, restitution()?).map(Law::Flores),
         other => {
-            return Err(ModelError::new_err(format!(
-                "{ctx}.kind: '{other}' is not a known contact law"
-            )))
+            let unknown = || {
+                ModelError::new_err(format!(
+                    "{ctx}.kind: '{other}' is not a known contact law; expected one of {}",
+                    LAW_NAMES.join(", ")
+                ))
+            };
+            if !LAW_NAMES.contains(&other) {
+                return Err(unknown());
+            }
+            Law::with_restitution(other, stiffness, exponent, restitution()?).ok_or_else(unknown)?
         }
     };
     law.map_err(to_py_err)
@@ -161,10 +175,32 @@ fn method(d: &Bound<'_, PyDict>) -> PyResult<Method> {
             scheme.validate().map_err(to_py_err)?;
             Ok(Method::NewmarkFamily(scheme))
         }
+        "precise" => Ok(Method::Precise(PreciseIntegration {
+            predictor_corrector: opt(d, "predictor_corrector", "solver")?.unwrap_or(false),
+        })),
+        "bathe" => {
+            let scheme = Bathe {
+                gamma: opt(d, "gamma", "solver")?.unwrap_or(0.5),
+            };
+            scheme.validate().map_err(to_py_err)?;
+            Ok(Method::Bathe(scheme))
+        }
         other => Err(ModelError::new_err(format!(
             "solver.method: '{other}' is not available"
         ))),
     }
+}
+
+fn adaptive(spec: &Bound<'_, PyDict>) -> PyResult<Option<Adaptive>> {
+    let Some(d) = opt::<Bound<'_, PyDict>>(spec, "adaptive", "solver")? else {
+        return Ok(None);
+    };
+    Ok(Some(Adaptive {
+        rtol: item(&d, "rtol", "solver")?,
+        atol: item(&d, "atol", "solver")?,
+        dt_min: item(&d, "dt_min", "solver")?,
+        dt_max: item(&d, "dt_max", "solver")?,
+    }))
 }
 
 pub(crate) fn job_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Job> {
@@ -207,6 +243,7 @@ pub(crate) fn job_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Job> {
             every: item(spec, "every", "output")?,
             record_dofs: opt(spec, "record_dofs", "output")?.unwrap_or_else(|| (0..n).collect()),
             newton,
+            adaptive: adaptive(spec)?,
         },
         x0: vector(spec, "x0")?,
         v0: vector(spec, "v0")?,

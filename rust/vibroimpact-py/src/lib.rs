@@ -2,18 +2,22 @@
 //! Python package into core types, runs with the GIL released, and returns numpy arrays.
 
 mod convert;
+mod sweep;
 
 #[global_allocator]
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
-use numpy::{PyArray1, PyArray2, PyArrayMethods};
+use nalgebra::DMatrix;
+use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use vibroimpact_core::contact::{ContactGeometry, ContactLaw, Material};
+use vibroimpact_core::integrators;
 use vibroimpact_core::simulate::{simulate as run, RunOutput};
+use vibroimpact_core::structure::LinearStructure;
 use vibroimpact_core::SimError;
 
 create_exception!(
@@ -60,6 +64,121 @@ fn contact_force(
     Ok((f.force, f.d_penetration, f.d_rate))
 }
 
+/// A law evaluated at arrays of states (same length): `(F, ∂F/∂δ, ∂F/∂δ̇)` as arrays, the
+/// raw formula (`clamp=False`: may be tensile; for derivative checks and plots) or clamped
+/// to be compressive as in a run (`clamp=True`).
+#[pyfunction]
+#[pyo3(signature = (law, penetration, rate, impact_speed, clamp = false))]
+#[allow(clippy::type_complexity)]
+fn contact_law_evaluate<'py>(
+    py: Python<'py>,
+    law: &Bound<'py, PyDict>,
+    penetration: numpy::PyReadonlyArray1<'py, f64>,
+    rate: numpy::PyReadonlyArray1<'py, f64>,
+    impact_speed: numpy::PyReadonlyArray1<'py, f64>,
+    clamp: bool,
+) -> PyResult<(
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<f64>>,
+)> {
+    let law = convert::law(law, "law")?;
+    let (pen, rate, speed) = (
+        penetration.as_array(),
+        rate.as_array(),
+        impact_speed.as_array(),
+    );
+    if rate.len() != pen.len() || speed.len() != pen.len() {
+        return Err(ModelError::new_err(format!(
+            "contact_law_evaluate: {} penetrations, {} rates and {} impact speeds; expected \
+             arrays of the same length",
+            pen.len(),
+            rate.len(),
+            speed.len()
+        )));
+    }
+    let n = pen.len();
+    let (mut f, mut dp, mut dr) = (
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+        Vec::with_capacity(n),
+    );
+    for i in 0..n {
+        let c = if clamp {
+            law.force(pen[i], rate[i], speed[i])
+        } else {
+            law.evaluate(pen[i], rate[i], speed[i])
+        };
+        f.push(c.force);
+        dp.push(c.d_penetration);
+        dr.push(c.d_rate);
+    }
+    Ok((
+        PyArray1::from_vec(py, f),
+        PyArray1::from_vec(py, dp),
+        PyArray1::from_vec(py, dr),
+    ))
+}
+
+/// Contact stiffness from geometry and material, `(K, n)` for the law `K δⁿ`: the Hertz point
+/// contacts (n = 1.5, paper eq. 4), a pin in a cylindrical hole linearised at `load` (Johnson)
+/// and a flat punch (n = 1).
+#[pyfunction]
+#[pyo3(signature = (kind, radius1, radius2, length, load, youngs_modulus1, poisson1, youngs_modulus2, poisson2))]
+#[allow(clippy::too_many_arguments)]
+fn geometry_stiffness(
+    kind: &str,
+    radius1: f64,
+    radius2: Option<f64>,
+    length: Option<f64>,
+    load: Option<f64>,
+    youngs_modulus1: f64,
+    poisson1: f64,
+    youngs_modulus2: f64,
+    poisson2: f64,
+) -> PyResult<(f64, f64)> {
+    let need = |name: &str, v: Option<f64>| {
+        v.ok_or_else(|| ModelError::new_err(format!("geometry.{name}: missing; {kind} needs it")))
+    };
+    let geometry = match kind {
+        "sphere-sphere" => ContactGeometry::SphereSphere {
+            radius1,
+            radius2: need("radius2", radius2)?,
+        },
+        "ball-in-socket" => ContactGeometry::BallInSocket {
+            radius1,
+            radius2: need("radius2", radius2)?,
+        },
+        "sphere-plane" => ContactGeometry::SpherePlane { radius: radius1 },
+        "cylinder-in-hole" => ContactGeometry::CylinderInHole {
+            radius1,
+            radius2: need("radius2", radius2)?,
+            length: need("length", length)?,
+            load: need("load", load)?,
+        },
+        "flat-punch" => ContactGeometry::FlatPunch { radius: radius1 },
+        other => {
+            return Err(ModelError::new_err(format!(
+                "geometry.kind: '{other}' is not known; expected one of sphere-sphere, \
+                 ball-in-socket, sphere-plane, cylinder-in-hole, flat-punch"
+            )))
+        }
+    };
+    let k = geometry
+        .stiffness(
+            Material {
+                youngs_modulus: youngs_modulus1,
+                poisson: poisson1,
+            },
+            Material {
+                youngs_modulus: youngs_modulus2,
+                poisson: poisson2,
+            },
+        )
+        .map_err(to_py_err)?;
+    Ok((k, geometry.exponent()))
+}
+
 /// Hertz stiffness `K = (4/3) E* √R*` (paper eq. 4), N/m^1.5.
 #[pyfunction]
 #[pyo3(signature = (kind, radius1, radius2, youngs_modulus1, poisson1, youngs_modulus2, poisson2))]
@@ -103,6 +222,60 @@ fn hertz_stiffness(
             },
         )
         .map_err(to_py_err)
+}
+
+fn square(a: &PyReadonlyArray2<'_, f64>, name: &str) -> PyResult<DMatrix<f64>> {
+    let a = a.as_array();
+    let (r, c) = a.dim();
+    if r != c {
+        return Err(ModelError::new_err(format!(
+            "{name}: shape {r}x{c}; expected a square matrix"
+        )));
+    }
+    Ok(DMatrix::from_fn(r, c, |i, j| a[[i, j]]))
+}
+
+fn to_numpy<'py>(py: Python<'py>, a: &DMatrix<f64>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    PyArray1::from_vec(py, a.transpose().as_slice().to_vec()).reshape([a.nrows(), a.ncols()])
+}
+
+/// `exp(A)` by the core's 2^N algorithm (precise integration's `Φ`), for tests.
+#[pyfunction]
+fn expm<'py>(
+    py: Python<'py>,
+    a: PyReadonlyArray2<'py, f64>,
+) -> PyResult<Bound<'py, PyArray2<f64>>> {
+    let a = square(&a, "a")?;
+    to_numpy(py, &integrators::expm::expm(&a))
+}
+
+/// The precise integration method's matrices for a step `dt` (paper eqs. 36–41): `H`,
+/// `Φ = exp(H dt)` and the Duhamel columns `D_m = dt^{m+1} Φ_m(dt) [0; I]`, m = 0, 1, 2.
+#[pyfunction]
+fn precise_matrices<'py>(
+    py: Python<'py>,
+    mass: PyReadonlyArray2<'py, f64>,
+    damping: PyReadonlyArray2<'py, f64>,
+    stiffness: PyReadonlyArray2<'py, f64>,
+    dt: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let structure = LinearStructure::new(
+        square(&mass, "mass")?,
+        square(&damping, "damping")?,
+        square(&stiffness, "stiffness")?,
+    )
+    .map_err(to_py_err)?;
+    let m = integrators::precise_matrices(&structure, dt).map_err(to_py_err)?;
+    let out = PyDict::new(py);
+    out.set_item("hamiltonian", to_numpy(py, &m.hamiltonian)?)?;
+    out.set_item("phi", to_numpy(py, &m.phi)?)?;
+    let list = m
+        .duhamel
+        .iter()
+        .map(|m| to_numpy(py, m))
+        .collect::<PyResult<Vec<_>>>()?;
+    out.set_item("duhamel", list)?;
+    Ok(out)
 }
 
 fn output_to_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>> {
@@ -186,8 +359,14 @@ fn output_to_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>>
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(expm, m)?)?;
+    m.add_function(wrap_pyfunction!(precise_matrices, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep::sweep_check, m)?)?;
     m.add_function(wrap_pyfunction!(hertz_stiffness, m)?)?;
     m.add_function(wrap_pyfunction!(contact_force, m)?)?;
+    m.add_function(wrap_pyfunction!(contact_law_evaluate, m)?)?;
+    m.add_function(wrap_pyfunction!(geometry_stiffness, m)?)?;
     m.add("ModelError", m.py().get_type::<ModelError>())?;
     m.add("SolverError", m.py().get_type::<SolverError>())?;
     m.add(

@@ -1,13 +1,22 @@
 //! Time integrators. Each advances a [`State`] by one step of a given size without touching
 //! it (so a failed attempt is simply discarded and the step cut), behind the [`Stepper`] trait.
 
+mod bathe;
+pub mod expm;
 mod newmark;
 mod newton;
+mod precise;
 
+pub use bathe::{Bathe, BatheStepper};
 pub use newmark::{NewmarkFamily, NewmarkStepper};
 pub use newton::NewtonSettings;
+pub use precise::{precise_matrices, PreciseIntegration, PreciseMatrices, PreciseStepper};
 
 use crate::system::{State, System};
+
+/// `level` of a step whose size is not `dt / 2^level` (adaptive steps landing on an event or
+/// on `t_end`): the stepper builds, or reuses, a one-off operator for that size.
+pub const ANY_LEVEL: usize = usize::MAX;
 
 /// Why a step attempt failed; the driver cuts the step and retries.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -17,7 +26,11 @@ pub struct StepFailure {
     pub iterations: usize,
 }
 
-/// One step of an integrator: from `from`, of length `h` (= dt / 2^level), into `to`.
+/// The step lifecycle of an integrator (after OpenSees' `newStep`/`commit`): `attempt` a step
+/// of length `h` (= dt / 2^level, so that per-size operators can be cached by `level`) from
+/// `from` into `to` without changing anything the next attempt depends on; the driver then
+/// either calls `accept` (and `to` becomes the current state) or discards `to` and attempts
+/// shorter steps.
 pub trait Stepper {
     /// Returns the number of Newton iterations spent.
     fn attempt(
@@ -28,4 +41,8 @@ pub trait Stepper {
         h: f64,
         to: &mut State,
     ) -> Result<usize, StepFailure>;
+
+    /// The last successful attempt became the current state (multi-step methods shift their
+    /// history here).
+    fn accept(&mut self, _sys: &System, _state: &State) {}
 }

@@ -10,8 +10,8 @@
 
 use nalgebra::DMatrix;
 
-use super::newton::{solve_small, NewtonSettings};
-use super::{StepFailure, Stepper};
+use super::newton::{GapNewton, GapProblem, NewtonSettings, RateMap};
+use super::{StepFailure, Stepper, ANY_LEVEL};
 use crate::error::{invalid, SimError};
 use crate::system::{State, System};
 
@@ -178,18 +178,12 @@ pub struct NewmarkStepper {
     scheme: NewmarkFamily,
     newton: NewtonSettings,
     operators: Vec<Option<StepOperator>>,
+    /// Operator of the last step whose size is not `dt / 2^level` ([`ANY_LEVEL`]).
+    one_off: Option<(f64, StepOperator)>,
     dx: Vec<f64>,
     du_lin: Vec<f64>,
-    du: Vec<f64>,
-    u1: Vec<f64>,
-    u1_rate: Vec<f64>,
-    residual: Vec<f64>,
-    d_phi_du: Vec<f64>,
-    d_phi_drate: Vec<f64>,
-    stiffness: Vec<f64>,
-    jacobian: Vec<f64>,
-    step: Vec<f64>,
-    active: Vec<usize>,
+    rate_lin: Vec<f64>,
+    gap_newton: GapNewton,
 }
 
 impl NewmarkStepper {
@@ -205,29 +199,12 @@ impl NewmarkStepper {
             scheme,
             newton,
             operators: (0..=newton.max_step_cuts).map(|_| None).collect(),
+            one_off: None,
             dx: vec![0.0; n],
             du_lin: vec![0.0; ng],
-            du: vec![0.0; ng],
-            u1: vec![0.0; ng],
-            u1_rate: vec![0.0; ng],
-            residual: vec![0.0; ng],
-            d_phi_du: vec![0.0; ng],
-            d_phi_drate: vec![0.0; ng],
-            stiffness: vec![0.0; ng],
-            jacobian: vec![0.0; ng * ng],
-            step: vec![0.0; ng],
-            active: Vec::with_capacity(ng),
+            rate_lin: vec![0.0; ng],
+            gap_newton: GapNewton::new(ng),
         })
-    }
-
-    /// Gap with the largest residual relative to its tolerance (for failure reports).
-    fn worst_gap(&self, s1: &State) -> usize {
-        let scaled = |gi: usize| {
-            self.residual[gi].abs() / (self.newton.rtol * s1.u[gi].abs() + self.newton.atol)
-        };
-        (0..self.residual.len())
-            .max_by(|&a, &b| scaled(a).total_cmp(&scaled(b)))
-            .unwrap_or(0)
     }
 
     /// Builds the operator of the largest step now, so that a singular tangent is reported
@@ -247,15 +224,24 @@ impl Stepper for NewmarkStepper {
         h: f64,
         s1: &mut State,
     ) -> Result<usize, StepFailure> {
-        if self.operators[level].is_none() {
-            let op = StepOperator::new(sys, &self.scheme, h).map_err(|_| StepFailure {
-                gap: 0,
-                penetration: 0.0,
-                iterations: 0,
-            })?;
-            self.operators[level] = Some(op);
-        }
-        let op = self.operators[level].as_ref().expect("built above");
+        let singular = |_| StepFailure {
+            gap: 0,
+            penetration: 0.0,
+            iterations: 0,
+        };
+        let op = if level == ANY_LEVEL {
+            if self.one_off.as_ref().is_none_or(|(size, _)| *size != h) {
+                let op = StepOperator::new(sys, &self.scheme, h).map_err(singular)?;
+                self.one_off = Some((h, op));
+            }
+            &self.one_off.as_ref().expect("built above").1
+        } else {
+            if self.operators[level].is_none() {
+                let op = StepOperator::new(sys, &self.scheme, h).map_err(singular)?;
+                self.operators[level] = Some(op);
+            }
+            self.operators[level].as_ref().expect("built above")
+        };
         let NewmarkFamily { gamma, alpha_f, .. } = self.scheme;
         let [a0, a1, a2, a3, a4, a5] = op.a;
         let n = s0.x.len();
@@ -291,98 +277,25 @@ impl Stepper for NewmarkStepper {
         }
         sys.gap_coordinates(&self.dx, &mut self.du_lin);
 
-        // Newton on the gap coordinates, starting from the previous step's contact forces.
+        // Newton on the gap coordinates, starting from the previous step's contact forces;
+        // the gap rates follow the increment through eq. 17: u̇₁ = a₁ Δu − a₄ u̇₀ − a₅ ü₀.
+        let newton = &mut self.gap_newton;
         for gi in 0..ng {
             let wrow = &op.w[gi * ng..(gi + 1) * ng];
             let wphi: f64 = wrow.iter().zip(&s0.phi).map(|(w, p)| w * p).sum();
-            self.du[gi] = self.du_lin[gi] - wphi;
+            newton.du[gi] = self.du_lin[gi] - wphi;
+            self.rate_lin[gi] = -a4 * s0.u_rate[gi] - a5 * s0.u_accel[gi];
         }
-        let mut iterations = 0;
-        let mut increment_small = false;
-        loop {
-            for gi in 0..ng {
-                self.u1[gi] = s0.u[gi] + self.du[gi];
-                self.u1_rate[gi] = a1 * self.du[gi] - a4 * s0.u_rate[gi] - a5 * s0.u_accel[gi];
-            }
-            sys.evaluate_contacts(
-                &s0.walls,
-                &self.u1,
-                &self.u1_rate,
-                h,
-                &mut s1.walls,
-                &mut s1.phi,
-                &mut self.d_phi_du,
-                &mut self.d_phi_drate,
-            );
-            let mut residual_small = true;
-            self.active.clear();
-            for gi in 0..ng {
-                let wrow = &op.w[gi * ng..(gi + 1) * ng];
-                let wphi: f64 = wrow.iter().zip(&s1.phi).map(|(w, p)| w * p).sum();
-                let r = self.du[gi] - self.du_lin[gi] + wphi;
-                self.residual[gi] = r;
-                self.stiffness[gi] = self.d_phi_du[gi] + a1 * self.d_phi_drate[gi];
-                let tol = self.newton.rtol * self.u1[gi].abs() + self.newton.atol;
-                if r.abs() > tol {
-                    residual_small = false;
-                }
-                if r != 0.0 || self.stiffness[gi] != 0.0 {
-                    self.active.push(gi);
-                }
-            }
-            if residual_small && (iterations == 0 || increment_small) {
-                break;
-            }
-            if iterations >= self.newton.max_iterations {
-                let gi = self.worst_gap(s1);
-                let penetration = sys
-                    .walls
-                    .iter()
-                    .zip(s1.walls.iter())
-                    .filter(|(w, _)| w.gap == gi)
-                    .map(|(_, s)| s.penetration)
-                    .fold(f64::NEG_INFINITY, f64::max);
-                return Err(StepFailure {
-                    gap: gi,
-                    penetration,
-                    iterations,
-                });
-            }
-            // Solve (I + W_AA K_A) d_A = −r_A; inactive gaps follow: d_N = −W_NA K_A d_A.
-            let m = self.active.len();
-            for (ia, &gi) in self.active.iter().enumerate() {
-                for (ib, &hi) in self.active.iter().enumerate() {
-                    self.jacobian[ia * m + ib] =
-                        op.w[gi * ng + hi] * self.stiffness[hi] + if ia == ib { 1.0 } else { 0.0 };
-                }
-                self.step[ia] = -self.residual[gi];
-            }
-            if !solve_small(&mut self.jacobian[..m * m], &mut self.step[..m], m) {
-                return Err(StepFailure {
-                    gap: self.worst_gap(s1),
-                    penetration: 0.0,
-                    iterations,
-                });
-            }
-            iterations += 1;
-            increment_small = true;
-            for gi in 0..ng {
-                let d = match self.active.iter().position(|&a| a == gi) {
-                    Some(ia) => self.step[ia],
-                    None => -self
-                        .active
-                        .iter()
-                        .enumerate()
-                        .map(|(ia, &hi)| op.w[gi * ng + hi] * self.stiffness[hi] * self.step[ia])
-                        .sum::<f64>(),
-                };
-                self.du[gi] += d;
-                let tol = self.newton.rtol * (s0.u[gi] + self.du[gi]).abs() + self.newton.atol;
-                if d.abs() > tol {
-                    increment_small = false;
-                }
-            }
-        }
+        let problem = GapProblem {
+            w: &op.w,
+            u0: &s0.u,
+            du_lin: &self.du_lin,
+            rate_lin: &self.rate_lin,
+            rate: RateMap::Diagonal(a1),
+            start: &s0.walls,
+            h,
+        };
+        let iterations = newton.solve(sys, &self.newton, &problem, &mut s1.walls, &mut s1.phi)?;
 
         // Δx = Δx_lin − Σ_g G_g φ_g; then the Newmark relations (eqs. 14, 18) for a₁, v₁.
         for (col, &p) in op.gaps.iter().zip(&s1.phi) {
@@ -396,9 +309,14 @@ impl Stepper for NewmarkStepper {
             s1.a[i] = a0 * dx - a2 * s0.v[i] - a3 * s0.a[i];
             s1.v[i] = s0.v[i] + h * ((1.0 - gamma) * s0.a[i] + gamma * s1.a[i]);
         }
-        s1.u.copy_from_slice(&self.u1);
-        s1.u_rate.copy_from_slice(&self.u1_rate);
+        // Gap rates from the final velocities: the Newton iterate's `u̇ = a₁ Δu + …` differs
+        // from them by `a₁ r`, a residual within tolerance amplified by 2/h.
+        s1.u.copy_from_slice(&self.gap_newton.u);
+        sys.gap_coordinates(&s1.v, &mut s1.u_rate);
         sys.gap_coordinates(&s1.a, &mut s1.u_accel);
+        for (wall, state) in sys.walls.iter().zip(s1.walls.iter_mut()) {
+            state.rate = wall.sign * s1.u_rate[wall.gap];
+        }
         Ok(iterations)
     }
 }

@@ -3,6 +3,14 @@
 //! With the linear part factorised, a step's unknown is the increment of the gap coordinates
 //! `Δu` only: `r(Δu) = Δu − Δu_lin + W φ(Δu) = 0`, `W = B K̃⁻¹ Bᵀ`. The Jacobian is
 //! `I + W diag(∂φ/∂u + c_v ∂φ/∂u̇)`, a c×c system on the gaps in contact.
+//!
+//! [`GapNewton`] is that loop, shared by every implicit integrator (Newmark family, Bathe,
+//! the precise method's predictor–corrector): each integrator only states its step's
+//! [`GapProblem`] (`W`, `Δu_lin`, and how the gap rates follow `Δu`).
+
+use super::StepFailure;
+use crate::gap::WallState;
+use crate::system::System;
 
 /// Stopping rule and limits of the Newton iterations.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -26,6 +34,248 @@ impl Default for NewtonSettings {
             max_iterations: 30,
             max_step_cuts: 12,
         }
+    }
+}
+
+/// How the gap rates follow the gap increments inside one step: `u̇ = rate_lin + S Δu`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum RateMap<'a> {
+    /// `S = c_v I`: each gap's rate follows its own increment (Newmark family: `c_v = γ/(βh)`;
+    /// Bathe's backward sub-step: `c_v = c₃`). Newton then works on the gaps in contact only.
+    Diagonal(f64),
+    /// A full `S`, row-major gaps × gaps (the precise method's corrector, where the rates come
+    /// from the contact forces through the Duhamel matrices: `S = V W⁻¹`).
+    Full(&'a [f64]),
+}
+
+/// One step's nonlinear problem on the gap coordinates:
+/// `r(Δu) = Δu − Δu_lin + W φ(u₀ + Δu, rate_lin + S Δu) = 0`.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct GapProblem<'a> {
+    /// `W`, row-major gaps × gaps: how the gap coordinates at the end of the step move per
+    /// unit generalized contact force at the end of the step (`B K̃⁻¹ Bᵀ` for Newmark).
+    pub w: &'a [f64],
+    /// Gap coordinates at the start of the step.
+    pub u0: &'a [f64],
+    /// Increment of the gap coordinates with no contact force at the end of the step.
+    pub du_lin: &'a [f64],
+    pub rate_lin: &'a [f64],
+    pub rate: RateMap<'a>,
+    /// Wall states at the start of the step (the crossing and `v_imp` are located between
+    /// them and the iterate) and the step's length, s.
+    pub start: &'a [WallState],
+    pub h: f64,
+}
+
+/// Newton–Raphson on the gap coordinates, with its preallocated work space.
+#[derive(Debug, Clone)]
+pub(crate) struct GapNewton {
+    /// Unknown `Δu`: the caller writes the initial guess here.
+    pub du: Vec<f64>,
+    /// Gap coordinates `u₀ + Δu` and rates of the last iterate (the solution on success).
+    pub u: Vec<f64>,
+    pub u_rate: Vec<f64>,
+    residual: Vec<f64>,
+    d_phi_du: Vec<f64>,
+    d_phi_drate: Vec<f64>,
+    stiffness: Vec<f64>,
+    jacobian: Vec<f64>,
+    step: Vec<f64>,
+    increment: Vec<f64>,
+    active: Vec<usize>,
+}
+
+impl GapNewton {
+    pub fn new(n_gaps: usize) -> Self {
+        let ng = n_gaps;
+        Self {
+            du: vec![0.0; ng],
+            u: vec![0.0; ng],
+            u_rate: vec![0.0; ng],
+            residual: vec![0.0; ng],
+            d_phi_du: vec![0.0; ng],
+            d_phi_drate: vec![0.0; ng],
+            stiffness: vec![0.0; ng],
+            jacobian: vec![0.0; ng * ng],
+            step: vec![0.0; ng],
+            increment: vec![0.0; ng],
+            active: Vec::with_capacity(ng),
+        }
+    }
+
+    /// Solves `p` from the guess in `self.du`. Stops when the residual is within
+    /// `rtol |u| + atol` and (after the first iteration) so is the increment (paper eq. 27).
+    /// On success, `walls` and `phi` hold the contact state at `self.u`, `self.u_rate`, and
+    /// the number of iterations is returned.
+    // Inlined into each integrator's step, as the loop was before it was shared: called
+    // out of line it costs the Newmark step ~6 % more instructions, inlined ~2 %.
+    #[inline(always)]
+    pub fn solve(
+        &mut self,
+        sys: &System,
+        settings: &NewtonSettings,
+        p: &GapProblem<'_>,
+        walls: &mut [WallState],
+        phi: &mut [f64],
+    ) -> Result<usize, StepFailure> {
+        let ng = self.du.len();
+        let (w, u0, du_lin, rate_lin) = (
+            &p.w[..ng * ng],
+            &p.u0[..ng],
+            &p.du_lin[..ng],
+            &p.rate_lin[..ng],
+        );
+        let c_v = match p.rate {
+            RateMap::Diagonal(c) => c,
+            RateMap::Full(_) => 0.0,
+        };
+        let mut iterations = 0;
+        let mut increment_small = false;
+        loop {
+            match p.rate {
+                RateMap::Diagonal(c) => {
+                    for gi in 0..ng {
+                        self.u[gi] = u0[gi] + self.du[gi];
+                        self.u_rate[gi] = c * self.du[gi] + rate_lin[gi];
+                    }
+                }
+                RateMap::Full(s) => {
+                    for gi in 0..ng {
+                        self.u[gi] = u0[gi] + self.du[gi];
+                        let srow = &s[gi * ng..(gi + 1) * ng];
+                        let sdu: f64 = srow.iter().zip(&self.du).map(|(a, b)| a * b).sum();
+                        self.u_rate[gi] = rate_lin[gi] + sdu;
+                    }
+                }
+            }
+            sys.evaluate_contacts(
+                p.start,
+                &self.u,
+                &self.u_rate,
+                p.h,
+                walls,
+                phi,
+                &mut self.d_phi_du,
+                &mut self.d_phi_drate,
+            );
+            let mut residual_small = true;
+            self.active.clear();
+            for gi in 0..ng {
+                let wrow = &w[gi * ng..(gi + 1) * ng];
+                let wphi: f64 = wrow.iter().zip(phi.iter()).map(|(w, p)| w * p).sum();
+                let r = self.du[gi] - du_lin[gi] + wphi;
+                self.residual[gi] = r;
+                self.stiffness[gi] = self.d_phi_du[gi] + c_v * self.d_phi_drate[gi];
+                let tol = settings.rtol * self.u[gi].abs() + settings.atol;
+                if r.abs() > tol {
+                    residual_small = false;
+                }
+                if r != 0.0 || self.stiffness[gi] != 0.0 {
+                    self.active.push(gi);
+                }
+            }
+            if residual_small && (iterations == 0 || increment_small) {
+                return Ok(iterations);
+            }
+            if iterations >= settings.max_iterations {
+                let gi = self.worst_gap(settings);
+                let penetration = sys
+                    .walls
+                    .iter()
+                    .zip(walls.iter())
+                    .filter(|(w, _)| w.gap == gi)
+                    .map(|(_, s)| s.penetration)
+                    .fold(f64::NEG_INFINITY, f64::max);
+                return Err(StepFailure {
+                    gap: gi,
+                    penetration,
+                    iterations,
+                });
+            }
+            let solved = match p.rate {
+                RateMap::Diagonal(_) => self.diagonal_step(w),
+                RateMap::Full(s) => self.full_step(w, s),
+            };
+            if !solved {
+                return Err(StepFailure {
+                    gap: self.worst_gap(settings),
+                    penetration: 0.0,
+                    iterations,
+                });
+            }
+            iterations += 1;
+            increment_small = self.apply_increment(settings, u0);
+        }
+    }
+
+    /// `Δu += d`; whether every `|d|` is within `rtol |u| + atol` (paper eq. 27).
+    #[inline]
+    fn apply_increment(&mut self, settings: &NewtonSettings, u0: &[f64]) -> bool {
+        let mut small = true;
+        for ((du, &d), &u0) in self.du.iter_mut().zip(&self.increment).zip(u0) {
+            *du += d;
+            if d.abs() > settings.rtol * (u0 + *du).abs() + settings.atol {
+                small = false;
+            }
+        }
+        small
+    }
+
+    /// Newton step with `S = c_v I`: solves `(I + W_AA K_A) d_A = −r_A` on the active gaps;
+    /// the others follow, `d_N = −W_NA K_A d_A` (their `r_N` is zero), with
+    /// `K = ∂φ/∂u + c_v ∂φ/∂u̇`. Writes `d` for every gap into `self.increment`.
+    #[inline(always)]
+    fn diagonal_step(&mut self, w: &[f64]) -> bool {
+        let ng = self.du.len();
+        let m = self.active.len();
+        for (ia, &gi) in self.active.iter().enumerate() {
+            for (ib, &hi) in self.active.iter().enumerate() {
+                self.jacobian[ia * m + ib] =
+                    w[gi * ng + hi] * self.stiffness[hi] + if ia == ib { 1.0 } else { 0.0 };
+            }
+            self.step[ia] = -self.residual[gi];
+        }
+        if !solve_small(&mut self.jacobian[..m * m], &mut self.step[..m], m) {
+            return false;
+        }
+        for gi in 0..ng {
+            self.increment[gi] = match self.active.iter().position(|&a| a == gi) {
+                Some(ia) => self.step[ia],
+                None => -self
+                    .active
+                    .iter()
+                    .enumerate()
+                    .map(|(ia, &hi)| w[gi * ng + hi] * self.stiffness[hi] * self.step[ia])
+                    .sum::<f64>(),
+            };
+        }
+        true
+    }
+
+    /// Newton step with a full `S`: `(I + W (D_u + D_v S)) d = −r` on every gap.
+    fn full_step(&mut self, w: &[f64], s: &[f64]) -> bool {
+        let ng = self.du.len();
+        for gi in 0..ng {
+            for bi in 0..ng {
+                let mut j = w[gi * ng + bi] * self.d_phi_du[bi];
+                for hi in 0..ng {
+                    j += w[gi * ng + hi] * self.d_phi_drate[hi] * s[hi * ng + bi];
+                }
+                self.jacobian[gi * ng + bi] = j + if gi == bi { 1.0 } else { 0.0 };
+            }
+            self.increment[gi] = -self.residual[gi];
+        }
+        solve_small(&mut self.jacobian[..ng * ng], &mut self.increment, ng)
+    }
+
+    /// Gap with the largest residual relative to its tolerance (for failure reports).
+    fn worst_gap(&self, settings: &NewtonSettings) -> usize {
+        let scaled = |gi: usize| {
+            self.residual[gi].abs() / (settings.rtol * self.u[gi].abs() + settings.atol)
+        };
+        (0..self.residual.len())
+            .max_by(|&a, &b| scaled(a).total_cmp(&scaled(b)))
+            .unwrap_or(0)
     }
 }
 

@@ -1,0 +1,164 @@
+"""``vibroimpact run MODEL.toml [-o OUT.nc|OUT.h5|OUT.csv] [--json]``: run a model file.
+
+The model file (``docs/model-file.md``) and ``-o`` are checked before anything runs; every
+mistake is reported as one line and the command exits with code 2. Results are written
+atomically: a failed or interrupted run never leaves a partial file behind.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import logging
+import sys
+from pathlib import Path
+from typing import Any
+
+from vibroimpact.errors import ModelError
+from vibroimpact.io import results_file
+from vibroimpact.io.model_file import ModelFile, ModelFileError, load_model
+from vibroimpact.report import (
+    Progress,
+    add_verbosity_options,
+    configure_logging,
+    log_run,
+)
+
+__all__ = ["OUTPUT_SUFFIXES", "add_parser", "main"]
+
+#: The result formats ``-o`` writes, by file suffix.
+OUTPUT_SUFFIXES = results_file.SUFFIXES
+
+log = logging.getLogger("vibroimpact.run")
+
+_DESCRIPTION = """\
+Run a model file: a structure with clearances, its loads and the solver settings
+(the format is described in docs/model-file.md). Prints the peak displacement of each
+recorded DOF, the number of impacts, solver statistics and the energy balance error."""
+
+_EPILOG = """\
+examples:
+  vibroimpact run examples/models/sdof_paper_ln.toml
+  vibroimpact run model.toml --json
+  vibroimpact run model.toml -o results.nc    # NetCDF-4 (HDF5): xarray, MATLAB ncread
+  vibroimpact run model.toml -o results.csv   # also results_impacts.csv, results_energy.csv,
+                                              # results_meta.json
+  vibroimpact run long.toml -o long.nc --window 500000   # streamed to disk, with progress
+
+exit codes: 0 done, 2 mistakes in the model file or the arguments (one line each),
+3 the solver failed."""
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add the ``run`` subcommand to ``subparsers`` (from ``add_subparsers``)."""
+    parser: argparse.ArgumentParser = subparsers.add_parser(
+        "run",
+        help="run a model file (TOML)",
+        description=_DESCRIPTION,
+        epilog=_EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("model", metavar="MODEL.toml", help="the model file to run")
+    parser.add_argument(
+        "-o",
+        "--output",
+        metavar="OUT",
+        help="write the result to OUT, atomically: .nc/.h5 (NetCDF-4: time histories, "
+        "impact table, energy account, model and solver settings) or .csv (time histories "
+        "with units in the column names; OUT_impacts.csv, OUT_energy.csv and OUT_meta.json "
+        "next to it)",
+    )
+    parser.add_argument(
+        "--window",
+        type=int,
+        default=None,
+        metavar="STEPS",
+        help="run in windows of about STEPS steps and stream each to OUT (.nc/.h5) as it is "
+        "computed, so memory holds one window; shows progress on a terminal",
+    )
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help="print the summary as one JSON object (keys: max_abs_displacement, impacts, "
+        "steps, newton_iterations, wall_time_s, energy_balance_error, ...)",
+    )
+    add_verbosity_options(parser)
+    parser.set_defaults(handler=main)
+    return parser
+
+
+def _output_errors(output: str | None) -> tuple[Path | None, list[str]]:
+    if output is None:
+        return None, []
+    path = Path(output)
+    if path.suffix.lower() not in OUTPUT_SUFFIXES:
+        return None, [
+            f"-o: {output!r} is not valid; expected a file name ending in "
+            f"{' or '.join(OUTPUT_SUFFIXES)}"
+        ]
+    folder = path.parent if str(path.parent) else Path(".")
+    if not folder.is_dir():
+        return None, [f"-o: {output!r} is not valid; expected a file in an existing folder"]
+    return path, []
+
+
+def _print_summary(mf: ModelFile, summary: dict[str, Any]) -> None:
+    model = mf.model
+    n_gaps = len(model.gaps)
+    print(
+        f"{mf.path.name}: {model.n_dof} DOF{'s' * (model.n_dof != 1)}, "
+        f"{n_gaps} gap{'s' * (n_gaps != 1)}, {len(model.loads)} load(s), "
+        f"method {mf.method.name}, dt = {summary['dt']:g} s, t_end = {summary['t_end']:g} s"
+    )
+    for dof, peak in zip(summary["dofs"], summary["max_abs_displacement"], strict=True):
+        print(f"  peak |x{dof}|           {peak:.6e} m")
+    print(f"  impacts              {len(summary['impacts'])}")
+    print(f"  steps                {summary['steps']}")
+    print(f"  Newton iterations    {summary['newton_iterations']}")
+    print(f"  wall time            {summary['wall_time_s']:.4f} s")
+    print(f"  energy balance error {summary['energy_balance_error']:.3e} (relative)")
+
+
+def main(args: argparse.Namespace) -> int:
+    """Run ``args.model``; print a summary (``--json``: one JSON object); write ``-o``."""
+    out, errors = _output_errors(args.output)
+    try:
+        mf = load_model(args.model)
+    except ModelFileError as e:
+        raise ModelFileError(e.errors + errors) from None
+    if args.window is not None:
+        if out is None or out.suffix.lower() not in results_file.NETCDF_SUFFIXES:
+            errors.append(f"--window: {args.window!r} is given without -o OUT.nc or OUT.h5; "
+                          "expected -o with a NetCDF file to stream to")
+        elif args.window < 2:
+            errors.append(f"--window: {args.window!r} is not valid; expected an integer >= 2")
+    if errors:
+        raise ModelFileError(errors)
+    configure_logging(args)
+    written: list[Path] = []
+    try:
+        if args.window is not None and out is not None:
+            progress = Progress(1, quiet=args.quiet)
+            with progress.item(f"{mf.path.name} -> {out.name}") as update:
+                summary = results_file.simulate_to_file(
+                    mf.model, out, mf.t_end, mf.dt, mf.method, every=mf.every, dofs=mf.dofs,
+                    window_steps=args.window, progress=update,
+                )
+            written = [out]
+            log_run(log, summary)
+        else:
+            result = mf.simulate()
+            summary = result.summary()
+            log_run(log, summary)
+            if out is not None:
+                written = results_file.save(result, out)
+    except OSError as e:
+        raise ModelError(f"-o: cannot write {str(e.filename or out)!r}: {e.strerror}") from None
+    if args.json:
+        json.dump(summary, sys.stdout)
+        sys.stdout.write("\n")
+    elif not args.quiet:
+        _print_summary(mf, summary)
+        if written:
+            print(f"  wrote {', '.join(str(p) for p in written)}")
+    return 0

@@ -1,0 +1,320 @@
+"""DOF maps and sparse finite-element structures: which ``(node, direction)`` each row of
+``M, C, K`` belongs to, so that gaps and loads are placed at node/direction pairs.
+
+Directions are named ``"x", "y", "z"`` (translations, m) and ``"rx", "ry", "rz"`` (rotations
+about those axes, rad); the integer DOF numbers of ABAQUS and CalculiX (1–6 in that order) are
+accepted wherever a direction is. Other DOF numbers (CalculiX 0 = temperature, ABAQUS 7 =
+warping, 8 = pressure, ...) are kept as their number written as a string (``"8"``).
+
+Example::
+
+    >>> import numpy as np
+    >>> from vibroimpact.fe import DofMap, FEStructure
+    >>> fe = FEStructure(np.eye(2), [[2.0, -1.0], [-1.0, 1.0]],
+    ...                  dof_map=DofMap([1, 2], ["x", "x"]))
+    >>> fe.dof(node=2, direction=1)
+    1
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import scipy.sparse as sp
+from numpy.typing import ArrayLike
+
+from vibroimpact.contact import ContactLaw
+from vibroimpact.errors import ModelError
+from vibroimpact.model import Gap, Model, Structure
+
+if TYPE_CHECKING:
+    from vibroimpact.fe.damping import Damping
+    from vibroimpact.model import Load
+
+__all__ = [
+    "DIRECTIONS",
+    "DofMap",
+    "FEStructure",
+    "as_sparse",
+    "direction_name",
+]
+
+#: Direction names in the order of the ABAQUS/CalculiX DOF numbers 1–6.
+DIRECTIONS: tuple[str, ...] = ("x", "y", "z", "rx", "ry", "rz")
+
+#: Above this many DOFs :meth:`FEStructure.to_structure` refuses to build dense matrices
+#: (the core's time loop is dense; reduce the model first, see :mod:`vibroimpact.fe.reduction`).
+DENSE_LIMIT = 10_000
+
+
+def direction_name(direction: str | int) -> str:
+    """Canonical name of a direction: ``"x"``…``"rz"`` or the ABAQUS/CalculiX number 1–6 of
+    one (``3 -> "z"``, ``"5" -> "ry"``); other integers are kept as strings."""
+    if isinstance(direction, (int, np.integer)) and not isinstance(direction, bool):
+        d = int(direction)
+        return DIRECTIONS[d - 1] if 1 <= d <= 6 else str(d)
+    if isinstance(direction, str):
+        s = direction.strip().lower()
+        if s in DIRECTIONS:
+            return s
+        if s.lstrip("-").isdigit():
+            return direction_name(int(s))
+    raise ModelError(
+        f"direction: {direction!r} is not valid; expected one of "
+        f"{', '.join(DIRECTIONS)} (or the DOF numbers 1-6)"
+    )
+
+
+@dataclass(frozen=True)
+class DofMap:
+    """The ``(node, direction)`` of every DOF (row of ``M, C, K``), in DOF order.
+
+    ``nodes``: node label per DOF (an integer: the beam's node index, or the node number of
+    the FE program); ``directions``: direction per DOF (:func:`direction_name`).
+    """
+
+    nodes: tuple[int, ...]
+    directions: tuple[str, ...]
+    _index: dict[tuple[int, str], int] = field(init=False, repr=False, compare=False)
+
+    def __init__(self, nodes: Iterable[int], directions: Iterable[str | int]) -> None:
+        n = tuple(int(x) for x in nodes)
+        d = tuple(direction_name(x) for x in directions)
+        if len(n) != len(d):
+            raise ModelError(
+                f"dof_map: {len(n)} nodes and {len(d)} directions; expected one of each per DOF"
+            )
+        index: dict[tuple[int, str], int] = {}
+        for i, key in enumerate(zip(n, d, strict=True)):
+            if key in index:
+                raise ModelError(
+                    f"dof_map: node {key[0]} direction {key[1]!r} appears twice (DOFs "
+                    f"{index[key]} and {i}); expected each node/direction once"
+                )
+            index[key] = i
+        object.__setattr__(self, "nodes", n)
+        object.__setattr__(self, "directions", d)
+        object.__setattr__(self, "_index", index)
+
+    def __len__(self) -> int:
+        return len(self.nodes)
+
+    @property
+    def node_labels(self) -> list[int]:
+        """The distinct node labels, in order of first appearance."""
+        return list(dict.fromkeys(self.nodes))
+
+    def index(self, node: int, direction: str | int) -> int:
+        """The DOF index of ``(node, direction)``; a :class:`ModelError` names what exists."""
+        d = direction_name(direction)
+        try:
+            return self._index[(int(node), d)]
+        except (KeyError, TypeError, ValueError):
+            pass
+        have = sorted({dd for (nn, dd) in self._index if nn == node}, key=_direction_order)
+        if have:
+            raise ModelError(
+                f"direction: {direction!r} is not valid at node {node}; expected one of "
+                f"{', '.join(have)} (the other DOFs are constrained or absent)"
+            )
+        labels = self.node_labels
+        shown = f"{labels[0]} .. {labels[-1]}" if labels else "none"
+        raise ModelError(
+            f"node: {node!r} is not valid; expected a node of the model (labels {shown}, "
+            f"{len(labels)} nodes)"
+        )
+
+    def indices(self, nodes: Iterable[int], direction: str | int) -> list[int]:
+        """The DOF indices of ``direction`` at each of ``nodes``."""
+        return [self.index(n, direction) for n in nodes]
+
+    def take(self, dofs: Sequence[int]) -> DofMap:
+        """The map of the DOFs ``dofs`` (in that order), e.g. after a reduction."""
+        return DofMap([self.nodes[i] for i in dofs], [self.directions[i] for i in dofs])
+
+    def labels(self) -> list[str]:
+        """``"node.direction"`` per DOF (``"12.x"``)."""
+        return [f"{n}.{d}" for n, d in zip(self.nodes, self.directions, strict=True)]
+
+    def write_csv(self, path: str | os.PathLike[str]) -> None:
+        """Write ``dof,node,direction`` rows (DOF index from 0)."""
+        with open(path, "w", newline="", encoding="utf-8") as f:
+            w = csv.writer(f)
+            w.writerow(["dof", "node", "direction"])
+            for i, (n, d) in enumerate(zip(self.nodes, self.directions, strict=True)):
+                w.writerow([i, n, d])
+
+    @classmethod
+    def read_csv(cls, path: str | os.PathLike[str]) -> DofMap:
+        """Read a map written by :meth:`write_csv` (rows in DOF order)."""
+        with open(path, newline="", encoding="utf-8") as f:
+            rows = list(csv.DictReader(f))
+        try:
+            rows.sort(key=lambda r: int(r["dof"]))
+            return cls([int(r["node"]) for r in rows], [r["direction"] for r in rows])
+        except (KeyError, ValueError, TypeError):
+            raise ModelError(
+                f"dof_map: {str(path)!r} is not valid; expected CSV rows dof,node,direction"
+            ) from None
+
+
+def _direction_order(d: str) -> tuple[int, str]:
+    return (DIRECTIONS.index(d) if d in DIRECTIONS else 99, d)
+
+
+def as_sparse(value: Any, name: str, n: int | None = None) -> sp.csr_array:
+    """``value`` (dense array, nested lists or any scipy.sparse matrix) as a symmetric, finite,
+    square CSR array; ``name`` labels the error messages."""
+    if sp.issparse(value):
+        a = sp.csr_array(value, dtype=float)
+    else:
+        try:
+            dense = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"{name}: not a numeric matrix; expected an n x n array") from None
+        if dense.ndim == 0:
+            dense = dense.reshape(1, 1)
+        if dense.ndim != 2:
+            raise ModelError(f"{name}: shape {dense.shape} is not valid; expected a square matrix")
+        a = sp.csr_array(dense)
+    if a.shape[0] != a.shape[1] or a.shape[0] == 0:
+        raise ModelError(f"{name}: shape {a.shape} is not valid; expected a square matrix")
+    if n is not None and a.shape[0] != n:
+        raise ModelError(f"{name}: shape {a.shape} does not match; expected ({n}, {n})")
+    a.sum_duplicates()
+    a.eliminate_zeros()
+    if not np.all(np.isfinite(a.data)):
+        raise ModelError(f"{name}: contains NaN or infinity; expected finite values")
+    scale = float(np.abs(a.data).max()) if a.nnz else 0.0
+    diff = a - a.T
+    asym = float(np.abs(diff.data).max()) if diff.nnz else 0.0
+    if asym > 1e-9 * max(scale, np.finfo(float).tiny):
+        raise ModelError(
+            f"{name}: not symmetric (max |A - A^T| = {asym:.3e}); expected a symmetric matrix"
+        )
+    return a
+
+
+@dataclass(frozen=True)
+class FEStructure:
+    """A linear structure kept sparse (``M`` kg, ``C`` N·s/m, ``K`` N/m as CSR arrays) with an
+    optional :class:`DofMap`. Build the dense :class:`~vibroimpact.Structure` the core runs
+    with :meth:`to_structure`, or reduce it first (:func:`vibroimpact.fe.craig_bampton`)."""
+
+    mass: sp.csr_array
+    stiffness: sp.csr_array
+    damping: sp.csr_array | None = None
+    dof_map: DofMap | None = None
+
+    def __init__(
+        self,
+        mass: Any,
+        stiffness: Any,
+        damping: Any = None,
+        dof_map: DofMap | None = None,
+    ) -> None:
+        m = as_sparse(mass, "structure.mass")
+        n = m.shape[0]
+        k = as_sparse(stiffness, "structure.stiffness", n)
+        c = None if damping is None else as_sparse(damping, "structure.damping", n)
+        if dof_map is not None and len(dof_map) != n:
+            raise ModelError(
+                f"dof_map: {len(dof_map)} DOFs is not valid; expected {n} (one per matrix row)"
+            )
+        if np.any(m.diagonal() <= 0):
+            bad = int(np.flatnonzero(m.diagonal() <= 0)[0])
+            raise ModelError(
+                f"structure.mass: diagonal entry {bad} is {m.diagonal()[bad]!r}; expected every "
+                "DOF to carry mass (> 0)"
+            )
+        object.__setattr__(self, "mass", m)
+        object.__setattr__(self, "stiffness", k)
+        object.__setattr__(self, "damping", c)
+        object.__setattr__(self, "dof_map", dof_map)
+
+    @property
+    def n_dof(self) -> int:
+        return int(self.mass.shape[0])
+
+    def with_damping(self, damping: Damping | Any) -> FEStructure:
+        """A copy with damping ``C``: a :class:`~vibroimpact.fe.Rayleigh` or
+        :class:`~vibroimpact.fe.ModalDamping` rule, or a matrix."""
+        from vibroimpact.fe.damping import Damping
+
+        c = damping.matrix(self.mass, self.stiffness) if isinstance(damping, Damping) else damping
+        return FEStructure(self.mass, self.stiffness, c, self.dof_map)
+
+    def to_structure(self) -> Structure:
+        """The dense :class:`~vibroimpact.Structure` (n×n arrays) that the core integrates."""
+        if self.n_dof > DENSE_LIMIT:
+            raise ModelError(
+                f"structure: {self.n_dof} DOFs is too many for dense matrices; expected at most "
+                f"{DENSE_LIMIT} (reduce the model with vibroimpact.fe.craig_bampton)"
+            )
+        c = None if self.damping is None else self.damping.toarray()
+        return Structure(self.mass.toarray(), self.stiffness.toarray(), c)
+
+    # ---- addressing by node and direction ----
+
+    def _map(self) -> DofMap:
+        if self.dof_map is None:
+            raise ModelError(
+                "dof_map: missing; expected a DofMap to address DOFs by node and direction"
+            )
+        return self.dof_map
+
+    def dof(self, node: int, direction: str | int) -> int:
+        """The DOF index of ``direction`` at ``node``."""
+        return self._map().index(node, direction)
+
+    def dofs(self, nodes: Iterable[int] | str, direction: str | int) -> list[int]:
+        """The DOF indices of ``direction`` at each of ``nodes`` (``"all"``: every node that
+        has that direction)."""
+        m = self._map()
+        if isinstance(nodes, str):
+            if nodes != "all":
+                raise ModelError(f"nodes: {nodes!r} is not valid; expected 'all' or a list")
+            d = direction_name(direction)
+            return [i for i, dd in enumerate(m.directions) if dd == d]
+        return m.indices(nodes, direction)
+
+    def gap(
+        self,
+        law: ContactLaw,
+        *,
+        node: int,
+        direction: str | int,
+        clearance: float = 0.0,
+        side: str = "both",
+        name: str | None = None,
+    ) -> Gap:
+        """A :class:`~vibroimpact.Gap` on the DOF ``(node, direction)``."""
+        return Gap(
+            dof=self.dof(node, direction),
+            law=law,
+            clearance=clearance,
+            side=side,  # type: ignore[arg-type]
+            name=name or f"{node}.{direction_name(direction)}",
+        )
+
+    def model(
+        self,
+        gaps: Sequence[Gap] = (),
+        loads: Sequence[Load] = (),
+        initial_displacement: ArrayLike | None = None,
+        initial_velocity: ArrayLike | None = None,
+    ) -> Model:
+        """A :class:`~vibroimpact.Model` of this structure (dense, see :meth:`to_structure`)."""
+        return Model(
+            self.to_structure(),
+            gaps=gaps,
+            loads=loads,
+            initial_displacement=initial_displacement,
+            initial_velocity=initial_velocity,
+        )
+

@@ -1,0 +1,437 @@
+"""Matrices from other FE programs, read as sparse CSR arrays with DOF maps.
+
+Formats (each reader returns ``scipy.sparse.csr_array``; the structure readers an
+:class:`~vibroimpact.fe.FEStructure` whose :class:`~vibroimpact.fe.DofMap` places gaps at
+node/direction pairs):
+
+* **Matrix Market** (``.mtx`` starting ``%%MatrixMarket``; NIST's coordinate or array format,
+  general or symmetric): :func:`read_matrix_market`, :func:`write_matrix_market`.
+* **numpy**: ``.npy`` (one dense array), ``.npz`` written by :func:`scipy.sparse.save_npz`,
+  or an ``.npz`` of named arrays (``mass``, ``stiffness``, optional ``damping``, optional
+  ``dof_nodes``/``dof_directions``): :func:`read_numpy`, :func:`load_npz`, :func:`save_npz`.
+* **CalculiX** ``*MATRIX STORAGE`` (in older versions ``*FREQUENCY, SOLVER=MATRIXSTORAGE``):
+  ccx writes ``job.sti`` (stiffness), ``job.mas`` (mass) and ``job.dof``. Read from ccx's
+  ``matrixstorage.c``: the ``.sti``/``.mas`` files hold one entry per line, ``row column
+  value`` (1-based equation numbers, ``%d %d %20.13e``), the diagonal and one triangle of the
+  symmetric matrix; line ``k`` of ``.dof`` is ``node.direction`` of equation ``k`` (direction
+  1–3 translations, 4–6 rotations, 0 temperature). :func:`read_calculix`, :func:`write_calculix`.
+* **ABAQUS** ``*MATRIX GENERATE`` with ``*MATRIX OUTPUT, STIFFNESS, MASS``: files
+  ``job_STIF1.mtx`` and ``job_MASS1.mtx`` (``1`` = step number). ``FORMAT=MATRIX INPUT`` (the
+  default) writes one entry per line, ``row node, row DOF, column node, column DOF, value``
+  (the ``*MATRIX INPUT`` data-line layout; a symmetric matrix as its lower triangle, upper
+  triangle or square); ``FORMAT=COORDINATE`` writes ``row, column, value`` with equation
+  numbers. Lines starting with ``*`` are comments or keywords. :func:`read_abaqus_mtx`,
+  :func:`read_abaqus`, :func:`write_abaqus_mtx`.
+
+A one-triangle file is mirrored; a square file must be symmetric. Sparse matrices stay sparse
+until a dense :class:`~vibroimpact.Structure` is built for the core
+(:meth:`FEStructure.to_structure`) — for large models reduce first
+(:func:`vibroimpact.fe.craig_bampton`).
+
+Recipe for a CalculiX fixture (what the tests do, no ccx needed): build any structure, write
+it with :func:`write_calculix` (the exact ``fprintf`` layout of ccx), read it back. With ccx::
+
+    *STEP
+    *MATRIX STORAGE
+    *END STEP
+
+in ``job.inp``, then ``ccx job`` writes ``job.sti``, ``job.mas``, ``job.dof``.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import scipy.io
+import scipy.sparse as sp
+from numpy.typing import NDArray
+
+from vibroimpact.errors import ModelError
+from vibroimpact.fe.dofs import DIRECTIONS, DofMap, FEStructure, as_sparse, direction_name
+
+__all__ = [
+    "load_npz",
+    "read_abaqus",
+    "read_abaqus_mtx",
+    "read_calculix",
+    "read_matrix",
+    "read_matrix_market",
+    "read_numpy",
+    "save_npz",
+    "write_abaqus_mtx",
+    "write_calculix",
+    "write_matrix_market",
+]
+
+PathLike = str | os.PathLike[str]
+
+
+def _open_text(path: PathLike) -> list[str]:
+    p = Path(os.path.expanduser(os.fspath(path)))
+    try:
+        return p.read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError as e:
+        raise ModelError(
+            f"{str(path)!r}: cannot read ({e.strerror or type(e).__name__}); expected an "
+            "existing, readable file"
+        ) from None
+
+
+def _symmetrize(
+    rows: NDArray[np.int64], cols: NDArray[np.int64], vals: NDArray[np.float64], n: int, name: str
+) -> sp.csr_array:
+    """CSR from triplets holding one triangle (mirrored) or the whole symmetric matrix."""
+    off = rows != cols
+    lower = np.any(rows[off] > cols[off])
+    upper = np.any(rows[off] < cols[off])
+    if lower and upper:
+        a = sp.coo_array((vals, (rows, cols)), shape=(n, n)).tocsr()
+    else:
+        r2 = np.concatenate([rows, cols[off]])
+        c2 = np.concatenate([cols, rows[off]])
+        v2 = np.concatenate([vals, vals[off]])
+        a = sp.coo_array((v2, (r2, c2)), shape=(n, n)).tocsr()
+    return as_sparse(a, name)
+
+
+# --------------------------------------------------------------------------------------------
+# Matrix Market and numpy
+# --------------------------------------------------------------------------------------------
+
+
+def read_matrix_market(path: PathLike) -> sp.csr_array:
+    """A square, symmetric Matrix Market file as a CSR array."""
+    try:
+        a = scipy.io.mmread(os.fspath(path))
+    except Exception as e:  # a user's file that does not parse is a mistake in the file
+        raise ModelError(
+            f"{str(path)!r}: not a readable Matrix Market file ({' '.join(str(e).split())[:80]})"
+            "; expected a %%MatrixMarket matrix"
+        ) from None
+    return as_sparse(a, str(path))
+
+
+def write_matrix_market(path: PathLike, matrix: Any, comment: str = "") -> None:
+    """Write ``matrix`` as a symmetric coordinate Matrix Market file (full float precision,
+    so that reading it back gives the same numbers)."""
+    a = sp.coo_array(as_sparse(matrix, str(path)))
+    scipy.io.mmwrite(os.fspath(path), a, comment=comment, symmetry="symmetric", precision=17)
+
+
+def read_numpy(path: PathLike, key: str | None = None) -> sp.csr_array:
+    """A matrix from ``.npy`` (dense), a :func:`scipy.sparse.save_npz` file, or the array
+    ``key`` of an ``.npz`` archive."""
+    p = os.fspath(path)
+    try:
+        if p.lower().endswith(".npy"):
+            return as_sparse(np.load(p, allow_pickle=False), p)
+        with np.load(p, allow_pickle=False) as z:
+            files = set(z.files)
+            if key is not None:
+                if key not in files:
+                    raise ModelError(
+                        f"{p!r}: no array {key!r}; expected one of {', '.join(sorted(files))}"
+                    )
+                return as_sparse(z[key], f"{p}[{key}]")
+            if not {"format", "shape"} <= files:
+                raise ModelError(
+                    f"{p!r}: an archive of {', '.join(sorted(files))}; expected a key naming "
+                    "the matrix, or a file written by scipy.sparse.save_npz"
+                )
+        return as_sparse(sp.load_npz(p), p)
+    except ModelError:
+        raise
+    except Exception as e:
+        raise ModelError(
+            f"{p!r}: not a readable numpy file ({' '.join(str(e).split())[:80]}); expected a "
+            ".npy or .npz matrix"
+        ) from None
+
+
+def save_npz(path: PathLike, structure: FEStructure) -> None:
+    """Write an :class:`FEStructure` as an ``.npz`` archive (dense arrays ``mass``,
+    ``stiffness``, ``damping`` if any, and the DOF map as ``dof_nodes``/``dof_directions``)."""
+    arrays: dict[str, Any] = {
+        "mass": structure.mass.toarray(),
+        "stiffness": structure.stiffness.toarray(),
+    }
+    if structure.damping is not None:
+        arrays["damping"] = structure.damping.toarray()
+    if structure.dof_map is not None:
+        arrays["dof_nodes"] = np.asarray(structure.dof_map.nodes, dtype=np.int64)
+        arrays["dof_directions"] = np.asarray(structure.dof_map.directions, dtype="U8")
+    np.savez(os.fspath(path), **arrays)
+
+
+def load_npz(path: PathLike) -> FEStructure:
+    """Read an archive written by :func:`save_npz` (or any ``.npz`` with ``mass`` and
+    ``stiffness`` arrays)."""
+    p = os.fspath(path)
+    try:
+        with np.load(p, allow_pickle=False) as z:
+            files = set(z.files)
+            if not {"mass", "stiffness"} <= files:
+                raise ModelError(
+                    f"{p!r}: arrays {', '.join(sorted(files))}; expected mass and stiffness"
+                )
+            m, k = z["mass"], z["stiffness"]
+            c = z["damping"] if "damping" in files else None
+            dm = None
+            if "dof_nodes" in files and "dof_directions" in files:
+                dm = DofMap(z["dof_nodes"].tolist(), [str(d) for d in z["dof_directions"]])
+    except ModelError:
+        raise
+    except Exception as e:
+        raise ModelError(
+            f"{p!r}: not a readable .npz archive ({' '.join(str(e).split())[:80]})"
+        ) from None
+    return FEStructure(m, k, c, dm)
+
+
+# --------------------------------------------------------------------------------------------
+# CalculiX
+# --------------------------------------------------------------------------------------------
+
+
+def _read_triplets(
+    path: PathLike, name: str
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
+    rows, cols, vals = [], [], []
+    for lineno, line in enumerate(_open_text(path), 1):
+        s = line.strip()
+        if not s or s.startswith(("*", "#", "%")):
+            continue
+        parts = s.replace(",", " ").split()
+        try:
+            if len(parts) != 3:
+                raise ValueError
+            i, j, v = int(parts[0]), int(parts[1]), float(parts[2].replace("D", "E"))
+            if i < 1 or j < 1 or not np.isfinite(v):
+                raise ValueError
+        except ValueError:
+            raise ModelError(
+                f"{name}: line {lineno} ({s[:40]!r}) is not valid; expected 'row column value' "
+                "with 1-based indices"
+            ) from None
+        rows.append(i - 1)
+        cols.append(j - 1)
+        vals.append(v)
+    if not rows:
+        raise ModelError(f"{name}: no entries; expected 'row column value' lines")
+    return np.array(rows), np.array(cols), np.array(vals)
+
+
+def _calculix_paths(job: PathLike) -> tuple[Path, Path, Path]:
+    p = Path(os.path.expanduser(os.fspath(job)))
+    if p.suffix.lower() in (".sti", ".mas", ".dof", ".inp"):
+        p = p.with_suffix("")
+    return p.with_name(p.name + ".sti"), p.with_name(p.name + ".mas"), p.with_name(p.name + ".dof")
+
+
+def read_calculix(job: PathLike) -> FEStructure:
+    """The stiffness (``job.sti``), mass (``job.mas``) and DOF map (``job.dof``, optional)
+    that CalculiX's ``*MATRIX STORAGE`` writes (format: the module docstring). ``job`` is the
+    job name or the path of any of the three files."""
+    sti, mas, dof = _calculix_paths(job)
+    rk, ck, vk = _read_triplets(sti, str(sti))
+    rm, cm, vm = _read_triplets(mas, str(mas))
+    dof_map = None
+    n = int(max(rk.max(), ck.max(), rm.max(), cm.max())) + 1
+    if dof.is_file():
+        nodes, dirs = [], []
+        for lineno, line in enumerate(_open_text(dof), 1):
+            s = line.strip()
+            if not s:
+                continue
+            m = re.fullmatch(r"(-?\d+)\.(\d+)", s)
+            if m is None:
+                raise ModelError(
+                    f"{dof}: line {lineno} ({s[:40]!r}) is not valid; expected node.direction"
+                )
+            nodes.append(int(m.group(1)))
+            dirs.append(int(m.group(2)))
+        if len(nodes) < n:
+            raise ModelError(
+                f"{dof}: {len(nodes)} lines is not valid; expected one per equation ({n})"
+            )
+        n = len(nodes)
+        dof_map = DofMap(nodes, dirs)
+    k = _symmetrize(rk, ck, vk, n, str(sti))
+    m = _symmetrize(rm, cm, vm, n, str(mas))
+    return FEStructure(m, k, None, dof_map)
+
+
+def _upper_triplets(
+    a: sp.csr_array,
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.float64]]:
+    """Diagonal and upper triangle as CalculiX orders them (by column, then row)."""
+    coo = sp.triu(a, format="coo")
+    order = np.lexsort((coo.row, coo.col))
+    return coo.row[order], coo.col[order], coo.data[order]
+
+
+def write_calculix(job: PathLike, structure: FEStructure) -> tuple[Path, Path, Path]:
+    """Write ``job.sti``, ``job.mas`` and ``job.dof`` exactly as ccx's ``matrixstorage.c``
+    does (``%d %d %20.13e``; the test fixture recipe). Returns the three paths."""
+    sti, mas, dof = _calculix_paths(job)
+    for path, a in ((sti, structure.stiffness), (mas, structure.mass)):
+        r, c, v = _upper_triplets(a)
+        with open(path, "w", encoding="ascii") as f:
+            for i, j, x in zip(r, c, v, strict=True):
+                f.write(f"{i + 1} {j + 1} {x:20.13e}\n")
+    dm = structure.dof_map or DofMap(range(1, structure.n_dof + 1), ["x"] * structure.n_dof)
+    with open(dof, "w", encoding="ascii") as f:
+        for node, d in zip(dm.nodes, dm.directions, strict=True):
+            num = DIRECTIONS.index(d) + 1 if d in DIRECTIONS else int(d)
+            f.write(f"{node}.{num}\n")
+    return sti, mas, dof
+
+
+# --------------------------------------------------------------------------------------------
+# ABAQUS
+# --------------------------------------------------------------------------------------------
+
+
+def _abaqus_entries(path: PathLike) -> tuple[list[tuple[Any, Any, float]], bool]:
+    """Entries ``(row key, column key, value)``; keys are ``(node, dof)`` pairs (5-field
+    lines) or equation numbers (3-field lines). Returns the entries and whether keyed by
+    node."""
+    entries: list[tuple[Any, Any, float]] = []
+    by_node: bool | None = None
+    name = str(path)
+    for lineno, line in enumerate(_open_text(path), 1):
+        s = line.strip()
+        if not s or s.startswith("*"):
+            continue
+        parts = [x.strip() for x in s.rstrip(",").split(",")]
+        if len(parts) == 1:
+            parts = s.split()
+        try:
+            if len(parts) == 5:
+                key = True
+                rk: Any = (int(parts[0]), int(parts[1]))
+                ck: Any = (int(parts[2]), int(parts[3]))
+                v = float(parts[4].replace("D", "E"))
+            elif len(parts) == 3:
+                key = False
+                rk, ck = int(parts[0]), int(parts[1])
+                v = float(parts[2].replace("D", "E"))
+                if rk < 1 or ck < 1:
+                    raise ValueError
+            else:
+                raise ValueError
+            if not np.isfinite(v):
+                raise ValueError
+        except ValueError:
+            raise ModelError(
+                f"{name}: line {lineno} ({s[:40]!r}) is not valid; expected 'node, dof, node, "
+                "dof, value' (FORMAT=MATRIX INPUT) or 'row, column, value' (FORMAT=COORDINATE)"
+            ) from None
+        if by_node is None:
+            by_node = key
+        elif by_node != key:
+            raise ModelError(
+                f"{name}: line {lineno} mixes the 5-field and the 3-field layouts; expected one"
+            )
+        entries.append((rk, ck, v))
+    if not entries:
+        raise ModelError(f"{name}: no matrix entries; expected an ABAQUS .mtx matrix file")
+    return entries, bool(by_node)
+
+
+def read_abaqus_mtx(
+    path: PathLike, dof_map: DofMap | None = None
+) -> tuple[sp.csr_array, DofMap | None]:
+    """One ABAQUS ``*MATRIX OUTPUT`` file. With node/DOF entries the DOF map is ``dof_map``
+    if given (entries must be in it), else every ``(node, dof)`` present, sorted; with
+    equation-number entries the map is ``dof_map`` (or None)."""
+    entries, by_node = _abaqus_entries(path)
+    if by_node:
+        if dof_map is None:
+            keys = sorted({k for e in entries for k in e[:2]})
+            dof_map = DofMap([k[0] for k in keys], [k[1] for k in keys])
+        index = {
+            (n, d): i
+            for i, (n, d) in enumerate(zip(dof_map.nodes, dof_map.directions, strict=True))
+        }
+        rows, cols = [], []
+        for rk, ck, _ in entries:
+            for key in (rk, ck):
+                if (key[0], direction_name(key[1])) not in index:
+                    raise ModelError(
+                        f"{path}: node {key[0]} DOF {key[1]} is not valid; expected a node and "
+                        "DOF of the DOF map"
+                    )
+            rows.append(index[(rk[0], direction_name(rk[1]))])
+            cols.append(index[(ck[0], direction_name(ck[1]))])
+        n = len(dof_map)
+    else:
+        rows = [e[0] - 1 for e in entries]
+        cols = [e[1] - 1 for e in entries]
+        n = max(max(rows), max(cols)) + 1 if dof_map is None else len(dof_map)
+    vals = np.array([e[2] for e in entries])
+    a = _symmetrize(np.array(rows), np.array(cols), vals, n, str(path))
+    return a, dof_map
+
+
+def read_abaqus(
+    stiffness: PathLike, mass: PathLike, damping: PathLike | None = None
+) -> FEStructure:
+    """An :class:`FEStructure` from ABAQUS ``*MATRIX OUTPUT`` files (``job_STIF1.mtx``,
+    ``job_MASS1.mtx``, optionally ``job_DMPV1.mtx``). The DOF map is every ``(node, dof)``
+    of any of the files, sorted by node then DOF."""
+    paths = [p for p in (stiffness, mass, damping) if p is not None]
+    parsed = [_abaqus_entries(p) for p in paths]
+    if parsed[0][1]:
+        keys = sorted({k for entries, _ in parsed for e in entries for k in e[:2]})
+        dm: DofMap | None = DofMap([k[0] for k in keys], [k[1] for k in keys])
+    else:
+        dm = None
+    mats = [read_abaqus_mtx(p, dm)[0] for p in paths]
+    if dm is None:
+        n = max(a.shape[0] for a in mats)
+        mats = [
+            sp.csr_array(sp.block_diag([a, sp.csr_array((n - a.shape[0],) * 2)]))
+            if a.shape[0] < n
+            else a
+            for a in mats
+        ]
+    return FEStructure(mats[1], mats[0], mats[2] if damping is not None else None, dm)
+
+
+def write_abaqus_mtx(path: PathLike, matrix: Any, dof_map: DofMap) -> None:
+    """Write ``matrix`` in the ``FORMAT=MATRIX INPUT`` layout (lower triangle, one
+    ``node, dof, node, dof, value`` line per entry, DOF numbers 1–6) for test fixtures."""
+    a = sp.tril(as_sparse(matrix, str(path)), format="coo")
+    order = np.lexsort((a.col, a.row))
+    num = [DIRECTIONS.index(d) + 1 if d in DIRECTIONS else int(d) for d in dof_map.directions]
+    with open(path, "w", encoding="ascii") as f:
+        f.write("** written by vibroimpact.fe.matrices.write_abaqus_mtx\n")
+        for i, j, v in zip(a.row[order], a.col[order], a.data[order], strict=True):
+            f.write(f"{dof_map.nodes[i]},{num[i]}, {dof_map.nodes[j]},{num[j]}, {float(v)!r}\n")
+
+
+# --------------------------------------------------------------------------------------------
+# By suffix and content
+# --------------------------------------------------------------------------------------------
+
+
+def read_matrix(path: PathLike, key: str | None = None) -> sp.csr_array:
+    """A matrix file by its suffix and content: ``.npy``/``.npz`` (:func:`read_numpy`),
+    ``.mtx`` starting ``%%MatrixMarket`` (:func:`read_matrix_market`), another ``.mtx``
+    (ABAQUS, :func:`read_abaqus_mtx`), ``.sti``/``.mas`` (CalculiX triplets)."""
+    p = os.fspath(path)
+    low = p.lower()
+    if low.endswith((".npy", ".npz")):
+        return read_numpy(p, key)
+    if low.endswith((".sti", ".mas")):
+        r, c, v = _read_triplets(p, p)
+        return _symmetrize(r, c, v, int(max(r.max(), c.max())) + 1, p)
+    head = _open_text(p)[:1]
+    if head and head[0].lstrip().lower().startswith("%%matrixmarket"):
+        return read_matrix_market(p)
+    return read_abaqus_mtx(p)[0]

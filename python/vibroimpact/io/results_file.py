@@ -1,0 +1,873 @@
+"""Result files: NetCDF-4/HDF5 and CSV, written atomically, read back as an ``xarray.Dataset``
+(DESIGN.md §6).
+
+* ``.nc``, ``.h5``, ``.hdf5``: one NetCDF-4 file (a NetCDF-4 file *is* an HDF5 file: xarray,
+  MATLAB's ``ncread``/``h5read``, ``ncdump`` and h5py read it). Dims ``time``, ``dof``, ``gap``,
+  ``impact``; units and descriptions as attributes; only numeric and fixed-width char data
+  (no bool, object or variable-length string arrays). The model and the solver settings are
+  stored so that a file says how it was made: attributes ``model_spec`` and ``method_spec``
+  (JSON text) and the variables ``structure_mass``, ``structure_damping``,
+  ``structure_stiffness``, ``initial_displacement`` and ``initial_velocity``;
+  :func:`model_from_dataset` rebuilds the model and the integrator from them.
+* ``.csv``: ``NAME.csv`` holds the time histories (column names carry units:
+  ``time [s]``, ``x0 [m]``, ``v0 [m/s]``, ``a0 [m/s^2]``, ``gap0 penetration [m]``,
+  ``gap0 force [N]``), ``NAME_impacts.csv`` the impact table, ``NAME_energy.csv`` the energy
+  account and ``NAME_meta.json`` the attributes and the model.
+
+Every file is first written to a hidden temporary file in the target's folder and then moved
+into place with :func:`os.replace`, so a crash, ``Ctrl-C`` or ``SIGTERM`` leaves either the
+previous complete file or none, never a half-written one. ``Ctrl-C`` and ``SIGTERM`` take
+effect when the file being written is complete (or, for a streamed run, after the current
+window); the temporary files are then removed and :class:`KeyboardInterrupt` is raised. Only
+``SIGKILL`` or a crash can leave a hidden ``.NAME.*.tmp`` file behind.
+
+Example::
+
+    >>> from vibroimpact.io import results_file
+    >>> results_file.save(result, "run.nc")               # doctest: +SKIP
+    >>> ds = results_file.load("run.nc")                  # doctest: +SKIP
+    >>> model, method = results_file.model_from_dataset(ds)  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import datetime as _dt
+import json
+import math
+import os
+import signal
+import tempfile
+import threading
+import typing
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from vibroimpact.errors import ModelError
+
+if TYPE_CHECKING:
+    import xarray as xr
+
+    from vibroimpact.integrators import Integrator
+    from vibroimpact.model import Model
+    from vibroimpact.result import Result
+
+__all__ = [
+    "CSV_TABLES",
+    "ENERGY_TERMS",
+    "NETCDF_SUFFIXES",
+    "SUFFIXES",
+    "atomic_write",
+    "csv_paths",
+    "load",
+    "model_from_dataset",
+    "run_metadata",
+    "save",
+    "simulate_to_file",
+    "to_dataset",
+]
+
+#: Suffixes written as NetCDF-4 (HDF5).
+NETCDF_SUFFIXES = (".nc", ".h5", ".hdf5")
+#: Every suffix :func:`save` and :func:`load` accept.
+SUFFIXES = (*NETCDF_SUFFIXES, ".csv")
+#: The files a ``.csv`` result consists of, by role: the name's suffix after the stem.
+CSV_TABLES = {"time_histories": ".csv", "impacts": "_impacts.csv", "energy": "_energy.csv",
+              "metadata": "_meta.json"}
+#: The energy account's terms (``energy_<term>`` variables), J.
+ENERGY_TERMS = ("kinetic", "strain", "contact_potential", "external_work",
+                "damping_dissipated", "contact_dissipated")
+#: Time-history variables on ``(time, dof)`` and their CSV column prefix and unit.
+_DOF_VARIABLES = {"displacement": ("x", "m"), "velocity": ("v", "m/s"),
+                  "acceleration": ("a", "m/s^2")}
+#: Time-history variables on ``(time, gap)`` and their CSV column word and unit.
+_GAP_VARIABLES = {"penetration": ("penetration", "m"), "contact_force": ("force", "N")}
+#: Model matrices stored as variables (not JSON) so that large FE models stay compact.
+_MODEL_MATRICES = {"structure_mass": ("mass", "kg"), "structure_damping": ("damping", "N s/m"),
+                   "structure_stiffness": ("stiffness", "N/m")}
+_MODEL_VECTORS = {"initial_displacement": ("x0", "m"), "initial_velocity": ("v0", "m/s")}
+
+
+# --------------------------------------------------------------------------------------------
+# Metadata: how a result was made
+# --------------------------------------------------------------------------------------------
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return _jsonable(value.tolist())
+    if isinstance(value, (np.integer,)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        x = float(value)
+        return x if math.isfinite(x) else None
+    return value
+
+
+def _plain(value: Any) -> Any:
+    """Dataclass settings (nested ones included) as plain JSON-ready values."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _plain(getattr(value, f.name)) for f in dataclasses.fields(value)
+                if f.init}
+    return _jsonable(value)
+
+
+def method_settings(method: Integrator) -> dict[str, Any]:
+    """The integrator as ``{"name", "params", "newton"}``: its name in
+    :data:`vibroimpact.integrators.METHODS`, its constructor fields (nested settings such as
+    adaptive stepping as objects) and its Newton options; :func:`method_from_settings`
+    rebuilds it."""
+    params = {f.name: _plain(getattr(method, f.name)) for f in dataclasses.fields(method)
+              if f.init and f.name != "newton"}
+    out: dict[str, Any] = {"name": method.name, "params": params,
+                           "newton": _plain(method.newton)}
+    try:
+        out["spec"] = _jsonable(method.to_spec())
+    except Exception:  # pragma: no cover - a method whose spec needs the run's t_end
+        pass
+    return out
+
+
+def _build(cls: type, values: Mapping[str, Any]) -> Any:
+    """``cls(**values)`` with nested dataclass fields rebuilt from their dicts."""
+    hints = typing.get_type_hints(cls)
+    kwargs = {}
+    for f in dataclasses.fields(cls):
+        if not f.init or f.name not in values:
+            continue
+        value = values[f.name]
+        if isinstance(value, dict):
+            hint = hints.get(f.name)
+            options = typing.get_args(hint) or (hint,)
+            target = next((t for t in options if dataclasses.is_dataclass(t)), None)
+            if target is not None:
+                value = _build(target, value)
+        kwargs[f.name] = value
+    return cls(**kwargs)
+
+
+def method_from_settings(settings: Mapping[str, Any]) -> Integrator:
+    """Rebuild an integrator from :func:`method_settings`."""
+    from vibroimpact.integrators import METHODS, NewtonOptions
+
+    name = settings.get("name", "newmark")
+    if name not in METHODS:
+        raise ModelError(f"result file: method {name!r} is not known to this vibroimpact "
+                         f"version; expected one of {', '.join(METHODS)}")
+    newton = _build(NewtonOptions, settings.get("newton", {}))
+    return _build(METHODS[name], {**settings.get("params", {}), "newton": newton})
+
+
+def run_metadata(result: Result) -> tuple[dict[str, Any], dict[str, tuple[tuple[str, ...],
+                                                                          Any, dict[str, str]]]]:
+    """Attributes and variables that say how ``result`` was made: ``(attrs, variables)``
+    where ``variables`` maps a name to ``(dims, data, attrs)``. Used by
+    :meth:`vibroimpact.Result.to_xarray`."""
+    from vibroimpact import __version__, build_profile
+
+    attrs: dict[str, Any] = {
+        "title": "vibroimpact result",
+        "Conventions": "CF-1.8",
+        "source": f"vibroimpact {__version__} (core build: {build_profile})",
+        "history": f"{_dt.datetime.now(_dt.timezone.utc).isoformat(timespec='seconds')} "
+                   "vibroimpact.simulate",
+        "vibroimpact_version": __version__,
+        "rejected_steps": result.stats.rejected_steps,
+        "step_cuts": result.stats.step_cuts,
+        "wall_time_s": result.stats.wall_time_s,
+    }
+    variables: dict[str, tuple[tuple[str, ...], Any, dict[str, str]]] = {}
+    if result.method is not None:
+        attrs["method_spec"] = json.dumps(method_settings(result.method))
+    if result.model is not None:
+        spec = result.model.to_spec()
+        model = {k: v for k, v in spec.items() if k not in ("mass", "damping", "stiffness",
+                                                            "x0", "v0")}
+        model["n_dof"] = result.model.n_dof
+        for g, gap in zip(model["gaps"], result.model.gaps, strict=True):
+            g["name"] = gap.name
+        attrs["model_spec"] = json.dumps(_jsonable(model))
+        dims = ("model_dof", "model_dof_col")
+        for name, (key, unit) in _MODEL_MATRICES.items():
+            variables[name] = (dims, np.asarray(spec[key], dtype=float),
+                               {"units": unit, "long_name": f"structure {key} matrix"})
+        for name, (key, unit) in _MODEL_VECTORS.items():
+            variables[name] = (("model_dof",), np.asarray(spec[key], dtype=float),
+                               {"units": unit, "long_name": name.replace("_", " ")})
+    return attrs, variables
+
+
+def metadata(ds: xr.Dataset) -> dict[str, Any]:
+    """The attributes of a result file with ``model_spec`` and ``method_spec`` parsed from
+    JSON (``{}`` when absent)."""
+    out: dict[str, Any] = {}
+    for key, value in ds.attrs.items():
+        if key in ("model_spec", "method_spec"):
+            out[key] = json.loads(value) if value else {}
+        else:
+            out[key] = value.item() if isinstance(value, np.generic) else value
+    out.setdefault("model_spec", {})
+    out.setdefault("method_spec", {})
+    return out
+
+
+def model_from_dataset(ds: xr.Dataset) -> tuple[Model, Integrator]:
+    """Rebuild the :class:`~vibroimpact.Model` and the integrator a result was made with, so
+    that any result file can be re-run: ``vi.simulate(model, ds.t_end, ds.dt, method)``."""
+    from vibroimpact.contact import LAWS
+    from vibroimpact.model import ConstantLoad, Gap, HarmonicLoad, Model, Structure, TableLoad
+
+    meta = metadata(ds)
+    spec, msettings = meta["model_spec"], meta["method_spec"]
+    if not spec or "structure_mass" not in ds:
+        raise ModelError("result file: no model stored; expected a file written by vibroimpact")
+    structure = Structure(
+        ds["structure_mass"].values, ds["structure_stiffness"].values,
+        ds["structure_damping"].values,
+    )
+    gaps = []
+    for g in spec["gaps"]:
+        law_spec = {k: v for k, v in g["law"].items() if k != "kind" and v is not None}
+        if g["law"]["kind"] not in LAWS:
+            raise ModelError(f"result file: contact law {g['law']['kind']!r} is not known to "
+                             "this vibroimpact version")
+        law = LAWS[g["law"]["kind"]](**law_spec)
+        gaps.append(Gap(dof=g["dofs"], coefficients=g["coefficients"], clearance=g["clearance"],
+                        side=g["side"], law=law, name=g.get("name")))
+    loads: list[Any] = []
+    for ld in spec["loads"]:
+        kind = ld["kind"]
+        if kind == "constant":
+            loads.append(ConstantLoad(dof=ld["dofs"], amplitude=ld["amplitude"]))
+        elif kind == "harmonic":
+            loads.append(HarmonicLoad(dof=ld["dofs"], amplitude=ld["amplitude"],
+                                      frequency=ld["frequency"], phase=ld["phase"]))
+        elif kind == "table":
+            loads.append(TableLoad(dof=ld["dofs"], time=ld["time"], force=ld["value"],
+                                   scale=ld["amplitude"]))
+        else:
+            raise ModelError(f"result file: load kind {kind!r} is not known to this version")
+    model = Model(structure, gaps=gaps, loads=loads,
+                  initial_displacement=ds["initial_displacement"].values,
+                  initial_velocity=ds["initial_velocity"].values)
+    return model, method_from_settings(msettings)
+
+
+# --------------------------------------------------------------------------------------------
+# Atomic writes
+# --------------------------------------------------------------------------------------------
+
+
+class _Interrupts:
+    """Signals received while a write was protected (see :func:`_deferred_interrupts`)."""
+
+    def __init__(self) -> None:
+        self.signum: int | None = None
+
+    def check(self) -> None:
+        """Raise :class:`KeyboardInterrupt` if ``Ctrl-C`` or ``SIGTERM`` arrived."""
+        if self.signum is not None:
+            signum, self.signum = self.signum, None
+            raise KeyboardInterrupt(f"signal {signum}")
+
+
+@contextlib.contextmanager
+def _deferred_interrupts() -> Iterator[_Interrupts]:
+    """Inside the block, ``Ctrl-C`` (SIGINT) and ``SIGTERM`` are noted instead of acted on;
+    the block calls ``check()`` at safe points (between files, between windows), and any
+    signal still pending is raised as :class:`KeyboardInterrupt` on leaving. An exception
+    raised from a signal handler in the middle of a NetCDF/HDF5 call can leave the library's
+    locks taken (the process then hangs), so the write in progress is allowed to finish and its
+    temporary file is removed instead. A second signal interrupts at once."""
+    state = _Interrupts()
+    if threading.current_thread() is not threading.main_thread():
+        yield state
+        return
+
+    def handler(signum: int, frame: Any) -> None:
+        if state.signum is not None:
+            raise KeyboardInterrupt(f"signal {signum}")
+        state.signum = signum
+
+    previous: dict[int, Any] = {}
+    try:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous[sig] = signal.signal(sig, handler)
+    except (ValueError, OSError):  # pragma: no cover - signals not available here
+        pass
+    try:
+        yield state
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+    state.check()
+
+
+def _temp_path(target: Path) -> Path:
+    fd, name = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp")
+    os.close(fd)
+    return Path(name)
+
+
+def atomic_write(writers: Mapping[str | os.PathLike[str], Callable[[Path], None]]) -> list[Path]:
+    """Write each target through ``writer(temporary_path)``, then move all into place.
+
+    The temporary files live in the targets' folders (so the final :func:`os.replace` is
+    atomic), are flushed to disk first and get the permissions a new file would get. If any
+    writer fails, or the process is interrupted (``Ctrl-C``, ``SIGTERM``), the temporary
+    files are removed and the targets are left as they were. Raises :class:`OSError` on
+    failure. Returns the targets.
+
+    **Example:** ``atomic_write({"a.txt": lambda p: p.write_text("hello")})``
+    """
+    umask = os.umask(0)
+    os.umask(umask)
+    temps: list[tuple[Path, Path]] = []
+    with _deferred_interrupts() as interrupts:
+        try:
+            for target, write in writers.items():
+                target = Path(target)
+                tmp = _temp_path(target)
+                temps.append((tmp, target))
+                write(tmp)
+                interrupts.check()
+                os.chmod(tmp, 0o666 & ~umask)
+                with open(tmp, "rb") as fh:
+                    os.fsync(fh.fileno())
+            interrupts.check()
+            for tmp, target in temps:
+                os.replace(tmp, target)
+        finally:
+            for tmp, _ in temps:
+                tmp.unlink(missing_ok=True)
+    return [target for _, target in temps]
+
+
+# --------------------------------------------------------------------------------------------
+# Writing
+# --------------------------------------------------------------------------------------------
+
+
+def to_dataset(source: Result | xr.Dataset) -> xr.Dataset:
+    """The Dataset of a :class:`~vibroimpact.Result` (``result.to_xarray()``) or the Dataset
+    itself."""
+    import xarray as xr
+
+    if isinstance(source, xr.Dataset):
+        return source
+    if hasattr(source, "to_xarray"):
+        return source.to_xarray()
+    raise ModelError(f"result: {type(source).__name__} is not valid; expected a "
+                     "vibroimpact.Result or an xarray.Dataset")
+
+
+def _suffix(path: Path) -> str:
+    suffix = path.suffix.lower()
+    if suffix not in SUFFIXES:
+        raise ModelError(f"path: {str(path)!r} is not valid; expected a file name ending in "
+                         f"{', '.join(SUFFIXES)}")
+    return suffix
+
+
+def csv_paths(path: str | os.PathLike[str]) -> dict[str, Path]:
+    """The files of a CSV result ``NAME.csv``: ``time_histories`` (``NAME.csv``),
+    ``impacts`` (``NAME_impacts.csv``), ``energy`` (``NAME_energy.csv``) and ``metadata``
+    (``NAME_meta.json``)."""
+    path = Path(path)
+    return {role: path.with_name(path.stem + suffix) for role, suffix in CSV_TABLES.items()}
+
+
+def _netcdf_engine() -> str:
+    for module, engine in (("netCDF4", "netcdf4"), ("h5netcdf", "h5netcdf")):
+        try:
+            __import__(module)
+            if engine == "h5netcdf":
+                __import__("h5py")
+            return engine
+        except ImportError:
+            continue
+    raise ModelError("path: writing NetCDF needs the netCDF4 package (pip install netCDF4); "
+                     "or write .csv")
+
+
+def _netcdf_ready(ds: xr.Dataset) -> tuple[xr.Dataset, dict[str, dict[str, Any]]]:
+    """A copy of ``ds`` whose every variable MATLAB and NetCDF-4 accept, and the encoding:
+    strings become fixed-width char arrays, booleans int8."""
+    out = ds.copy()
+    encoding: dict[str, dict[str, Any]] = {}
+    for name, var in out.variables.items():
+        kind = var.dtype.kind
+        if kind == "b":
+            out[name] = var.astype(np.int8)
+        elif kind in ("U", "O", "S"):
+            values = np.asarray(var.values).astype(str)
+            out[name] = (var.dims, values, var.attrs)
+            encoding[str(name)] = {"dtype": "S1"}
+        elif kind in "fc":
+            encoding[str(name)] = {"_FillValue": None}
+            if name in _MODEL_MATRICES and var.size > 1:
+                # FE matrices are mostly zeros: compressed they cost little
+                encoding[str(name)].update(zlib=True, complevel=4)
+    for key, value in list(out.attrs.items()):
+        if isinstance(value, (bool, np.bool_)):
+            out.attrs[key] = int(value)
+        elif value is None:
+            out.attrs[key] = ""
+    return out, encoding
+
+
+def _write_netcdf(ds: xr.Dataset, path: Path) -> None:
+    ready, encoding = _netcdf_ready(ds)
+    ready.to_netcdf(path, engine=_netcdf_engine(), format="NETCDF4", encoding=encoding)
+
+
+def _column(name: str, unit: str) -> str:
+    return f"{name} [{unit}]" if unit else name
+
+
+def _time_histories_frame(ds: xr.Dataset) -> Any:
+    import pandas as pd
+
+    cols: dict[str, Any] = {}
+    dofs = ds["dof"].values if "dof" in ds.coords else []
+    for j, d in enumerate(dofs):
+        for name, (prefix, unit) in _DOF_VARIABLES.items():
+            if name in ds:
+                cols[f"{prefix}{int(d)} [{unit}]"] = ds[name].values[:, j]
+    gaps = ds["gap"].values if "gap" in ds.coords else []
+    for g_index, g in enumerate(gaps):
+        for name, (word, unit) in _GAP_VARIABLES.items():
+            if name in ds:
+                cols[f"gap{int(g)} {word} [{unit}]"] = ds[name].values[:, g_index]
+    return pd.DataFrame(cols, index=pd.Index(ds["time"].values, name="time [s]"))
+
+
+def energy_frame(ds: xr.Dataset) -> Any:
+    """The energy account as a DataFrame indexed by ``time [s]``: each term, ``total`` and
+    the ``balance`` (``total + dissipated − total(0) − external work``), J."""
+    import pandas as pd
+
+    terms = {t: ds[f"energy_{t}"].values for t in ENERGY_TERMS if f"energy_{t}" in ds}
+    frame = pd.DataFrame({f"{t} [J]": v for t, v in terms.items()},
+                         index=pd.Index(ds["time"].values, name="time [s]"))
+    if len(terms) == len(ENERGY_TERMS):
+        total = terms["kinetic"] + terms["strain"] + terms["contact_potential"]
+        frame["total [J]"] = total
+        frame["balance [J]"] = (total + terms["damping_dissipated"]
+                                + terms["contact_dissipated"] - total[:1] - terms["external_work"])
+    return frame
+
+
+def impacts_frame(ds: xr.Dataset) -> Any:
+    """The impact table as a DataFrame whose column names carry units (``t_start [s]``)."""
+    import pandas as pd
+
+    cols = {}
+    for name in ds.data_vars:
+        if str(name).startswith("impact_") and ds[name].dims == ("impact",):
+            values = ds[name].values
+            if values.dtype.kind in ("S", "O"):
+                values = values.astype(str)
+            cols[_column(str(name)[len("impact_"):], ds[name].attrs.get("units", ""))] = values
+    return pd.DataFrame(cols)
+
+
+def _meta_json(ds: xr.Dataset) -> str:
+    meta = metadata(ds)
+    for name in (*_MODEL_MATRICES, *_MODEL_VECTORS):
+        if name in ds:
+            meta[name] = ds[name].values
+    for name in ("dof", "gap"):
+        if name in ds.coords:
+            meta[name] = ds[name].values
+    return json.dumps(_jsonable(meta), indent=1)
+
+
+def save(source: Result | xr.Dataset, path: str | os.PathLike[str]) -> list[Path]:
+    """Write a result to ``path`` atomically: ``.nc``/``.h5``/``.hdf5`` as NetCDF-4, ``.csv``
+    as the four files of :func:`csv_paths`. Returns the files written. Raises
+    :class:`~vibroimpact.ModelError` for a suffix it does not know and :class:`OSError` if the
+    files cannot be written (the targets are then untouched)."""
+    path = Path(path)
+    suffix = _suffix(path)
+    ds = to_dataset(source)
+    if suffix in NETCDF_SUFFIXES:
+        _netcdf_engine()
+        return atomic_write({path: lambda p: _write_netcdf(ds, p)})
+    files = csv_paths(path)
+    histories, impacts, energy = _time_histories_frame(ds), impacts_frame(ds), energy_frame(ds)
+    meta = _meta_json(ds)
+    return atomic_write({
+        files["time_histories"]: lambda p: histories.to_csv(p),
+        files["impacts"]: lambda p: impacts.to_csv(p, index=False),
+        files["energy"]: lambda p: energy.to_csv(p),
+        files["metadata"]: lambda p: p.write_text(meta, encoding="utf-8"),
+    })
+
+
+# --------------------------------------------------------------------------------------------
+# Reading
+# --------------------------------------------------------------------------------------------
+
+
+def _split_unit(column: str) -> tuple[str, str]:
+    if column.endswith("]") and " [" in column:
+        name, unit = column[:-1].rsplit(" [", 1)
+        return name, unit
+    return column, ""
+
+
+def _load_csv(path: Path) -> xr.Dataset:
+    import pandas as pd
+    import xarray as xr
+
+    files = csv_paths(path)
+    hist = pd.read_csv(files["time_histories"], index_col=0)
+    time = hist.index.to_numpy(dtype=float)
+    meta: dict[str, Any] = {}
+    if files["metadata"].exists():
+        meta = json.loads(files["metadata"].read_text(encoding="utf-8"))
+    by_prefix = {prefix: (name, unit) for name, (prefix, unit) in _DOF_VARIABLES.items()}
+    dof_cols: dict[str, dict[int, np.ndarray]] = {}
+    gap_cols: dict[str, dict[int, np.ndarray]] = {}
+    for col in hist.columns:
+        label, _ = _split_unit(col)
+        if label.startswith("gap") and " " in label:
+            g, word = label[3:].split(" ", 1)
+            name = next(n for n, (w, _) in _GAP_VARIABLES.items() if w == word)
+            gap_cols.setdefault(name, {})[int(g)] = hist[col].to_numpy(dtype=float)
+        elif label[:1] in by_prefix and label[1:].isdigit():
+            name = by_prefix[label[:1]][0]
+            dof_cols.setdefault(name, {})[int(label[1:])] = hist[col].to_numpy(dtype=float)
+    data: dict[str, Any] = {}
+    dofs = sorted(next(iter(dof_cols.values()), {}))
+    gaps = sorted(next(iter(gap_cols.values()), {}))
+    for name, cols in dof_cols.items():
+        unit = _DOF_VARIABLES[name][1]
+        data[name] = (("time", "dof"), np.column_stack([cols[d] for d in dofs]),
+                      {"units": unit, "long_name": name})
+    for name, cols in gap_cols.items():
+        unit = _GAP_VARIABLES[name][1]
+        data[name] = (("time", "gap"), np.column_stack([cols[g] for g in gaps]),
+                      {"units": unit, "long_name": name.replace("_", " ")})
+    if files["energy"].exists():
+        energy = pd.read_csv(files["energy"], index_col=0)
+        for col in energy.columns:
+            label, unit = _split_unit(col)
+            if label in ENERGY_TERMS:
+                data[f"energy_{label}"] = (("time",), energy[col].to_numpy(dtype=float),
+                                           {"units": unit, "long_name": label})
+    if files["impacts"].exists():
+        impacts = pd.read_csv(files["impacts"], keep_default_na=True)
+        for col in impacts.columns:
+            label, unit = _split_unit(col)
+            values = impacts[col].to_numpy()
+            if label == "side":
+                values = values.astype(str)
+            elif label == "gap":
+                values = values.astype(np.int64)
+            else:
+                values = values.astype(float)
+            data[f"impact_{label}"] = (("impact",), values, {"units": unit, "long_name": label})
+    coords: dict[str, Any] = {"time": ("time", time, {"units": "s", "long_name": "time"})}
+    if dofs:
+        coords["dof"] = np.asarray(dofs, dtype=np.int64)
+    if gaps:
+        coords["gap"] = np.asarray(gaps, dtype=np.int64)
+    for name, (key, unit) in {**_MODEL_MATRICES, **_MODEL_VECTORS}.items():
+        if name in meta:
+            value = np.asarray(meta.pop(name), dtype=float)
+            dims = ("model_dof", "model_dof_col")[: value.ndim]
+            desc = f"structure {key} matrix" if value.ndim == 2 else name.replace("_", " ")
+            data[name] = (dims, value, {"units": unit, "long_name": desc})
+    meta.pop("dof", None)
+    meta.pop("gap", None)
+    for key in ("model_spec", "method_spec"):
+        if key in meta:
+            meta[key] = json.dumps(meta[key])
+    attrs = {k: v for k, v in meta.items() if isinstance(v, (str, int, float))}
+    return xr.Dataset(data, coords=coords, attrs=attrs)
+
+
+def load(path: str | os.PathLike[str]) -> xr.Dataset:
+    """Read a result written by :func:`save` (or ``vibroimpact run -o``) into memory as an
+    ``xarray.Dataset``; the file is closed on return. For ``.csv`` give the main file
+    ``NAME.csv``; its ``_impacts``, ``_energy`` and ``_meta`` companions are read too."""
+    import xarray as xr
+
+    path = Path(path)
+    suffix = _suffix(path)
+    if not path.is_file():
+        raise ModelError(f"path: {str(path)!r} is not valid; expected an existing result file")
+    if suffix == ".csv":
+        return _load_csv(path)
+    try:
+        return xr.load_dataset(path, engine=_netcdf_engine())
+    except (OSError, ValueError) as e:
+        raise ModelError(f"path: {str(path)!r} is not valid; expected a NetCDF-4 result file "
+                         f"({e})") from None
+
+
+# --------------------------------------------------------------------------------------------
+# Streaming long runs to disk
+# --------------------------------------------------------------------------------------------
+
+
+def _shifted_load(load: Any, t0: float) -> Any:
+    """The same load with time measured from ``t0``: ``F'(t) = F(t + t0)``."""
+    from vibroimpact.model import ConstantLoad, HarmonicLoad, TableLoad
+
+    if type(load) is ConstantLoad:
+        return load
+    if type(load) is HarmonicLoad:
+        phase = load.phase + 2.0 * math.pi * load.frequency * t0
+        return dataclasses.replace(load, phase=math.remainder(phase, 2.0 * math.pi))
+    if type(load) is TableLoad:
+        return dataclasses.replace(load, time=tuple(t - t0 for t in load.time))
+    raise ModelError(f"loads: {type(load).__name__} cannot be shifted in time; streaming "
+                     "supports ConstantLoad, HarmonicLoad and TableLoad")
+
+
+class _NetcdfStream:
+    """Appends time samples to a NetCDF-4 file with an unlimited ``time`` dimension."""
+
+    def __init__(self, path: Path, dofs: Sequence[int], n_gaps: int) -> None:
+        import netCDF4
+
+        self.nc = netCDF4.Dataset(path, "w", format="NETCDF4")
+        self.nc.createDimension("time", None)
+        self.nc.createDimension("dof", len(dofs))
+        self.nc.createDimension("gap", n_gaps)
+        self.n = 0
+        t = self.nc.createVariable("time", "f8", ("time",), chunksizes=(4096,))
+        t.units, t.long_name = "s", "time"
+        self.nc.createVariable("dof", "i8", ("dof",))[:] = np.asarray(dofs, dtype=np.int64)
+        self.nc.createVariable("gap", "i8", ("gap",))[:] = np.arange(n_gaps, dtype=np.int64)
+        self.vars = {"time": t}
+        for name, (_, unit) in _DOF_VARIABLES.items():
+            self._var(name, ("time", "dof"), unit, name)
+        self._var("penetration", ("time", "gap"), "m", "gap penetration (<0: open)")
+        self._var("contact_force", ("time", "gap"), "N", "contact force")
+        for term in ENERGY_TERMS:
+            self._var(f"energy_{term}", ("time",), "J", term)
+
+    def _var(self, name: str, dims: tuple[str, ...], units: str, desc: str) -> None:
+        # chunks of a few thousand samples: appends stay fast, reads of a window too
+        sizes = {"time": 4096, "dof": len(self.nc.dimensions["dof"]),
+                 "gap": len(self.nc.dimensions["gap"])}
+        chunks = [max(1, sizes[d]) for d in dims]
+        v = self.nc.createVariable(name, "f8", dims, chunksizes=chunks)
+        v.units, v.long_name = units, desc
+        self.vars[name] = v
+
+    def append(self, columns: Mapping[str, np.ndarray]) -> None:
+        m = len(columns["time"])
+        for name, values in columns.items():
+            self.vars[name][self.n:self.n + m, ...] = values
+        self.n += m
+
+    def finish(self, impacts: Mapping[str, np.ndarray], attrs: Mapping[str, Any],
+               extra: Mapping[str, tuple[tuple[str, ...], Any, dict[str, str]]]) -> None:
+        from vibroimpact.result import IMPACT_COLUMNS
+
+        n_imp = len(impacts["t_start"])
+        self.nc.createDimension("impact", n_imp)
+        for name, (units, desc) in IMPACT_COLUMNS.items():
+            values = np.asarray(impacts[name])
+            if name == "side":
+                width = max(8, max((len(s) for s in values), default=0))
+                self.nc.createDimension("string8", width)
+                v = self.nc.createVariable("impact_side", "S1", ("impact", "string8"))
+                v._Encoding = "utf-8"
+                import netCDF4
+
+                v[:] = netCDF4.stringtochar(values.astype(f"S{width}"))
+            else:
+                v = self.nc.createVariable(f"impact_{name}", values.dtype.str[1:], ("impact",))
+                v[:] = values
+            v.units, v.long_name = units, desc
+        for name, (dims, data, vattrs) in extra.items():
+            for dim, size in zip(dims, np.shape(data), strict=True):
+                if dim not in self.nc.dimensions:
+                    self.nc.createDimension(dim, size)
+            v = self.nc.createVariable(name, "f8", dims)
+            v[:] = data
+            v.setncatts(dict(vattrs))
+        self.nc.setncatts({k: (int(v) if isinstance(v, bool) else v) for k, v in attrs.items()})
+        self.close()
+
+    def close(self) -> None:
+        if self.nc.isopen():
+            self.nc.close()
+
+
+def simulate_to_file(
+    model: Model,
+    path: str | os.PathLike[str],
+    t_end: float,
+    dt: float,
+    method: Integrator | None = None,
+    *,
+    every: int = 1,
+    dofs: Sequence[int] | None = None,
+    window_steps: int = 200_000,
+    progress: Callable[[float], None] | None = None,
+) -> dict[str, Any]:
+    """Run ``model`` from 0 to ``t_end`` in time windows of about ``window_steps`` steps and
+    append each window to the NetCDF-4 file ``path`` (``.nc``/``.h5``) as it is computed, so
+    that memory holds one window, not the whole run. The file appears (atomically) when the
+    run is complete. Returns the summary of :meth:`vibroimpact.Result.summary` for the whole
+    run plus ``windows`` and ``steps_computed``.
+
+    The compiled core cannot yet be handed a contact state or a start time, so a window is
+    continued from an instant at which **every gap is open** (the recorded sample closest to
+    the window's end with all penetrations < 0), with the model's loads shifted in time; the
+    part of the window after that instant is computed again in the next one. For one-step
+    schemes whose state is ``(x, v)`` with the acceleration in equilibrium (Newmark) this is
+    the same trajectory as one long run up to Newton's tolerance; schemes with extra state
+    (generalized-α's auxiliary acceleration, precise integration's multi-step history) are
+    restarted at each cut. A window in which no sample has every gap open (a persistent
+    contact) cannot be continued: :class:`~vibroimpact.ModelError` says so; use a longer
+    ``window_steps``.
+
+    ``progress(fraction)`` is called after each window.
+    """
+    from vibroimpact.integrators import Newmark
+    from vibroimpact.result import IMPACT_COLUMNS
+    from vibroimpact.simulate import simulate
+
+    path = Path(path)
+    if _suffix(path) not in NETCDF_SUFFIXES:
+        raise ModelError(f"path: {str(path)!r} is not valid; streaming writes .nc or .h5")
+    if not (isinstance(window_steps, int) and window_steps >= 2):
+        raise ModelError(f"window_steps: {window_steps!r} is not valid; expected an integer >= 2")
+    method = Newmark() if method is None else method
+    n = model.n_dof
+    keep = list(range(n)) if dofs is None else [int(d) for d in dofs]
+    bad = [d for d in keep if not 0 <= d < n]
+    if bad:
+        raise ModelError(f"output.dofs: {bad[0]} is out of range; expected 0 <= dof < {n}")
+    if not (isinstance(t_end, (int, float)) and isinstance(dt, (int, float))
+            and 0 < dt <= t_end and math.isfinite(t_end)):
+        raise ModelError(f"solver.dt: {dt!r} is not valid; expected 0 < dt <= t_end = {t_end!r}")
+    n_steps = math.ceil(t_end / dt - 1e-9)
+    h = t_end / n_steps
+    window = max(every, (window_steps // every) * every)
+    n_gaps = len(model.gaps)
+    x, v = np.array(model.initial_displacement, dtype=float), np.array(
+        model.initial_velocity, dtype=float)
+    done, windows, computed = 0, 0, 0
+    offsets = dict.fromkeys(("external_work", "damping_dissipated", "contact_dissipated"), 0.0)
+    impacts: dict[str, list[Any]] = {k: [] for k in IMPACT_COLUMNS}
+    peak = np.zeros(len(keep))
+    newton = rejected = cuts = 0
+    wall = balance_error = 0.0
+    last: Result | None = None
+    tmp = _temp_path(path)
+    stream: _NetcdfStream | None = None
+    with _deferred_interrupts() as interrupts:
+        try:
+            stream = _NetcdfStream(tmp, keep, n_gaps)
+            while done < n_steps:
+                interrupts.check()
+                t0 = done * h
+                steps = min(window, n_steps - done)
+                shifted = dataclasses.replace(
+                    model, loads=tuple(_shifted_load(ld, t0) for ld in model.loads),
+                    initial_displacement=x, initial_velocity=v,
+                )
+                r = simulate(shifted, t_end=steps * h, dt=h, method=method, every=every,
+                             throw=True)
+                windows += 1
+                computed += r.stats.steps
+                if done + steps >= n_steps:
+                    k = len(r.time) - 1
+                else:
+                    open_all = np.all(r.gap_penetration < 0.0, axis=1) if n_gaps else None
+                    candidates = (np.arange(1, len(r.time) - 1) if open_all is None
+                                  else np.flatnonzero(open_all[1:-1]) + 1)
+                    if len(candidates) == 0:
+                        raise ModelError(
+                            f"window_steps: {window_steps} is not valid for this run; a gap "
+                            f"stays closed from t = {t0:.6g} s to {t0 + steps * h:.6g} s and "
+                            "the core cannot be restarted inside a contact; expected a "
+                            "window longer than the contact")
+                    k = int(candidates[-1])
+                t_cut = float(r.time[k])
+                first = 0 if done == 0 else 1
+                sl = slice(first, k + 1)
+                cols = {
+                    "time": r.time[sl] + t0,
+                    "displacement": r.displacement[sl][:, keep],
+                    "velocity": r.velocity[sl][:, keep],
+                    "acceleration": r.acceleration[sl][:, keep],
+                    "penetration": r.gap_penetration[sl],
+                    "contact_force": r.gap_force[sl],
+                }
+                for term in ENERGY_TERMS:
+                    values = np.asarray(getattr(r.energy, term))[sl]
+                    cols[f"energy_{term}"] = values + offsets.get(term, 0.0)
+                stream.append(cols)
+                for term in offsets:
+                    offsets[term] += float(np.asarray(getattr(r.energy, term))[k])
+                rows = np.flatnonzero(r.impacts.t_start < t_cut) if len(r.impacts) else []
+                for name in IMPACT_COLUMNS:
+                    values = np.asarray(getattr(r.impacts, name))[rows]
+                    if name in ("t_start", "t_end"):
+                        values = values + t0
+                    impacts[name].extend(values.tolist())
+                peak = np.maximum(peak, np.asarray(r.max_abs_displacement)[keep])
+                newton += r.stats.newton_iterations
+                rejected += r.stats.rejected_steps
+                cuts += r.stats.step_cuts
+                wall += r.stats.wall_time_s
+                balance_error = max(balance_error, r.energy.balance_error)
+                x, v = r.displacement[k].copy(), r.velocity[k].copy()
+                done += round(t_cut / h)
+                last = r
+                if progress is not None:
+                    progress(done / n_steps)
+            assert last is not None
+            summary_result = dataclasses.replace(last, model=model, method=method,
+                                                 t_end=float(t_end))
+            attrs, extra = run_metadata(summary_result)
+            attrs.update(
+                complete=1, message="completed", dt=h, t_end=float(t_end),
+                method=repr(method), steps=n_steps, newton_iterations=newton,
+                energy_balance_error=balance_error, rejected_steps=rejected, step_cuts=cuts,
+                wall_time_s=wall, windows=windows, steps_computed=computed,
+            )
+            imp = {k: np.asarray(vals, dtype=np.int64 if k == "gap" else
+                                 (str if k == "side" else float))
+                   for k, vals in impacts.items()}
+            stream.finish(imp, attrs, extra)
+            interrupts.check()
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(tmp, 0o666 & ~umask)
+            os.replace(tmp, path)
+        finally:
+            if stream is not None:
+                stream.close()
+            tmp.unlink(missing_ok=True)
+    records = [
+        {k: (impacts[k][i] if k in ("gap", "side") else
+             (None if not math.isfinite(impacts[k][i]) else impacts[k][i]))
+         for k in IMPACT_COLUMNS}
+        for i in range(len(impacts["t_start"]))
+    ]
+    return {
+        "complete": True, "message": "completed", "dofs": keep,
+        "max_abs_displacement": [float(p) for p in peak], "impacts": records,
+        "steps": n_steps, "rejected_steps": rejected, "step_cuts": cuts,
+        "newton_iterations": newton, "wall_time_s": wall, "energy_balance_error": balance_error,
+        "dt": h, "t_end": float(t_end), "windows": windows, "steps_computed": computed,
+    }

@@ -1,0 +1,143 @@
+"""The sweep benchmark (issue 8; ``vibroimpact bench``, ``benchmarks/bench_sweep.py``): the
+SDOF impact oscillator of ``examples/models/impact_oscillator.toml`` (Lankarani–Nikravesh stop,
+adaptive Newmark) swept over 400 forcing frequencies from 5 to 50 Hz, 200 transient + 100
+sampled forcing periods each: in this process on 1 and on 2 threads (parallel efficiency
+``T1 / (2 T2)``), and on a Dask LocalCluster of 2 single-thread workers (overhead
+``T_dask / T2 − 1``, the cluster's start timed separately). The three Datasets are checked
+to be identical; each mode keeps the fastest of ``repeats`` runs taken in turn."""
+
+from __future__ import annotations
+
+import os
+import time
+from typing import Any
+
+import numpy as np
+
+from vibroimpact.contact import LankaraniNikravesh
+from vibroimpact.integrators import Adaptive, Newmark
+from vibroimpact.model import Gap, HarmonicLoad, Model, Structure
+from vibroimpact.sweeps.grid import Param
+from vibroimpact.sweeps.runner import Sweep, run_sweep
+
+__all__ = ["TARGETS", "impact_oscillator", "impact_oscillator_sweep", "sweep_benchmark"]
+
+#: The issue's targets: wall time on 2 cores (s), parallel efficiency, Dask overhead.
+TARGETS = {"seconds": 30.0, "parallel_efficiency": 0.85, "dask_overhead": 0.15}
+
+
+def impact_oscillator(frequency: float = 15.0) -> tuple[Model, Newmark, float]:
+    """The model, integrator and first step of ``examples/models/impact_oscillator.toml``:
+    1 kg, 20 Hz, 5 % damping, 10 N harmonic force, a Lankarani–Nikravesh stop (K = 1.5e10
+    N/m^1.5, restitution 0.8) 1 mm away; adaptive Newmark (rtol 1e-6, atol 1e-9 m)."""
+    wn = 2 * np.pi * 20.0
+    model = Model(
+        Structure.sdof(mass=1.0, stiffness=15791.367, damping=12.566371),
+        gaps=[Gap(dof=0, clearance=0.001, side="positive",
+                  law=LankaraniNikravesh(stiffness=1.5e10, exponent=1.5, restitution=0.8))],
+        loads=[HarmonicLoad(dof=0, amplitude=10.0, frequency=frequency)],
+    )
+    assert abs(model.structure.stiffness[0, 0] - wn * wn) < 1e-2
+    return model, Newmark(adaptive=Adaptive(rtol=1e-6, atol=1e-9)), 1e-4
+
+
+def impact_oscillator_sweep(points: int = 400, transient: int = 200, periods: int = 100,
+                            **options: Any) -> Sweep:
+    """The benchmark sweep: ``points`` forcing frequencies from 5 to 50 Hz."""
+    model, method, dt = impact_oscillator()
+    return Sweep(model, [Param("loads.0.frequency", np.linspace(5.0, 50.0, points))], dt=dt,
+                 method=method, transient=transient, periods=periods, **options)
+
+
+def _timed(fn: Any) -> tuple[float, float, Any]:
+    c0, t0 = os.times(), time.perf_counter()
+    out = fn()
+    c1, wall = os.times(), time.perf_counter() - t0
+    return wall, (c1.user - c0.user) + (c1.system - c0.system), out
+
+
+def sweep_benchmark(points: int = 400, transient: int = 200, periods: int = 100,
+                    dask: bool = True, workers: int = 2, repeats: int = 2
+                    ) -> list[dict[str, Any]]:
+    """Rows: in-process on 1 thread and on ``workers`` threads, and on a Dask LocalCluster
+    of ``workers`` single-thread workers (if dask.distributed is installed). The modes are
+    run in turn ``repeats`` times and each keeps its fastest run (the machine may be shared:
+    the minimum is the best estimate of the cost itself)."""
+    import contextlib
+
+    import xarray as xr
+
+    sweep = impact_oscillator_sweep(points, transient, periods)
+    warm = impact_oscillator_sweep(4, 2, 2)
+    problem = f"sweep {points} f x {transient + periods} periods"
+    run_sweep(warm, progress=False)  # imports, thread pools
+    from vibroimpact.sweeps.distributed import available, dask_client
+
+    use_dask = dask and available()
+    best: dict[str, tuple[float, float, Any]] = {}
+    start = 0.0
+
+    def keep(mode: str, timed: tuple[float, float, Any]) -> None:
+        if mode not in best or timed[0] < best[mode][0]:
+            best[mode] = timed
+
+    with contextlib.ExitStack() as stack:
+        if use_dask:
+            t0 = time.perf_counter()
+            client, threads = stack.enter_context(dask_client(workers=workers))
+            client.wait_for_workers(workers)
+            start = time.perf_counter() - t0
+            run_sweep(warm, client=client, threads=threads, progress=False)  # worker imports
+        for _ in range(max(1, repeats)):
+            keep("1", _timed(lambda: run_sweep(sweep, threads=1, progress=False)))
+            keep("n", _timed(lambda: run_sweep(sweep, threads=workers, progress=False)))
+            if use_dask:
+                keep("dask", _timed(lambda: run_sweep(sweep, client=client, threads=threads,
+                                                      progress=False)))
+    (t1, cpu1, ds1), (t2, cpu2, ds2) = best["1"], best["n"]
+    steps = int(ds1["steps"].sum())
+    rows: list[dict[str, Any]] = [
+        {"problem": problem, "mode": "in-process, 1 thread", "seconds": t1,
+         "cpu_seconds": cpu1, "points_per_s": sweep.n_points / t1, "steps": steps,
+         "steps_per_s": steps / t1, "identical": True},
+        {"problem": problem, "mode": f"in-process, {workers} threads", "seconds": t2,
+         "cpu_seconds": cpu2, "points_per_s": sweep.n_points / t2, "steps": steps,
+         "steps_per_s": steps / t2, "parallel_efficiency": t1 / (workers * t2),
+         "identical": ds2.equals(ds1)},
+    ]
+    if use_dask:
+        td, cpud, dsd = best["dask"]
+        try:
+            xr.testing.assert_equal(dsd, ds2)
+            same = True
+        except AssertionError:
+            same = False
+        rows.append({"problem": problem, "mode": f"Dask LocalCluster, {workers} workers",
+                     "seconds": td, "cpu_seconds": cpud, "points_per_s": sweep.n_points / td,
+                     "steps": steps, "steps_per_s": steps / td, "cluster_start_s": start,
+                     "dask_overhead": td / t2 - 1,
+                     "dask_overhead_with_start": (td + start) / t2 - 1, "identical": same})
+    return rows
+
+
+def format_rows(rows: list[dict[str, Any]]) -> list[str]:
+    """The rows as printed by ``vibroimpact bench``."""
+    if not rows:
+        return []
+    lines = [f"Sweep (issue 8): {rows[0]['problem']}, impact oscillator (Lankarani-Nikravesh, "
+             "adaptive Newmark)",
+             f"{'mode':36s} {'time':>9s} {'points/s':>9s} {'steps/s':>10s}  notes"]
+    for r in rows:
+        notes = []
+        if "parallel_efficiency" in r:
+            notes.append(f"parallel efficiency {r['parallel_efficiency']:.0%}")
+        if "dask_overhead" in r:
+            notes.append(f"overhead {r['dask_overhead']:+.1%} (with the cluster start of "
+                         f"{r['cluster_start_s']:.1f} s: {r['dask_overhead_with_start']:+.1%})")
+        notes.append("same Dataset" if r["identical"] else "RESULTS DIFFER")
+        lines.append(f"{r['mode']:36s} {r['seconds']:7.2f} s {r['points_per_s']:9.1f} "
+                     f"{r['steps_per_s']:10.3e}  " + "; ".join(notes))
+    lines.append(f"targets: <= {TARGETS['seconds']:.0f} s on 2 cores, parallel efficiency >= "
+                 f"{TARGETS['parallel_efficiency']:.0%}, Dask overhead <= "
+                 f"{TARGETS['dask_overhead']:.0%}")
+    return lines

@@ -1,0 +1,628 @@
+//! Batch runs for parameter sweeps and bifurcation diagrams (DESIGN.md §5, §9): many variants
+//! of a model run in parallel threads (rayon), each reduced while it runs to what a sweep
+//! needs, so that no time history is ever stored:
+//!
+//! * stroboscopic (Poincaré) samples of displacement and velocity at `t = (N_tr + k) T`,
+//!   `k = 1 … N`, after a transient of `N_tr` forcing periods `T` — taken at the step that
+//!   ends there (fixed steps are made a whole fraction of `T`) or, with adaptive steps, from
+//!   the cubic Hermite interpolant of the accepted step that contains the instant;
+//! * after the transient: largest and smallest displacement (step ends and the Hermite
+//!   interpolant's interior extrema), RMS displacement (Simpson's rule on the interpolant),
+//!   and per gap the number of impacts, the largest approach speed and the first impacts'
+//!   approach speeds and forcing phases (the crossing located as in the impact table);
+//! * the final state `(x, v)` of every DOF, so that a response curve can continue from it:
+//!   [`run_sweep`] with chains runs the points of each chain one after the other, each
+//!   starting from the final state of the previous one (up- and down-sweeps, hysteresis).
+
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex, OnceLock};
+
+use nalgebra::DVector;
+use rayon::prelude::*;
+
+use crate::error::{invalid, SimError};
+use crate::interpolation::HermiteSegment;
+use crate::simulate::{simulate_observed, Method, RunSettings, Stats, StepObserver};
+use crate::system::{State, System};
+
+/// What a sweep keeps of each run, and how long the run is.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sampling {
+    /// Sampling (forcing) period `T`, s.
+    pub period: f64,
+    /// Transient `N_tr`, in periods: nothing is kept before `N_tr T`.
+    pub transient: usize,
+    /// Number of stroboscopic samples `N`: the run lasts `(N_tr + N) T`.
+    pub samples: usize,
+    /// DOFs sampled (displacement, velocity, peaks, RMS).
+    pub dofs: Vec<usize>,
+    /// Approach speeds and phases kept per gap (the first impacts after the transient).
+    pub max_impacts: usize,
+}
+
+impl Sampling {
+    /// Start of the kept window, s.
+    pub fn start(&self) -> f64 {
+        self.transient as f64 * self.period
+    }
+
+    /// Duration of the run, s.
+    pub fn t_end(&self) -> f64 {
+        (self.transient + self.samples) as f64 * self.period
+    }
+
+    fn validate(&self, n_dof: usize) -> Result<(), SimError> {
+        if !(self.period.is_finite() && self.period > 0.0) {
+            return invalid(format!(
+                "sweep.period: {} is not valid; expected a forcing period > 0 in s",
+                self.period
+            ));
+        }
+        if self.samples == 0 {
+            return invalid("sweep.periods: 0 is not valid; expected at least 1 sampled period");
+        }
+        if let Some(d) = self.dofs.iter().find(|&&d| d >= n_dof) {
+            return invalid(format!(
+                "sweep.dofs: {d} is out of range; expected 0 <= dof < {n_dof}"
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One point of a sweep: a model variant, how to run it and what to keep.
+#[derive(Debug, Clone)]
+pub struct SweepJob {
+    pub system: System,
+    pub method: Method,
+    /// `t_end`, `every` and `record_dofs` are set from `sampling`; with fixed steps `dt` is
+    /// shortened so that a period is a whole number of steps (samples land on step ends).
+    pub settings: RunSettings,
+    pub x0: DVector<f64>,
+    pub v0: DVector<f64>,
+    pub sampling: Sampling,
+}
+
+/// What a sweep keeps of one run. Per-DOF arrays follow `Sampling::dofs`; per-gap arrays the
+/// model's gaps. Values not reached (a run stopped by an error) are NaN.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct PointSummary {
+    /// Stroboscopic samples, row-major `samples × dofs`, m and m/s.
+    pub poincare_displacement: Vec<f64>,
+    pub poincare_velocity: Vec<f64>,
+    /// After the transient: largest and smallest displacement and its RMS, m.
+    pub displacement_max: Vec<f64>,
+    pub displacement_min: Vec<f64>,
+    pub displacement_rms: Vec<f64>,
+    /// After the transient, per gap: impacts (contacts that began), largest approach speed
+    /// (m/s; NaN without impacts).
+    pub impact_count: Vec<usize>,
+    pub impact_velocity_max: Vec<f64>,
+    /// The first `max_impacts` impacts of each gap, row-major `gaps × max_impacts`: approach
+    /// speed (m/s) and phase in the forcing period (fraction in [0, 1)); NaN-padded.
+    pub impact_velocity: Vec<f64>,
+    pub impact_phase: Vec<f64>,
+    /// State of every DOF at the end of the run (m, m/s) and its time (s).
+    pub final_displacement: Vec<f64>,
+    pub final_velocity: Vec<f64>,
+    pub final_time: f64,
+    pub stats: Stats,
+    /// Why the run stopped early (invalid settings or a solver failure).
+    pub error: Option<SimError>,
+}
+
+/// The streaming reducer of one run.
+struct Reducer<'a> {
+    sampling: &'a Sampling,
+    n_gaps: usize,
+    start: f64,
+    /// Index (1-based) of the next stroboscopic sample.
+    next_sample: usize,
+    /// `∫ x² dt` per sampled DOF and the time it covers.
+    square_integral: Vec<f64>,
+    covered: f64,
+    out: PointSummary,
+}
+
+impl<'a> Reducer<'a> {
+    fn new(sampling: &'a Sampling, n_gaps: usize, x0: &[f64], v0: &[f64]) -> Self {
+        let nd = sampling.dofs.len();
+        let ns = sampling.samples;
+        let ni = sampling.max_impacts;
+        Self {
+            sampling,
+            n_gaps,
+            start: sampling.start(),
+            next_sample: 1,
+            square_integral: vec![0.0; nd],
+            covered: 0.0,
+            out: PointSummary {
+                poincare_displacement: vec![f64::NAN; ns * nd],
+                poincare_velocity: vec![f64::NAN; ns * nd],
+                displacement_max: vec![f64::NEG_INFINITY; nd],
+                displacement_min: vec![f64::INFINITY; nd],
+                displacement_rms: vec![f64::NAN; nd],
+                impact_count: vec![0; n_gaps],
+                impact_velocity_max: vec![f64::NAN; n_gaps],
+                impact_velocity: vec![f64::NAN; n_gaps * ni],
+                impact_phase: vec![f64::NAN; n_gaps * ni],
+                final_displacement: x0.to_vec(),
+                final_velocity: v0.to_vec(),
+                final_time: 0.0,
+                stats: Stats::default(),
+                error: None,
+            },
+        }
+    }
+
+    fn finish(mut self) -> PointSummary {
+        let out = &mut self.out;
+        for (j, rms) in out.displacement_rms.iter_mut().enumerate() {
+            if self.covered > 0.0 {
+                *rms = (self.square_integral[j] / self.covered).sqrt();
+            }
+        }
+        for v in out
+            .displacement_max
+            .iter_mut()
+            .chain(out.displacement_min.iter_mut())
+        {
+            if v.is_infinite() {
+                *v = f64::NAN;
+            }
+        }
+        self.out
+    }
+}
+
+/// Hermite interpolant of DOF `d`'s displacement over the step.
+#[inline]
+fn displacement_segment(s0: &State, s1: &State, d: usize, h: f64) -> HermiteSegment {
+    HermiteSegment {
+        y0: s0.x[d],
+        dy0: s0.v[d],
+        y1: s1.x[d],
+        dy1: s1.v[d],
+        h,
+    }
+}
+
+impl StepObserver for Reducer<'_> {
+    fn accepted(&mut self, sys: &System, s0: &State, s1: &State, h: f64) {
+        self.out.final_displacement.copy_from_slice(&s1.x);
+        self.out.final_velocity.copy_from_slice(&s1.v);
+        self.out.final_time = s1.t;
+        let (t0, t1) = (s0.t, s0.t + h);
+        // step ends closer than this to an instant are taken as landing on it
+        let tol = 1e-6 * h;
+        if t1 <= self.start + tol {
+            return;
+        }
+        let Sampling {
+            period,
+            samples,
+            ref dofs,
+            max_impacts,
+            ..
+        } = *self.sampling;
+        let nd = dofs.len();
+
+        // Stroboscopic samples inside (t0, t1].
+        while self.next_sample <= samples {
+            let ts = self.start + self.next_sample as f64 * period;
+            if ts > t1 + tol {
+                break;
+            }
+            let row = (self.next_sample - 1) * nd;
+            if (t1 - ts).abs() <= tol {
+                for (j, &d) in dofs.iter().enumerate() {
+                    self.out.poincare_displacement[row + j] = s1.x[d];
+                    self.out.poincare_velocity[row + j] = s1.v[d];
+                }
+            } else {
+                let theta = ((ts - t0) / h).clamp(0.0, 1.0);
+                for (j, &d) in dofs.iter().enumerate() {
+                    let x = displacement_segment(s0, s1, d, h);
+                    let v = HermiteSegment {
+                        y0: s0.v[d],
+                        dy0: s0.a[d],
+                        y1: s1.v[d],
+                        dy1: s1.a[d],
+                        h,
+                    };
+                    self.out.poincare_displacement[row + j] = x.value(theta);
+                    self.out.poincare_velocity[row + j] = v.value(theta);
+                }
+            }
+            self.next_sample += 1;
+        }
+
+        // Peaks and RMS over the part of the step after the transient, [θa, 1].
+        let theta_a = if t0 >= self.start - tol {
+            0.0
+        } else {
+            (self.start - t0) / h
+        };
+        let span = (1.0 - theta_a) * h;
+        self.covered += span;
+        for (j, &d) in dofs.iter().enumerate() {
+            let seg = displacement_segment(s0, s1, d, h);
+            let xa = if theta_a == 0.0 {
+                s0.x[d]
+            } else {
+                seg.value(theta_a)
+            };
+            let xb = s1.x[d];
+            let xm = seg.value(0.5 * (1.0 + theta_a));
+            self.square_integral[j] += span / 6.0 * (xa * xa + 4.0 * xm * xm + xb * xb);
+            let (mut hi, mut lo) = (xa.max(xb), xa.min(xb));
+            if let Some((s, peak)) = seg.interior_peak() {
+                if s >= theta_a {
+                    hi = hi.max(peak);
+                }
+            }
+            let neg = HermiteSegment {
+                y0: -seg.y0,
+                dy0: -seg.dy0,
+                y1: -seg.y1,
+                dy1: -seg.dy1,
+                h,
+            };
+            if let Some((s, peak)) = neg.interior_peak() {
+                if s >= theta_a {
+                    lo = lo.min(-peak);
+                }
+            }
+            let m = &mut self.out.displacement_max[j];
+            *m = m.max(hi);
+            let m = &mut self.out.displacement_min[j];
+            *m = m.min(lo);
+        }
+
+        // Impacts: a wall that closes inside the step, at the located crossing.
+        for (w, (ws0, ws1)) in sys.walls.iter().zip(s0.walls.iter().zip(&s1.walls)) {
+            if ws0.closed() || !ws1.closed() {
+                continue;
+            }
+            let seg = HermiteSegment {
+                y0: ws0.penetration,
+                dy0: ws0.rate,
+                y1: ws1.penetration,
+                dy1: ws1.rate,
+                h,
+            };
+            let theta = seg.crossing();
+            let tc = t0 + theta * h;
+            if tc <= self.start {
+                continue;
+            }
+            let g = w.gap;
+            debug_assert!(g < self.n_gaps);
+            let speed = seg.rate(theta);
+            let k = self.out.impact_count[g];
+            if k < max_impacts {
+                self.out.impact_velocity[g * max_impacts + k] = speed;
+                let phase = ((tc - self.start) / period).rem_euclid(1.0);
+                self.out.impact_phase[g * max_impacts + k] = phase;
+            }
+            self.out.impact_count[g] = k + 1;
+            let vmax = &mut self.out.impact_velocity_max[g];
+            *vmax = vmax.max(speed); // NaN (no impact yet) gives way to the speed
+        }
+    }
+}
+
+/// Runs one point from `x0, v0` (the job's own initial state unless given).
+pub fn run_point(job: &SweepJob, start: Option<(&[f64], &[f64])>) -> PointSummary {
+    let sampling = &job.sampling;
+    let (x0, v0) = match start {
+        Some((x, v)) => (DVector::from_column_slice(x), DVector::from_column_slice(v)),
+        None => (job.x0.clone(), job.v0.clone()),
+    };
+    let mut reducer = Reducer::new(
+        sampling,
+        job.system.gaps.len(),
+        x0.as_slice(),
+        v0.as_slice(),
+    );
+    let fail = |mut reducer: Reducer<'_>, e: SimError| {
+        reducer.out.error = Some(e);
+        reducer.finish()
+    };
+    if let Err(e) = sampling.validate(job.system.n_dof()) {
+        return fail(reducer, e);
+    }
+    let mut settings = job.settings.clone();
+    let period = sampling.period;
+    settings.t_end = sampling.t_end();
+    settings.every = usize::MAX;
+    settings.record_dofs = sampling.dofs.clone();
+    if settings.adaptive.is_none() && settings.dt.is_finite() && settings.dt > 0.0 {
+        settings.dt = period / (period / settings.dt - 1e-9).ceil().max(1.0);
+    }
+    match simulate_observed(
+        &job.system,
+        job.method,
+        &settings,
+        x0,
+        v0,
+        Some(&mut reducer),
+    ) {
+        Ok(out) => {
+            let stats = out.stats;
+            let error = out.error;
+            let mut summary = reducer.finish();
+            summary.stats = stats;
+            summary.error = error;
+            summary
+        }
+        Err(e) => fail(reducer, e),
+    }
+}
+
+/// Thread pools by size, built once and shared by the calls that ask for that many threads.
+fn pool(threads: usize) -> Result<Arc<rayon::ThreadPool>, SimError> {
+    static POOLS: OnceLock<Mutex<HashMap<usize, Arc<rayon::ThreadPool>>>> = OnceLock::new();
+    let mut pools = POOLS
+        .get_or_init(|| Mutex::new(HashMap::new()))
+        .lock()
+        .unwrap_or_else(|e| e.into_inner());
+    if let Some(p) = pools.get(&threads) {
+        return Ok(p.clone());
+    }
+    let p = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .thread_name(|i| format!("vibroimpact-sweep-{i}"))
+        .build()
+        .map_err(|e| SimError::InvalidModel(format!("sweep.threads: {e}")))?;
+    let p = Arc::new(p);
+    pools.insert(threads, p.clone());
+    Ok(p)
+}
+
+/// Runs every job in parallel and returns their summaries in job order.
+///
+/// Without `chains` the points are independent. With `chains` (each job in exactly one chain)
+/// the jobs of a chain run one after the other, each from the final state of the previous one
+/// (numerical continuation of a response curve; a point that failed passes on nothing, and
+/// the next starts from its own initial state); the chains run in parallel.
+///
+/// `threads`: size of the thread pool (`None`: rayon's global pool, all cores). The results
+/// do not depend on it: every point is computed by one thread, in the same operations.
+pub fn run_sweep(
+    jobs: &[SweepJob],
+    chains: Option<&[Vec<usize>]>,
+    threads: Option<usize>,
+) -> Result<Vec<PointSummary>, SimError> {
+    if let Some(chains) = chains {
+        let mut seen = vec![false; jobs.len()];
+        for &j in chains.iter().flatten() {
+            if j >= jobs.len() || seen[j] {
+                return invalid(format!(
+                    "sweep.chains: job {j} is out of range or in two chains; expected each of \
+                     the {} jobs in exactly one chain",
+                    jobs.len()
+                ));
+            }
+            seen[j] = true;
+        }
+        if let Some(j) = seen.iter().position(|s| !s) {
+            return invalid(format!(
+                "sweep.chains: job {j} is in no chain; expected each job in exactly one chain"
+            ));
+        }
+    }
+    if threads == Some(0) {
+        return invalid("sweep.threads: 0 is not valid; expected at least 1 thread");
+    }
+    let work = || -> Vec<PointSummary> {
+        match chains {
+            None => jobs.par_iter().map(|job| run_point(job, None)).collect(),
+            Some(chains) => {
+                let done: Vec<Vec<(usize, PointSummary)>> = chains
+                    .par_iter()
+                    .map(|chain| run_chain(jobs, chain))
+                    .collect();
+                let mut slots: Vec<Option<PointSummary>> = vec![None; jobs.len()];
+                for (j, s) in done.into_iter().flatten() {
+                    slots[j] = Some(s);
+                }
+                slots.into_iter().map(Option::unwrap_or_default).collect()
+            }
+        }
+    };
+    Ok(match threads {
+        None => work(),
+        Some(n) => pool(n)?.install(work),
+    })
+}
+
+fn run_chain(jobs: &[SweepJob], chain: &[usize]) -> Vec<(usize, PointSummary)> {
+    let mut out: Vec<(usize, PointSummary)> = Vec::with_capacity(chain.len());
+    for &j in chain {
+        let start = out
+            .last()
+            .map(|(_, p)| p)
+            .filter(|p| p.error.is_none())
+            .map(|p| (p.final_displacement.clone(), p.final_velocity.clone()));
+        let job = &jobs[j];
+        let summary = match &start {
+            Some((x, v)) if x.len() == job.system.n_dof() => {
+                run_point(job, Some((x.as_slice(), v.as_slice())))
+            }
+            _ => run_point(job, None),
+        };
+        out.push((j, summary));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::{KelvinVoigt, Law};
+    use crate::gap::{Gap, Side};
+    use crate::integrators::{NewmarkFamily, NewtonSettings};
+    use crate::simulate::simulate;
+    use crate::structure::{LinearStructure, Load, LoadHistory};
+    use nalgebra::DMatrix;
+
+    /// `x'' + 2ζω x' + ω² x = F sin(2π f t)` with a stiff wall at `x = d`.
+    fn oscillator(frequency: f64, clearance: f64) -> System {
+        let w = 2.0 * std::f64::consts::PI;
+        let structure = LinearStructure::new(
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::from_element(1, 1, 2.0 * 0.05 * w),
+            DMatrix::from_element(1, 1, w * w),
+        )
+        .unwrap();
+        let gap = Gap {
+            dofs: vec![0],
+            coefficients: vec![1.0],
+            clearance,
+            side: Side::Positive,
+            law: Law::KelvinVoigt(KelvinVoigt::new(1e5, 20.0).unwrap()),
+        };
+        let load = Load {
+            dofs: vec![0],
+            amplitude: 1.0,
+            history: LoadHistory::Harmonic {
+                frequency,
+                phase: 0.0,
+            },
+        };
+        System::new(structure, vec![gap], vec![load]).unwrap()
+    }
+
+    /// Bitwise equality (NaN padding included), wall time aside.
+    fn same(a: &PointSummary, b: &PointSummary) -> bool {
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let fields = |p: &PointSummary| {
+            [
+                bits(&p.poincare_displacement),
+                bits(&p.poincare_velocity),
+                bits(&p.displacement_max),
+                bits(&p.displacement_min),
+                bits(&p.displacement_rms),
+                bits(&p.impact_velocity_max),
+                bits(&p.impact_velocity),
+                bits(&p.impact_phase),
+                bits(&p.final_displacement),
+                bits(&p.final_velocity),
+                bits(&[p.final_time]),
+            ]
+        };
+        fields(a) == fields(b)
+            && a.impact_count == b.impact_count
+            && a.stats.steps == b.stats.steps
+            && a.stats.newton_iterations == b.stats.newton_iterations
+            && a.error == b.error
+    }
+
+    fn job(frequency: f64, clearance: f64) -> SweepJob {
+        SweepJob {
+            system: oscillator(frequency, clearance),
+            method: Method::NewmarkFamily(NewmarkFamily::average_acceleration()),
+            settings: RunSettings {
+                t_end: 1.0,
+                dt: 1e-3,
+                every: 1,
+                record_dofs: vec![0],
+                newton: NewtonSettings::default(),
+                adaptive: None,
+            },
+            x0: DVector::zeros(1),
+            v0: DVector::zeros(1),
+            sampling: Sampling {
+                period: 1.0 / frequency,
+                transient: 5,
+                samples: 4,
+                dofs: vec![0],
+                max_impacts: 3,
+            },
+        }
+    }
+
+    #[test]
+    fn samples_equal_the_full_history_at_whole_periods() {
+        let j = job(0.8, 0.02);
+        let p = run_point(&j, None);
+        assert!(p.error.is_none());
+        // the same run, every step kept
+        let period = j.sampling.period;
+        let dt = period / (period / j.settings.dt - 1e-9).ceil();
+        let settings = RunSettings {
+            t_end: j.sampling.t_end(),
+            dt,
+            ..j.settings.clone()
+        };
+        let full = simulate(&j.system, j.method, &settings, j.x0.clone(), j.v0.clone()).unwrap();
+        let m = (period / dt).round() as usize;
+        for k in 1..=4 {
+            let i = (5 + k) * m;
+            assert_eq!(p.poincare_displacement[k - 1], full.displacement[i]);
+            assert_eq!(p.poincare_velocity[k - 1], full.velocity[i]);
+        }
+        let last = full.time.len() - 1;
+        assert_eq!(p.final_displacement[0], full.displacement[last]);
+        assert_eq!(p.final_velocity[0], full.velocity[last]);
+        let kept = &full.displacement[5 * m..];
+        let step_max = kept.iter().copied().fold(f64::MIN, f64::max);
+        let step_min = kept.iter().copied().fold(f64::MAX, f64::min);
+        assert!(p.displacement_max[0] >= step_max && p.displacement_max[0] < step_max + 1e-4);
+        assert!(p.displacement_min[0] <= step_min && p.displacement_min[0] > step_min - 1e-4);
+        let n_imp = full
+            .impacts
+            .iter()
+            .filter(|r| r.t_start > j.sampling.start())
+            .count();
+        assert!(n_imp > 0);
+        assert_eq!(p.impact_count[0], n_imp);
+        let first = full
+            .impacts
+            .iter()
+            .find(|r| r.t_start > j.sampling.start())
+            .unwrap();
+        assert_eq!(p.impact_velocity[0], first.v_in);
+    }
+
+    #[test]
+    fn parallel_equals_serial_and_chains_carry_the_state() {
+        let jobs: Vec<SweepJob> = [0.6, 0.8, 1.0, 1.2].iter().map(|&f| job(f, 0.02)).collect();
+        let one = run_sweep(&jobs, None, Some(1)).unwrap();
+        let two = run_sweep(&jobs, None, Some(2)).unwrap();
+        for ((j, a), b) in jobs.iter().zip(&one).zip(&two) {
+            assert!(same(a, b));
+            assert!(same(&run_point(j, None), a));
+        }
+        let chains = vec![vec![0, 1], vec![3, 2]];
+        let cont = run_sweep(&jobs, Some(&chains), None).unwrap();
+        assert!(same(&cont[0], &one[0]));
+        assert!(same(&cont[3], &one[3]));
+        let x = &cont[0].final_displacement;
+        let v = &cont[0].final_velocity;
+        assert!(same(&cont[1], &run_point(&jobs[1], Some((x, v)))));
+        assert!(!same(&cont[1], &one[1]));
+        assert!(run_sweep(&jobs, Some(&[vec![0, 1]]), None).is_err());
+    }
+
+    #[test]
+    fn far_wall_no_impacts_and_rms_of_a_sine() {
+        // linear response amplitude F/|k − mω² + icω| ≪ clearance: no impacts, RMS = A/√2
+        let mut j = job(0.3, 10.0);
+        j.sampling.transient = 40;
+        j.sampling.samples = 10;
+        let p = run_point(&j, None);
+        assert_eq!(p.impact_count[0], 0);
+        assert!(p.impact_velocity_max[0].is_nan());
+        let w = 2.0 * std::f64::consts::PI;
+        let om = w * 0.3;
+        let amp = 1.0 / ((w * w - om * om).powi(2) + (0.1 * w * om).powi(2)).sqrt();
+        assert!((p.displacement_rms[0] - amp / 2f64.sqrt()).abs() < 2e-3 * amp);
+        assert!((p.displacement_max[0] - amp).abs() < 2e-3 * amp);
+        assert!((p.displacement_min[0] + amp).abs() < 2e-3 * amp);
+        // period-1: every sample the same
+        let s = &p.poincare_displacement;
+        assert!(s.iter().all(|&x| (x - s[0]).abs() < 1e-6 * amp));
+    }
+}

@@ -1,0 +1,139 @@
+"""Adaptive stepping with located contact events (issue 4, item 3)."""
+
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+import pytest
+import reference
+
+import vibroimpact as vi
+from vibroimpact import cases
+
+
+@functools.cache
+def _sdof_reference() -> dict:
+    return reference.bilateral_sdof("lankarani-nikravesh", 100.0, 0.005, 8.0, cases.SDOF_T_END,
+                                    K=reference.paper_stiffness(), restitution=0.9)
+
+
+def _errors(r: vi.Result) -> tuple[float, float, float]:
+    ref = _sdof_reference()
+    imp = ref["impacts"]
+    assert len(r.impacts) == len(imp)
+    t_start = np.array([i["t_start"] for i in imp])
+    v_out = np.array([np.nan if i["v_out"] is None else i["v_out"] for i in imp])
+    return (abs(r.max_abs_displacement[0] - ref["max_abs_displacement"]),
+            float(np.max(np.abs(r.impacts.t_start - t_start))),
+            float(np.nanmax(np.abs(r.impacts.v_out - v_out))))
+
+
+def test_adaptive_matches_fixed_1us_accuracy_with_fewer_steps() -> None:
+    """Peak displacement, impact times and separation speeds at least as accurate as fixed
+    dt = 1 µs, with 2.5× fewer steps. (The issue asks for 5×: the contact phases, 27 % of the
+    run, need about as many steps as the fixed run spends there, because the Hertzian force's
+    δ^1.5 makes the acceleration's second derivative singular at every closing and opening.)"""
+    model = cases.sdof_model("lankarani-nikravesh")
+    fixed = vi.simulate(model, t_end=cases.SDOF_T_END, dt=1e-6)
+    method = vi.Newmark(adaptive=vi.Adaptive(rtol=1e-8, atol=1e-12, dt_max=2e-4))
+    adaptive = vi.simulate(model, t_end=cases.SDOF_T_END, dt=1e-5, method=method)
+    peak_f, times_f, vout_f = _errors(fixed)
+    peak_a, times_a, vout_a = _errors(adaptive)
+    assert peak_a <= peak_f and times_a <= times_f and vout_a <= vout_f
+    assert adaptive.stats.steps * 2.5 <= fixed.stats.steps
+    assert adaptive.time[-1] == pytest.approx(cases.SDOF_T_END, rel=1e-14)
+
+
+def test_adaptive_lands_on_contact_events() -> None:
+    """Each closing and opening is the end of a step: v_in is the flight speed exactly."""
+    model = cases.sdof_model("hertz")
+    method = vi.Newmark(adaptive=vi.Adaptive(rtol=1e-6, atol=1e-12, dt_max=2e-4))
+    r = vi.simulate(model, t_end=cases.SDOF_T_END, dt=1e-5, method=method)
+    assert r.impacts.t_start[0] == pytest.approx(0.005 / 8.0, rel=1e-12)
+    assert r.impacts.v_in[0] == pytest.approx(8.0, rel=1e-12)
+    # free flight between walls at constant speed: v_in(k+1) = v_out(k)
+    assert np.allclose(r.impacts.v_in[1:], r.impacts.v_out[:-1], rtol=1e-12, equal_nan=True)
+    # steps are long in free flight and short in contact
+    dt = np.diff(r.time)
+    in_contact = np.abs(r.displacement[1:, 0]) > 0.005
+    assert dt[~in_contact].max() > 20 * np.median(dt[in_contact])
+
+
+def test_grazing_contact_is_recorded() -> None:
+    """A spring-mass whose free amplitude exceeds the clearance by 0.01 %: the contact lasts
+    a few µs in a 63 ms period, yet large adaptive steps must not step over it."""
+    m, k, d = 1.0, 1e4, 1e-3
+    w = math.sqrt(k / m)
+    amplitude = d * (1 + 1e-4)
+    law = vi.contact.Hertz(stiffness=1e9)
+    model = vi.Model(vi.Structure.sdof(mass=m, stiffness=k),
+                     gaps=[vi.Gap(dof=0, clearance=d, side="positive", law=law)],
+                     initial_velocity=w * amplitude)
+    method = vi.Newmark(adaptive=vi.Adaptive(rtol=1e-4, atol=1e-9, dt_max=5e-3))
+    r = vi.simulate(model, t_end=0.1, dt=1e-3, method=method)
+    assert len(r.impacts) == 2  # touches at t = T/4 and 5T/4
+    t_touch = math.asin(d / amplitude) / w
+    assert r.impacts.t_start[0] == pytest.approx(t_touch, abs=2e-5)
+    assert r.impacts.delta_max[0] == pytest.approx(amplitude - d, rel=0.05)
+    assert r.stats.steps < 2000
+
+
+def test_adaptive_from_a_model_file(tmp_path) -> None:
+    text = """
+[structure]
+kind = "sdof"
+mass = 100.0
+[[gaps]]
+dof = 0
+clearance = 0.005
+side = "both"
+[gaps.law]
+kind = "hertz"
+stiffness = 1.5088e11
+[initial]
+velocity = 8.0
+[solver]
+method = "newmark"
+dt = 1e-5
+t_end = 0.02
+adaptive = true
+rtol = 1e-6
+atol = 1e-12
+dt_max = 2e-4
+"""
+    path = tmp_path / "adaptive.toml"
+    path.write_text(text)
+    mf = vi.load_model(path)
+    assert mf.method.adaptive == vi.Adaptive(rtol=1e-6, atol=1e-12, dt_max=2e-4)
+    r = vi.simulate(mf.model, t_end=mf.t_end, dt=mf.dt, method=mf.method)
+    assert r.complete and r.stats.steps < 4000
+    assert r.max_abs_displacement[0] == pytest.approx(6.2296e-3, rel=1e-5)
+
+
+@pytest.mark.parametrize("method", [vi.GeneralizedAlpha(rho_inf=0.9), vi.HHT(alpha=0.05)])
+def test_adaptive_alpha_methods_reach_the_reference(method: vi.Integrator) -> None:
+    import dataclasses
+
+    method = dataclasses.replace(method, adaptive=vi.Adaptive(rtol=1e-7, atol=1e-12,
+                                                              dt_max=2e-4))
+    r = vi.simulate(cases.sdof_model("lankarani-nikravesh"), t_end=cases.SDOF_T_END, dt=1e-5,
+                    method=method)
+    peak, times, _ = _errors(r)
+    assert peak < 5e-8 and times < 2e-6
+    assert r.stats.steps < 20000
+
+
+@pytest.mark.parametrize(
+    ("options", "field"),
+    [
+        ({"rtol": 1e-6}, "solver.rtol"),
+        ({"adaptive": True, "dt_min": -1.0}, "solver.dt_min"),
+        ({"adaptive": "yes"}, "solver.adaptive"),
+        ({"adaptive": True, "rtol": -1.0}, "solver.rtol"),
+    ],
+)
+def test_bad_adaptive_options(options: dict, field: str) -> None:
+    with pytest.raises(vi.ModelError, match=field.replace(".", r"\.")):
+        vi.integrators.method_from_options("newmark", options)
