@@ -10,6 +10,8 @@ pub mod error;
 pub mod gap;
 pub mod integrators;
 pub mod interpolation;
+pub mod interrupt;
+pub mod linalg;
 pub mod simulate;
 pub mod step_control;
 pub mod structure;

@@ -6,6 +6,7 @@ use nalgebra::DVector;
 use crate::contact::MIN_IMPACT_SPEED;
 use crate::error::{invalid, SimError};
 use crate::gap::{evaluate_wall, Gap, Wall, WallState};
+use crate::linalg::Csr;
 use crate::structure::{LinearStructure, Load};
 
 /// `M x'' + C x' + K x = F(t) − Σ_g φ_g b_gᵀ`, with `φ_g = Σ_walls s F` the generalized
@@ -17,6 +18,17 @@ pub struct System {
     pub loads: Vec<Load>,
     pub walls: Vec<Wall>,
     pub has_damping: bool,
+    /// `M`, `C`, `K` as sparse rows, for the per-step work that does not need a solve
+    /// (energy account, banded predictor).
+    pub sparse: SparseStructure,
+}
+
+/// The structure's matrices as compressed sparse rows.
+#[derive(Debug, Clone)]
+pub struct SparseStructure {
+    pub mass: Csr,
+    pub damping: Csr,
+    pub stiffness: Csr,
 }
 
 impl System {
@@ -44,12 +56,18 @@ impl System {
             })
             .collect();
         let has_damping = structure.damping.iter().any(|&c| c != 0.0);
+        let sparse = SparseStructure {
+            mass: Csr::from_dense(&structure.mass),
+            damping: Csr::from_dense(&structure.damping),
+            stiffness: Csr::from_dense(&structure.stiffness),
+        };
         Ok(Self {
             structure,
             gaps,
             loads,
             walls,
             has_damping,
+            sparse,
         })
     }
 

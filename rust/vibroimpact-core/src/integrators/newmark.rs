@@ -13,6 +13,7 @@ use nalgebra::DMatrix;
 use super::newton::{GapNewton, GapProblem, NewtonSettings, RateMap};
 use super::{StepFailure, Stepper, ANY_LEVEL};
 use crate::error::{invalid, SimError};
+use crate::linalg::BandedCholesky;
 use crate::system::{State, System};
 
 /// Parameters of a Newmark-family scheme.
@@ -84,17 +85,30 @@ impl NewmarkFamily {
 struct StepOperator {
     /// Newmark coefficients `a₀ … a₅`.
     a: [f64; 6],
-    /// `Pₓ`, `P_v`, `P_a`, row-major n×n.
-    p_x: Vec<f64>,
-    p_v: Vec<f64>,
-    p_a: Vec<f64>,
-    /// `K̃⁻¹ b_l`, one per load.
-    loads: Vec<Vec<f64>>,
+    predictor: Predictor,
     /// `K̃⁻¹ b_gᵀ`, one per gap.
     gaps: Vec<Vec<f64>>,
     /// `W = B K̃⁻¹ Bᵀ`, row-major, gaps × gaps.
     w: Vec<f64>,
 }
+
+/// How the linear predictor `Δx_lin` is formed.
+enum Predictor {
+    /// Small or dense models: `Pₓ`, `P_v`, `P_a` (row-major n×n) and the load shapes
+    /// `L_l = K̃⁻¹ b_l`: three dense mat-vecs, no solve.
+    Dense {
+        p_x: Vec<f64>,
+        p_v: Vec<f64>,
+        p_a: Vec<f64>,
+        loads: Vec<Vec<f64>>,
+    },
+    /// Large sparse models (beams, imported FE matrices): `R` from sparse mat-vecs and one
+    /// banded Cholesky solve in reverse Cuthill–McKee order.
+    Banded(BandedCholesky),
+}
+
+/// Models with fewer DOFs always use the dense predictor.
+const BANDED_MIN_DOFS: usize = 24;
 
 impl StepOperator {
     fn new(sys: &System, scheme: &NewmarkFamily, h: f64) -> Result<Self, SimError> {
@@ -115,43 +129,89 @@ impl StepOperator {
         let c_m = (1.0 - alpha_m) / (1.0 - alpha_f);
         let st = &sys.structure;
         let (m, c, k) = (&st.mass, &st.damping, &st.stiffness);
-        let lu = (k + m * (c_m * a[0]) + c * a[1]).lu();
-        if !lu.is_invertible() {
-            return Err(SimError::SingularTangent { dt: h });
-        }
-        let scale = -1.0 / (1.0 - alpha_f);
-        let solve = |rhs: DMatrix<f64>| -> Result<Vec<f64>, SimError> {
-            let sol = lu.solve(&rhs).ok_or(SimError::SingularTangent { dt: h })?;
-            if sol.iter().any(|v| !v.is_finite()) {
-                return Err(SimError::SingularTangent { dt: h });
-            }
-            Ok(sol.transpose().as_slice().to_vec()) // row-major
-        };
-        let p_x = solve(k * scale)?;
-        let p_v = solve(
-            (m * (-(1.0 - alpha_m) * a[2]) + c * (alpha_f - (1.0 - alpha_f) * a[4])) * scale,
-        )?;
-        let p_a =
-            solve((m * (alpha_m - (1.0 - alpha_m) * a[3]) - c * ((1.0 - alpha_f) * a[5])) * scale)?;
         let n = sys.n_dof();
-        let shape =
-            |entries: &mut dyn Iterator<Item = (usize, f64)>| -> Result<Vec<f64>, SimError> {
-                let mut col = DMatrix::zeros(n, 1);
-                for (d, c) in entries {
-                    col[d] += c;
+        let singular = SimError::SingularTangent { dt: h };
+        // A banded factor when the reordered band is narrow enough to beat 3 n² per step.
+        let banded = (n >= BANDED_MIN_DOFS)
+            .then(|| {
+                let sp = &sys.sparse;
+                let (perm, bw) =
+                    BandedCholesky::ordering(n, &[&sp.mass, &sp.damping, &sp.stiffness]);
+                let cost = sp.mass.nnz() + sp.damping.nnz() + sp.stiffness.nnz() + 2 * n * (bw + 1);
+                if cost * 2 > 3 * n * n {
+                    return None;
                 }
-                solve(col)
-            };
-        let loads = sys
-            .loads
-            .iter()
-            .map(|l| shape(&mut l.dofs.iter().map(|&d| (d, 1.0))))
-            .collect::<Result<Vec<_>, _>>()?;
-        let gaps = sys
-            .gaps
-            .iter()
-            .map(|g| shape(&mut g.dofs.iter().copied().zip(g.coefficients.iter().copied())))
-            .collect::<Result<Vec<_>, _>>()?;
+                let terms = [
+                    (1.0, &sp.stiffness),
+                    (c_m * a[0], &sp.mass),
+                    (a[1], &sp.damping),
+                ];
+                BandedCholesky::factor(&terms, perm, bw)
+            })
+            .flatten();
+        type Solve = Box<dyn FnMut(DMatrix<f64>) -> Result<Vec<f64>, SimError>>;
+        let (predictor, mut solve): (Predictor, Solve) = match banded {
+            Some(factor) => {
+                let f = factor.clone();
+                let mut work = vec![0.0; n];
+                let solve = move |rhs: DMatrix<f64>| -> Result<Vec<f64>, SimError> {
+                    let mut col = rhs.column(0).iter().copied().collect::<Vec<_>>();
+                    f.solve_in_place(&mut col, &mut work);
+                    if col.iter().any(|v| !v.is_finite()) {
+                        return Err(SimError::SingularTangent { dt: h });
+                    }
+                    Ok(col)
+                };
+                (Predictor::Banded(factor), Box::new(solve))
+            }
+            _ => {
+                let lu = (k + m * (c_m * a[0]) + c * a[1]).lu();
+                if !lu.is_invertible() {
+                    return Err(singular);
+                }
+                let solve = move |rhs: DMatrix<f64>| -> Result<Vec<f64>, SimError> {
+                    let sol = lu.solve(&rhs).ok_or(SimError::SingularTangent { dt: h })?;
+                    if sol.iter().any(|v| !v.is_finite()) {
+                        return Err(SimError::SingularTangent { dt: h });
+                    }
+                    Ok(sol.transpose().as_slice().to_vec()) // row-major
+                };
+                let scale = -1.0 / (1.0 - alpha_f);
+                let p_x = solve(k * scale)?;
+                let p_v = solve(
+                    (m * (-(1.0 - alpha_m) * a[2]) + c * (alpha_f - (1.0 - alpha_f) * a[4]))
+                        * scale,
+                )?;
+                let p_a = solve(
+                    (m * (alpha_m - (1.0 - alpha_m) * a[3]) - c * ((1.0 - alpha_f) * a[5])) * scale,
+                )?;
+                let mut loads = Vec::with_capacity(sys.loads.len());
+                for l in &sys.loads {
+                    let mut col = DMatrix::zeros(n, 1);
+                    for &d in &l.dofs {
+                        col[d] += 1.0;
+                    }
+                    loads.push(solve(col)?);
+                }
+                (
+                    Predictor::Dense {
+                        p_x,
+                        p_v,
+                        p_a,
+                        loads,
+                    },
+                    Box::new(solve),
+                )
+            }
+        };
+        let mut gaps = Vec::with_capacity(sys.gaps.len());
+        for g in &sys.gaps {
+            let mut col = DMatrix::zeros(n, 1);
+            for (&d, &c) in g.dofs.iter().zip(&g.coefficients) {
+                col[d] += c;
+            }
+            gaps.push(solve(col)?);
+        }
         let ng = gaps.len();
         let mut w = vec![0.0; ng * ng];
         let mut row = vec![0.0; ng];
@@ -163,10 +223,7 @@ impl StepOperator {
         }
         Ok(Self {
             a,
-            p_x,
-            p_v,
-            p_a,
-            loads,
+            predictor,
             gaps,
             w,
         })
@@ -181,6 +238,7 @@ pub struct NewmarkStepper {
     /// Operator of the last step whose size is not `dt / 2^level` ([`ANY_LEVEL`]).
     one_off: Option<(f64, StepOperator)>,
     dx: Vec<f64>,
+    work: Vec<f64>,
     du_lin: Vec<f64>,
     rate_lin: Vec<f64>,
     gap_newton: GapNewton,
@@ -201,6 +259,7 @@ impl NewmarkStepper {
             operators: (0..=newton.max_step_cuts).map(|_| None).collect(),
             one_off: None,
             dx: vec![0.0; n],
+            work: vec![0.0; n],
             du_lin: vec![0.0; ng],
             rate_lin: vec![0.0; ng],
             gap_newton: GapNewton::new(ng),
@@ -253,19 +312,55 @@ impl Stepper for NewmarkStepper {
         for (g, load) in s1.load.iter_mut().zip(&sys.loads) {
             *g = load.value(s1.t);
         }
-        for i in 0..n {
-            let row = i * n..(i + 1) * n;
-            let (px, pv, pa) = (&op.p_x[row.clone()], &op.p_v[row.clone()], &op.p_a[row]);
-            let mut acc = 0.0;
-            for j in 0..n {
-                acc += px[j] * s0.x[j] + pv[j] * s0.v[j] + pa[j] * s0.a[j];
+        match &op.predictor {
+            Predictor::Dense {
+                p_x,
+                p_v,
+                p_a,
+                loads,
+            } => {
+                for i in 0..n {
+                    let row = i * n..(i + 1) * n;
+                    let (px, pv, pa) = (&p_x[row.clone()], &p_v[row.clone()], &p_a[row]);
+                    let mut acc = 0.0;
+                    for j in 0..n {
+                        acc += px[j] * s0.x[j] + pv[j] * s0.v[j] + pa[j] * s0.a[j];
+                    }
+                    self.dx[i] = acc;
+                }
+                for (l, col) in loads.iter().enumerate() {
+                    let coef = s1.load[l] + c_f * s0.load[l];
+                    if coef != 0.0 {
+                        axpy(coef, col, &mut self.dx);
+                    }
+                }
             }
-            self.dx[i] = acc;
-        }
-        for (l, col) in op.loads.iter().enumerate() {
-            let coef = s1.load[l] + c_f * s0.load[l];
-            if coef != 0.0 {
-                axpy(coef, col, &mut self.dx);
+            Predictor::Banded(factor) => {
+                let sp = &sys.sparse;
+                let (mass, damping, stiffness) = (&sp.mass, &sp.damping, &sp.stiffness);
+                // R = F₁ + [α_f F₀ − K x₀ − M m − C c]/(1−α_f) (the contact part of F₀ + f₀
+                // is added below through the gap shapes, as for the dense predictor).
+                let NewmarkFamily { alpha_m, .. } = self.scheme;
+                let scale = 1.0 / (1.0 - alpha_f);
+                self.dx.fill(0.0);
+                sys.add_loads(&s1.load, 1.0, &mut self.dx);
+                if alpha_f != 0.0 {
+                    sys.add_loads(&s0.load, alpha_f * scale, &mut self.dx);
+                }
+                stiffness.mul_add(-scale, &s0.x, &mut self.dx);
+                for i in 0..n {
+                    self.work[i] =
+                        alpha_m * s0.a[i] - (1.0 - alpha_m) * (a2 * s0.v[i] + a3 * s0.a[i]);
+                }
+                mass.mul_add(-scale, &self.work, &mut self.dx);
+                if sys.has_damping {
+                    for i in 0..n {
+                        self.work[i] =
+                            alpha_f * s0.v[i] - (1.0 - alpha_f) * (a4 * s0.v[i] + a5 * s0.a[i]);
+                    }
+                    damping.mul_add(-scale, &self.work, &mut self.dx);
+                }
+                factor.solve_in_place(&mut self.dx, &mut self.work);
             }
         }
         if c_f != 0.0 {
