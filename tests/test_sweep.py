@@ -466,9 +466,23 @@ def test_cli_mistakes_are_one_line_with_exit_code_2(tmp_path: Path, args: list[s
     assert not (tmp_path / "s.nc").exists()
 
 
-def test_cli_killed_sweep_restarts_where_it_stopped(tmp_path: Path) -> None:
-    """SIGKILL the sweep once some chunks are on disk; the same command then reuses every
-    finished chunk and writes the same Dataset as an uninterrupted run."""
+def test_cli_dask_without_dask_says_how_to_install_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from vibroimpact.cli import main
+
+    monkeypatch.setitem(sys.modules, "distributed", None)  # as if not installed
+    code = main(["sweep", str(MODEL_FILE), "--param", "loads.0.frequency=8,9", "--dask",
+                 "-o", str(tmp_path / "s.nc")])
+    assert code == 2
+    assert "pip install 'vibroimpact[distributed]'" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT])
+def test_cli_killed_sweep_restarts_where_it_stopped(tmp_path: Path, sig: int) -> None:
+    """SIGKILL (or Ctrl-C: the running chunks stop at once and are not kept) the sweep once
+    some chunks are on disk; the same command then reuses every finished chunk and writes the
+    same Dataset as an uninterrupted run."""
     out = tmp_path / "s.nc"
     args = ("sweep", str(MODEL_FILE), "--param", "loads.0.frequency=8:30:40", "--transient",
             "40", "--periods", "10", "--chunk-size", "2", "--threads", "1", "-o", str(out),
@@ -485,16 +499,19 @@ def test_cli_killed_sweep_restarts_where_it_stopped(tmp_path: Path) -> None:
             time.sleep(0.02)
     finally:
         if proc.poll() is None:
-            os.kill(proc.pid, signal.SIGKILL)
+            os.kill(proc.pid, sig)
         proc.communicate(timeout=30)
-    assert proc.returncode == -signal.SIGKILL, "the sweep finished before it could be killed"
+    expected = -signal.SIGKILL if sig == signal.SIGKILL else 130  # 130: "interrupted"
+    assert proc.returncode == expected, "the sweep finished before it could be killed"
     done = {p.name for p in (tmp_path / "s.nc.parts").glob("*/chunk-*.npz")}
     assert 3 <= len(done) < 20 and not out.exists()
     p = _cli(*args)
     assert p.returncode == 0, p.stderr
     summary = json.loads(p.stdout)
+    assert summary["failed_points"] == 0
     assert summary["chunks_reused"] == len(done)
     assert summary["chunks_computed"] == 20 - len(done)
-    q = _cli(*args[:-3], "-o", str(tmp_path / "fresh.nc"))
-    assert q.returncode == 0, q.stderr
-    xr.testing.assert_equal(load_sweep(out), load_sweep(tmp_path / "fresh.nc"))
+    fresh = run_sweep(Sweep.from_model_file(
+        vi.load_model(MODEL_FILE), [parse_param("loads.0.frequency=8:30:40")], transient=40,
+        periods=10, chunk_size=2))
+    xr.testing.assert_equal(load_sweep(out), fresh)

@@ -49,6 +49,16 @@ def impact_oscillator_sweep(points: int = 400, transient: int = 200, periods: in
                  method=method, transient=transient, periods=periods, **options)
 
 
+def _cpu_seconds() -> float:
+    t = os.times()
+    return t.user + t.system
+
+
+def _worker_cpu(client: Any) -> float:
+    """CPU seconds used so far by the worker processes of ``client``'s cluster."""
+    return float(sum(client.run(_cpu_seconds).values()))
+
+
 def _timed(fn: Any) -> tuple[float, float, Any]:
     c0, t0 = os.times(), time.perf_counter()
     out = fn()
@@ -92,8 +102,10 @@ def sweep_benchmark(points: int = 400, transient: int = 200, periods: int = 100,
             keep("1", _timed(lambda: run_sweep(sweep, threads=1, progress=False)))
             keep("n", _timed(lambda: run_sweep(sweep, threads=workers, progress=False)))
             if use_dask:
-                keep("dask", _timed(lambda: run_sweep(sweep, client=client, threads=threads,
-                                                      progress=False)))
+                before = _worker_cpu(client)
+                wall, cpu, ds = _timed(lambda: run_sweep(sweep, client=client, threads=threads,
+                                                         progress=False))
+                keep("dask", (wall, cpu + _worker_cpu(client) - before, ds))
     (t1, cpu1, ds1), (t2, cpu2, ds2) = best["1"], best["n"]
     steps = int(ds1["steps"].sum())
     rows: list[dict[str, Any]] = [
@@ -128,7 +140,7 @@ def format_rows(rows: list[dict[str, Any]]) -> list[str]:
              "adaptive Newmark)",
              f"{'mode':36s} {'time':>9s} {'points/s':>9s} {'steps/s':>10s}  notes"]
     for r in rows:
-        notes = []
+        notes = [f"{r['cpu_seconds'] / r['seconds']:.2f} cores busy"]
         if "parallel_efficiency" in r:
             notes.append(f"parallel efficiency {r['parallel_efficiency']:.0%}")
         if "dask_overhead" in r:

@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 
 __all__ = ["available", "dask_client", "run_on_dask"]
 
-_INSTALL = "pip install 'vibroimpact[distributed]' (or pip install 'dask[distributed]')"
+_INSTALL = "pip install 'vibroimpact[distributed]'"
 
 
 def available() -> bool:
@@ -47,7 +47,7 @@ def _require(flag: str) -> Any:
         import distributed
     except ImportError:
         raise ModelError(f"{flag}: dask.distributed is not installed; expected it installed "
-                         f"({_INSTALL})") from None
+                         f"with {_INSTALL}") from None
     return distributed
 
 

@@ -549,8 +549,13 @@ def _run_local(plan: _Plan, chunks: Sequence[_Chunk], todo: Iterable[int],
                     results[c.index] = r
                     done(c, r)
         except BaseException:
+            # Ctrl-C or an error: stop the chunks still running (their points stop within
+            # ~1000 steps and the calls raise KeyboardInterrupt); finished chunks are on disk.
+            _core.request_interrupt()
             for fut in pending:
                 fut.cancel()
+            wait(pending)
+            _core.clear_interrupt()
             raise
 
 
@@ -616,6 +621,7 @@ def run_sweep(
     for i in sorted(results):
         finished(chunks[i], results[i], reused=True)
     todo = [c.index for c in chunks if c.index not in results]
+    _core.clear_interrupt()  # a stale request would stop every point
     try:
         if client is None:
             _run_local(plan, chunks, todo, results, threads, finished)

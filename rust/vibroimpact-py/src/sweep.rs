@@ -3,12 +3,14 @@
 //! the GIL released → stacked numpy arrays, one row per point.
 
 use numpy::{PyArray1, PyArrayMethods};
+use pyo3::exceptions::PyKeyboardInterrupt;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use crate::convert::job_from_spec;
 use crate::{to_py_err, ModelError};
 use vibroimpact_core::sweep::{run_sweep, PointSummary, Sampling, SweepJob};
+use vibroimpact_core::SimError;
 
 fn field<'py, T: FromPyObjectOwned<'py>>(d: &Bound<'py, PyDict>, key: &str) -> PyResult<T> {
     let v = d
@@ -114,6 +116,15 @@ pub(crate) fn sweep<'py>(
     let points = py
         .detach(|| run_sweep(&jobs, chains.as_deref(), threads))
         .map_err(to_py_err)?;
+    // An interrupt request (Ctrl-C) stopped some points: not a result to keep or resume from.
+    if points
+        .iter()
+        .any(|p| matches!(p.error, Some(SimError::Interrupted { .. })))
+    {
+        return Err(PyKeyboardInterrupt::new_err(
+            "sweep interrupted: the chunk's points were not all run",
+        ));
+    }
     let (ns, nd, ni, ng, n) = jobs.first().map_or((0, 0, 0, 0, 0), |j| {
         (
             j.sampling.samples,
