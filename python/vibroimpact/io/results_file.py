@@ -65,6 +65,7 @@ __all__ = [
     "csv_paths",
     "load",
     "model_from_dataset",
+    "netcdf_engine",
     "run_metadata",
     "save",
     "simulate_to_file",
@@ -385,7 +386,8 @@ def csv_paths(path: str | os.PathLike[str]) -> dict[str, Path]:
     return {role: path.with_name(path.stem + suffix) for role, suffix in CSV_TABLES.items()}
 
 
-def _netcdf_engine() -> str:
+def netcdf_engine() -> str:
+    """The xarray engine that writes NetCDF-4 here: netCDF4, else h5netcdf with h5py."""
     for module, engine in (("netCDF4", "netcdf4"), ("h5netcdf", "h5netcdf")):
         try:
             __import__(module)
@@ -426,7 +428,7 @@ def _netcdf_ready(ds: xr.Dataset) -> tuple[xr.Dataset, dict[str, dict[str, Any]]
 
 def _write_netcdf(ds: xr.Dataset, path: Path) -> None:
     ready, encoding = _netcdf_ready(ds)
-    ready.to_netcdf(path, engine=_netcdf_engine(), format="NETCDF4", encoding=encoding)
+    ready.to_netcdf(path, engine=netcdf_engine(), format="NETCDF4", encoding=encoding)
 
 
 def _column(name: str, unit: str) -> str:
@@ -500,7 +502,7 @@ def save(source: Result | xr.Dataset, path: str | os.PathLike[str]) -> list[Path
     suffix = _suffix(path)
     ds = to_dataset(source)
     if suffix in NETCDF_SUFFIXES:
-        _netcdf_engine()
+        netcdf_engine()
         return atomic_write({path: lambda p: _write_netcdf(ds, p)})
     files = csv_paths(path)
     histories, impacts, energy = _time_histories_frame(ds), impacts_frame(ds), energy_frame(ds)
@@ -610,7 +612,7 @@ def load(path: str | os.PathLike[str]) -> xr.Dataset:
     if suffix == ".csv":
         return _load_csv(path)
     try:
-        return xr.load_dataset(path, engine=_netcdf_engine())
+        return xr.load_dataset(path, engine=netcdf_engine())
     except (OSError, ValueError) as e:
         raise ModelError(f"path: {str(path)!r} is not valid; expected a NetCDF-4 result file "
                          f"({e})") from None

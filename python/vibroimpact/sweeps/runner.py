@@ -48,6 +48,7 @@ import numpy as np
 from vibroimpact import _core
 from vibroimpact.errors import ModelError, require
 from vibroimpact.integrators import Adaptive, Integrator, Newmark
+from vibroimpact.io.results_file import atomic_write, netcdf_engine
 from vibroimpact.model import Model
 from vibroimpact.sweeps.grid import Param, apply
 
@@ -469,12 +470,11 @@ class _Progress:
 
 
 def _atomic_savez(path: Path, arrays: dict[str, Any]) -> None:
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as f:
-        np.savez(f, **arrays)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
+    def write(tmp: Path) -> None:
+        with open(tmp, "wb") as f:  # a handle: np.savez would append ".npz" to a name
+            np.savez(f, **arrays)
+
+    atomic_write({path: write})
 
 
 def _load_part(path: Path) -> dict[str, Any] | None:
@@ -759,19 +759,6 @@ def _check_output(path: str | os.PathLike[str]) -> Path:
     return p
 
 
-def _engine() -> str:
-    for module, engine in (("netCDF4", "netcdf4"), ("h5netcdf", "h5netcdf")):
-        try:
-            __import__(module)
-            if engine == "h5netcdf":
-                __import__("h5py")
-            return engine
-        except ImportError:
-            continue
-    raise ModelError("-o: writing NetCDF needs the netCDF4 package (pip install netCDF4) or "
-                     "h5netcdf with h5py")
-
-
 def save_sweep(ds: xr.Dataset, path: str | os.PathLike[str]) -> Path:
     """Write a sweep Dataset to NetCDF-4 (``.nc``/``.h5``) atomically: a temporary file in the
     same folder, then renamed over ``path``. Booleans are stored as int8."""
@@ -784,15 +771,11 @@ def save_sweep(ds: xr.Dataset, path: str | os.PathLike[str]) -> Path:
             out[name].attrs["flag"] = "bool"
         elif var.dtype.kind in "f":
             encoding[str(name)] = {"_FillValue": None}
-    tmp = p.with_name(f".{p.name}.{os.getpid()}.tmp")
     try:
-        out.to_netcdf(tmp, engine=_engine(), format="NETCDF4", encoding=encoding)
-        os.replace(tmp, p)
+        atomic_write({p: lambda tmp: out.to_netcdf(tmp, engine=netcdf_engine(), format="NETCDF4",
+                                                   encoding=encoding)})
     except OSError as e:
         raise ModelError(f"-o: cannot write {str(path)!r}: {e.strerror or e}") from None
-    finally:
-        if tmp.exists():
-            tmp.unlink()
     return p
 
 
@@ -804,7 +787,7 @@ def load_sweep(path: str | os.PathLike[str]) -> xr.Dataset:
     if not p.is_file():
         raise ModelError(f"RESULT: {str(path)!r} is not valid; expected an existing sweep file")
     try:
-        ds = xr.load_dataset(p, engine=_engine())
+        ds = xr.load_dataset(p, engine=netcdf_engine())
     except (OSError, ValueError) as e:
         raise ModelError(f"RESULT: cannot read {str(path)!r} as NetCDF ({e}); expected a file "
                          "written by vibroimpact sweep") from None

@@ -88,6 +88,21 @@ impl System {
         }
     }
 
+    /// `W = B G` (row-major, gaps × gaps) from the gap shapes `G_h = K̃⁻¹ b_hᵀ`: how each gap
+    /// coordinate moves per unit generalized contact force on each gap.
+    pub fn gap_flexibility(&self, shapes: &[Vec<f64>]) -> Vec<f64> {
+        let ng = shapes.len();
+        let mut w = vec![0.0; ng * ng];
+        let mut row = vec![0.0; ng];
+        for (hi, col) in shapes.iter().enumerate() {
+            self.gap_coordinates(col, &mut row);
+            for (gi, &v) in row.iter().enumerate() {
+                w[gi * ng + hi] = v;
+            }
+        }
+        w
+    }
+
     /// Adds `−scale Σ_g φ_g b_gᵀ` (the contact force on the structure, scaled) to `out`.
     #[inline]
     pub fn add_contact_force_scaled(&self, phi: &[f64], scale: f64, out: &mut [f64]) {

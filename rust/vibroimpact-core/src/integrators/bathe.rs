@@ -112,15 +112,7 @@ impl BackwardOperator {
             .iter()
             .map(|g| shape(&mut g.dofs.iter().copied().zip(g.coefficients.iter().copied())))
             .collect::<Result<Vec<_>, _>>()?;
-        let ng = gaps.len();
-        let mut w = vec![0.0; ng * ng];
-        let mut row = vec![0.0; ng];
-        for (hi, col) in gaps.iter().enumerate() {
-            sys.gap_coordinates(col, &mut row);
-            for (gi, &v) in row.iter().enumerate() {
-                w[gi * ng + hi] = v;
-            }
-        }
+        let w = sys.gap_flexibility(&gaps);
         Ok(Self {
             c,
             q_x,

@@ -212,15 +212,7 @@ impl StepOperator {
             }
             gaps.push(solve(col)?);
         }
-        let ng = gaps.len();
-        let mut w = vec![0.0; ng * ng];
-        let mut row = vec![0.0; ng];
-        for (hi, col) in gaps.iter().enumerate() {
-            sys.gap_coordinates(col, &mut row);
-            for (gi, &v) in row.iter().enumerate() {
-                w[gi * ng + hi] = v;
-            }
-        }
+        let w = sys.gap_flexibility(&gaps);
         Ok(Self {
             a,
             predictor,
