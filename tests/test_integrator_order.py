@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 import vibroimpact as vi
-from vibroimpact.integrators import METHODS
+from vibroimpact.integrators import FORCE_METHODS as METHODS  # rigid-gap methods: test_rigid.py
 
 #: Instances to test per ``METHODS`` name, with (order on the forced response, exact for free
 #: vibration). Precise integration: the linear structure is integrated exactly and the load by

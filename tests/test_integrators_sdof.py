@@ -13,7 +13,7 @@ import pytest
 import reference
 import vibroimpact as vi
 from vibroimpact import cases
-from vibroimpact.integrators import METHODS
+from vibroimpact.integrators import FORCE_METHODS as METHODS  # rigid-gap methods: test_rigid.py
 
 METHOD_CASES: dict[str, vi.Integrator] = {
     "newmark": vi.Newmark(),

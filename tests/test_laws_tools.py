@@ -49,7 +49,7 @@ _STATES = st.tuples(
 )
 
 
-@pytest.mark.parametrize("name", list(contact.LAWS))
+@pytest.mark.parametrize("name", list(contact.FORCE_LAWS))
 def test_derivatives_equal_finite_differences(name: str) -> None:
     """∂F/∂δ and ∂F/∂δ̇ from the core equal central differences of its force at random
     (δ, δ̇, v_imp), the raw formula (unclamped), kinks of the tabulated law avoided."""
@@ -79,7 +79,7 @@ def test_derivatives_equal_finite_differences(name: str) -> None:
 
 
 def test_clamped_force_is_compressive_with_zero_tangent() -> None:
-    for name in contact.LAWS:
+    for name in contact.FORCE_LAWS:
         f, dp, dr = _law(name).evaluate([1e-6, 1e-6], [-50.0, 0.1], [0.3, 0.3], clamp=True)
         assert np.all(f >= 0.0), name
         assert np.all((f > 0) | ((dp == 0) & (dr == 0))), name
@@ -243,7 +243,7 @@ def test_cli_laws_json(capsys: pytest.CaptureFixture[str]) -> None:
                      "--youngs-modulus", "207e9", "--poisson", "0.3", "--json"])
     assert code == 0
     out = json.loads(capsys.readouterr().out)
-    assert list(out) == list(contact.LAWS)
+    assert list(out) == list(contact.FORCE_LAWS)
     for row in out.values():
         assert tuple(row) == COMPARE_FIELDS
     assert out["hertz"]["restitution_effective"] == pytest.approx(1.0, abs=1e-6)

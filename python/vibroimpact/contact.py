@@ -37,6 +37,7 @@ from vibroimpact import _core
 from vibroimpact.errors import ModelError, require
 
 __all__ = [
+    "FORCE_LAWS",
     "GEOMETRY_KINDS",
     "LAWS",
     "PAPER_LAWS",
@@ -55,6 +56,7 @@ __all__ = [
     "LankaraniNikravesh",
     "LeeWang",
     "PowerLaw",
+    "Rigid",
     "SafaeifarKarimi",
     "Tabulated",
     "Ye",
@@ -168,6 +170,8 @@ class ContactLaw:
     Hertz-like law that estimates its impact (used to choose step sizes)."""
 
     kind: ClassVar[str] = ""
+    #: True for the massless bar (:class:`Rigid`): no force law; impulsive methods only.
+    impulsive: ClassVar[bool] = False
 
     @property
     def contact_stiffness(self) -> float:  # pragma: no cover - every law overrides it
@@ -515,14 +519,72 @@ class Tabulated(ContactLaw):
         }
 
 
+@dataclass(frozen=True)
+class Rigid(ContactLaw):
+    """The massless bar (paper Fig. 1a; DESIGN.md §2): a rigid wall with Newton's restitution
+    law ``δ̇⁺ = −e δ̇⁻``, applied as an instantaneous velocity jump through the generalized
+    impulse, ``Δv = −(1+e)(b·v) M⁻¹bᵀ/(b M⁻¹ bᵀ)`` for one wall. ``restitution`` ``e`` in
+    [0, 1] (0: plastic impact). It has no force–indentation relation: only the impulsive
+    methods (``vi.EventDriven``, ``vi.MoreauJean``) take it, and they take no other law.
+    Rules for simultaneous impacts and chattering: docs/rigid-impacts.md."""
+
+    kind: ClassVar[str] = "rigid"
+    impulsive: ClassVar[bool] = True
+    restitution: float
+
+    def __post_init__(self) -> None:
+        require(
+            _is_number(self.restitution) and 0 <= self.restitution <= 1,
+            "law.restitution",
+            self.restitution,
+            "0 <= restitution <= 1",
+        )
+
+    @property
+    def contact_stiffness(self) -> float:
+        """Not defined (a rigid wall): raises ``NotImplementedError``, so that step-size
+        estimates from the contact period (``simulate.contact_periods``) skip the gap."""
+        raise NotImplementedError("a rigid wall has no contact stiffness")
+
+    @property
+    def exponent(self) -> float:
+        """1 (no force law; kept for the interface)."""
+        return 1.0
+
+    def to_spec(self) -> dict[str, Any]:
+        return {"kind": self.kind, "restitution": float(self.restitution)}
+
+    def force(
+        self, penetration: float, rate: float, impact_speed: float
+    ) -> tuple[float, float, float]:
+        """Not defined: a rigid wall has no force–indentation law."""
+        raise ModelError("law.kind: 'rigid' has no contact force; it acts by impulses "
+                         "(methods event-driven, moreau-jean)")
+
+    def evaluate(
+        self,
+        penetration: ArrayLike,
+        rate: ArrayLike,
+        impact_speed: ArrayLike,
+        clamp: bool = False,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Not defined: see :meth:`force`."""
+        return self.force(0.0, 0.0, 0.0)  # type: ignore[return-value]
+
+
 _ALL: tuple[type[ContactLaw], ...] = (
     Hertz, KelvinVoigt, HuntCrossley, HerbertMcWhannell, LeeWang, LankaraniNikravesh, Gonthier,
     ZhiyingQishao, Flores, HuGuo, GharibHurmuzlu, Ye, CarvalhoMartins, SafaeifarKarimi,
-    Tabulated,
+    Tabulated, Rigid,
 )
 
-#: Every law by its kebab-case name (model files, CLI, JSON), in the order of the issue.
+#: Every law by its kebab-case name (model files, CLI, JSON), in the order of the issue; the
+#: last, ``rigid``, is the massless bar (impulsive methods only).
 LAWS: dict[str, type[ContactLaw]] = {cls.kind: cls for cls in _ALL}
+
+#: The force laws ``F(δ, δ̇, v_imp)`` (every law but ``rigid``): what the compliant integrators,
+#: ``vibroimpact impact`` and ``vibroimpact laws`` take.
+FORCE_LAWS: dict[str, type[ContactLaw]] = {k: c for k, c in LAWS.items() if not c.impulsive}
 
 #: The laws whose damping follows from a restitution ``ce`` they require.
 RESTITUTION_LAWS: tuple[str, ...] = tuple(

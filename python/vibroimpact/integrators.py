@@ -14,8 +14,10 @@ __all__ = [
     "METHODS",
     "Adaptive",
     "Bathe",
+    "EventDriven",
     "GeneralizedAlpha",
     "Integrator",
+    "MoreauJean",
     "Newmark",
     "NewtonOptions",
     "PreciseIntegration",
@@ -109,6 +111,8 @@ class Integrator:
 
     name: str = field(default="", init=False)
     supports_adaptive: ClassVar[bool] = False
+    #: True for the methods of rigid gaps (``contact.Rigid``), which take no force law.
+    impulsive: ClassVar[bool] = False
     newton: NewtonOptions = field(default_factory=NewtonOptions)
     adaptive: Adaptive | None = None
 
@@ -274,13 +278,91 @@ class Bathe(Integrator):
         return {"kind": "bathe", "gamma": float(self.gamma)}
 
 
-#: Integrators by their model-file / CLI name (``[solver] method``).
+@dataclass(frozen=True)
+class EventDriven(Integrator):
+    """Event-driven integration of rigid impacts (gaps with ``contact.Rigid`` only): every
+    impact instant is located by root finding on the exact solution, Newton's restitution
+    law is applied as a velocity jump through the generalized impulse, and between events
+    the linear structure is integrated exactly (matrix exponential; loads quadratic over each
+    step). ``dt`` is the step on which events are searched and output is recorded.
+
+    Rules (docs/rigid-impacts.md): simultaneous impacts are resolved together by the
+    generalized Newton law (one LCP on the Delassus matrix ``G M⁻¹ Gᵀ``); chattering ends
+    when the flight after an impact would be shorter than ``chatter_fraction · dt``: that
+    impact is made plastic and the gap is held closed (sticking) until its contact force
+    would become tensile (the sticking instant is then within
+    ``chatter_fraction · dt / (1 − e)`` of the accumulation point). More than
+    ``max_events_per_step`` events in one step make every further impact of the step
+    plastic."""
+
+    name: str = field(default="event-driven", init=False)
+    impulsive: ClassVar[bool] = True
+    chatter_fraction: float = 1e-3
+    max_events_per_step: int = 1000
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        require(
+            isinstance(self.chatter_fraction, (int, float))
+            and not isinstance(self.chatter_fraction, bool)
+            and 0 <= self.chatter_fraction < 1,
+            "solver.chatter_fraction", self.chatter_fraction, "0 <= chatter_fraction < 1",
+        )
+        require(
+            isinstance(self.max_events_per_step, int)
+            and not isinstance(self.max_events_per_step, bool)
+            and self.max_events_per_step >= 1,
+            "solver.max_events_per_step", self.max_events_per_step, "an integer >= 1",
+        )
+
+    def to_spec(self) -> dict[str, Any]:
+        return {"kind": "event-driven", "chatter_fraction": float(self.chatter_fraction),
+                "max_events_per_step": int(self.max_events_per_step)}
+
+
+@dataclass(frozen=True)
+class MoreauJean(Integrator):
+    """Moreau–Jean time stepping for rigid gaps (``contact.Rigid`` only; Moreau 1988,
+    Jean 1999): a θ-method on the velocities, ``Â (v₊ − v) = h [F_θ − C v − K x − hθ K v] −
+    Gᵀ P`` with ``Â = M + hθ C + h²θ² K``, and on the walls predicted closed at
+    ``x + h v/2`` the velocity-level Newton law ``0 ≤ P ⊥ −(δ̇₊ + e δ̇) ≥ 0``: one LCP per
+    step for any number of simultaneous contacts (enumeration up to 10 active walls,
+    projected Gauss–Seidel beyond). ``theta`` ∈ [1/2, 1]. First order at impacts (an impact
+    is known to one step; a wall may be passed by about one step's travel), no event
+    location, no special rule needed for chattering or sticking; with ``theta = 1/2`` the
+    energy account balances exactly."""
+
+    name: str = field(default="moreau-jean", init=False)
+    impulsive: ClassVar[bool] = True
+    theta: float = 0.5
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        require(
+            isinstance(self.theta, (int, float)) and not isinstance(self.theta, bool)
+            and 0.5 <= self.theta <= 1,
+            "solver.theta", self.theta, "0.5 <= theta <= 1",
+        )
+
+    def to_spec(self) -> dict[str, Any]:
+        return {"kind": "moreau-jean", "theta": float(self.theta)}
+
+
+#: Integrators by their model-file / CLI name (``[solver] method``). The last two are the
+#: impulsive methods (``impulsive = True``) of rigid gaps; the others take force laws only.
 METHODS: dict[str, type[Integrator]] = {
     "newmark": Newmark,
     "generalized-alpha": GeneralizedAlpha,
     "hht": HHT,
     "precise": PreciseIntegration,
     "bathe": Bathe,
+    "event-driven": EventDriven,
+    "moreau-jean": MoreauJean,
+}
+
+#: The integrators of force laws (every method of :data:`METHODS` but the impulsive ones).
+FORCE_METHODS: dict[str, type[Integrator]] = {
+    k: c for k, c in METHODS.items() if not c.impulsive
 }
 
 #: ``[solver]`` keys of the Newton options (TOML name -> :class:`NewtonOptions` field).
@@ -302,7 +384,11 @@ def method_options(name: str) -> dict[str, tuple[str, Any]]:
     out: dict[str, tuple[str, Any]] = {}
     for f in fields(cls):
         if f.init and f.name not in ("newton", "adaptive"):
-            out[f.name] = ("bool" if isinstance(f.default, bool) else "float", f.default)
+            kind = ("bool" if isinstance(f.default, bool)
+                    else "int" if isinstance(f.default, int) else "float")
+            out[f.name] = (kind, f.default)
+    if cls.impulsive:
+        return out  # no Newton iterations, no adaptive stepping
     newton = {f.name: f for f in fields(NewtonOptions)}
     for key, attr in NEWTON_KEYS.items():
         f = newton[attr]
@@ -349,6 +435,15 @@ def method_from_options(name: str, options: dict[str, Any] | None = None) -> Int
 #: Longer documentation of some methods, rendered after their parameters in
 #: docs/integrators.md (``python -m vibroimpact.report docs docs``).
 DOC_NOTES: dict[str, str] = {
+    "event-driven": """\
+Rigid gaps only (`contact.Rigid`, the massless bar). The method, the rules for simultaneous
+impacts and chattering, the impact table of impulsive methods and the verification against the
+closed-form bouncing mass: [rigid-impacts.md](rigid-impacts.md).
+""",
+    "moreau-jean": """\
+Rigid gaps only (`contact.Rigid`). The scheme, the LCP solver and its convergence to the
+event-driven solution: [rigid-impacts.md](rigid-impacts.md).
+""",
     "precise": """\
 ### The method (paper eqs. 32–43)
 

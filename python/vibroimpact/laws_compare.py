@@ -1,6 +1,6 @@
 """Comparing contact laws on one impact (``vibroimpact laws``; the paper's Figs. 3–4).
 
-Every law of :data:`vibroimpact.contact.LAWS` is given the same stiffness ``K``, exponent
+Every law of :data:`vibroimpact.contact.FORCE_LAWS` is given the same stiffness ``K``, exponent
 ``n`` and restitution ``ce`` and strikes a rigid wall with the same mass and speed; the core
 computes the effective restitution, peak indentation, peak force and contact duration
 (:func:`vibroimpact.impact.single_impact`). Three laws take other parameters, derived here:
@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from vibroimpact.contact import (
-    LAWS,
+    FORCE_LAWS,
     RESTITUTION_LAWS,
     ContactLaw,
     Geometry,
@@ -97,7 +97,7 @@ def comparison_laws(
     exponent: float | None = None,
     laws: Iterable[str] | None = None,
 ) -> dict[str, ContactLaw]:
-    """Each law (default: all of :data:`~vibroimpact.contact.LAWS`, in that order) with the
+    """Each law (default: all of :data:`~vibroimpact.contact.FORCE_LAWS`, in that order) with the
     common stiffness, exponent (default: the geometry's, else 1.5) and restitution ``ce``;
     Kelvin–Voigt and the tabulated law get the equivalent parameters of the module docstring."""
     require(
@@ -109,15 +109,15 @@ def comparison_laws(
     require(isinstance(velocity, (int, float)) and math.isfinite(velocity) and velocity > 0,
             "velocity", velocity, "an approach speed > 0 in m/s")
     k_or_geometry, n, k = _resolve_stiffness(stiffness, exponent)
-    names = list(LAWS) if laws is None else list(laws)
+    names = list(FORCE_LAWS) if laws is None else list(laws)
     for name in names:
-        require(name in LAWS, "law", name, "one of " + ", ".join(LAWS))
+        require(name in FORCE_LAWS, "law", name, "one of " + ", ".join(FORCE_LAWS))
     peak = _hertz_peak(k, n, mass, velocity)
     ce = float(restitution)
     out: dict[str, ContactLaw] = {}
     for name in names:
         if name == "hertz":
-            out[name] = LAWS[name](stiffness=k_or_geometry, exponent=n)  # type: ignore[call-arg]
+            out[name] = FORCE_LAWS[name](stiffness=k_or_geometry, exponent=n)  # type: ignore[call-arg]
         elif name == "kelvin-voigt":
             k_lin = mass * velocity**2 / peak**2
             log_e = math.log(ce)
@@ -131,7 +131,7 @@ def comparison_laws(
             out[name] = Tabulated(x, f, x, ce**2 * f)
         else:
             assert name in RESTITUTION_LAWS
-            out[name] = LAWS[name](  # type: ignore[call-arg]
+            out[name] = FORCE_LAWS[name](  # type: ignore[call-arg]
                 stiffness=k_or_geometry, exponent=n, restitution=ce
             )
     return out
@@ -169,7 +169,7 @@ def restitution_table(
         from vibroimpact.cases import paper_geometry
 
         stiffness = paper_geometry()
-    names = list(LAWS) if laws is None else list(laws)
+    names = list(FORCE_LAWS) if laws is None else list(laws)
     table: dict[str, dict[float, float]] = {name: {} for name in names}
     for ce in restitutions:
         for name, row in compare_laws(ce, mass, velocity, stiffness, exponent, names).items():

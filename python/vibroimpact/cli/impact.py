@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from vibroimpact.contact import LAWS, law_from_name
+from vibroimpact.contact import FORCE_LAWS, law_from_name
 from vibroimpact.impact import single_impact
 
 UNITS = {
@@ -28,7 +28,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
             "effective restitution v_out/V0."
         ),
     )
-    p.add_argument("--law", required=True, choices=sorted(LAWS), help="contact law")
+    p.add_argument("--law", required=True, choices=sorted(FORCE_LAWS), help="contact law")
     p.add_argument("--stiffness", type=float, required=True, help="contact stiffness K, N/m^n")
     p.add_argument("--exponent", type=float, default=None, help="exponent n (default 1.5)")
     p.add_argument("--restitution", type=float, default=None, help="restitution ce, 0 < ce <= 1")

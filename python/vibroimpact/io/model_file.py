@@ -246,7 +246,7 @@ def _exponent_default() -> str:
 
 
 _RESTITUTION_LAWS = tuple(
-    k for k in contact.RESTITUTION_LAWS if k in _kinds_with("restitution")
+    k for k in (*contact.RESTITUTION_LAWS, "rigid") if k in _kinds_with("restitution")
 )
 _DAMPING_REQUIRED = tuple(k for k in ("kelvin-voigt",) if k in _kinds_with("damping"))
 _GEOMETRY_KINDS = contact.GEOMETRY_KINDS

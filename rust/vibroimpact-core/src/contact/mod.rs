@@ -16,6 +16,7 @@ mod geometry;
 mod hertz;
 mod hysteretic;
 mod kelvin_voigt;
+mod rigid;
 mod tabulated;
 
 pub use geometry::{
@@ -28,6 +29,7 @@ pub use hysteretic::{
     LeeWang, SafaeifarKarimi, Ye, ZhiyingQishao,
 };
 pub use kelvin_voigt::KelvinVoigt;
+pub use rigid::Rigid;
 pub use tabulated::{Curve, Tabulated};
 
 use crate::error::{invalid, SimError};
@@ -112,7 +114,13 @@ pub enum Law {
     CarvalhoMartins(CarvalhoMartins),
     SafaeifarKarimi(SafaeifarKarimi),
     Tabulated(Tabulated),
+    /// The massless bar: impulsive methods only (not in [`LAW_NAMES`], which lists the
+    /// force laws; its name is [`RIGID_NAME`]).
+    Rigid(Rigid),
 }
+
+/// Kebab-case name of [`Law::Rigid`] (`[gaps.law] kind = "rigid"`).
+pub const RIGID_NAME: &str = "rigid";
 
 /// Kebab-case names of the laws, in the order of [`Law`] (model files, CLI, JSON).
 pub const LAW_NAMES: [&str; 15] = [
@@ -151,6 +159,7 @@ macro_rules! dispatch {
             Law::CarvalhoMartins($law) => $body,
             Law::SafaeifarKarimi($law) => $body,
             Law::Tabulated($law) => $body,
+            Law::Rigid($law) => $body,
         }
     };
 }
@@ -181,6 +190,7 @@ impl Law {
             Law::CarvalhoMartins(_) => 12,
             Law::SafaeifarKarimi(_) => 13,
             Law::Tabulated(_) => 14,
+            Law::Rigid(_) => return RIGID_NAME,
         };
         LAW_NAMES[index]
     }
@@ -188,7 +198,7 @@ impl Law {
     /// Whether the law needs the approach speed `v_imp` of the current impact.
     pub fn uses_impact_speed(&self) -> bool {
         match self {
-            Law::Hertz(_) | Law::KelvinVoigt(_) => false,
+            Law::Hertz(_) | Law::KelvinVoigt(_) | Law::Rigid(_) => false,
             Law::HuntCrossley(hc) => matches!(hc.damping, HuntCrossleyDamping::Restitution(_)),
             _ => true,
         }
@@ -197,7 +207,7 @@ impl Law {
     /// Hysteresis factor `χ` of the laws `K δⁿ (1 + χ δ̇/v_imp)`, `None` for the others.
     pub fn hysteresis_factor(&self) -> Option<f64> {
         match self {
-            Law::Hertz(_) | Law::KelvinVoigt(_) | Law::Tabulated(_) => None,
+            Law::Hertz(_) | Law::KelvinVoigt(_) | Law::Tabulated(_) | Law::Rigid(_) => None,
             Law::HuntCrossley(l) => l.hysteresis_factor(),
             Law::HerbertMcWhannell(l) => Some(l.hysteresis_factor()),
             Law::LeeWang(l) => Some(l.hysteresis_factor()),
@@ -211,6 +221,11 @@ impl Law {
             Law::CarvalhoMartins(l) => Some(l.hysteresis_factor()),
             Law::SafaeifarKarimi(l) => Some(l.hysteresis_factor()),
         }
+    }
+
+    /// Whether this is the massless bar (rigid wall, impulsive methods only).
+    pub fn is_rigid(&self) -> bool {
+        matches!(self, Law::Rigid(_))
     }
 
     /// Builds a law whose damping is given by a restitution `ce` from its kebab-case name

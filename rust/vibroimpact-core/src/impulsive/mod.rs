@@ -1,0 +1,347 @@
+//! Impulsive methods for rigid gaps (the massless bar, paper Fig. 1a; DESIGN.md §2): Newton's
+//! restitution law `δ̇⁺ = −e δ̇⁻` applied as an instantaneous velocity jump through the
+//! generalized impulse, `Δv = −M⁻¹ Gᵀ P`, with `P ≥ 0` from the impact LCP
+//! (`Δv = −(1+e)(b·v) M⁻¹bᵀ/(b M⁻¹ bᵀ)` for a single wall).
+//!
+//! * [`EventDriven`] (`event_driven`): impact times located by root finding; the linear
+//!   structure integrated exactly between events (matrix exponential); simultaneous impacts
+//!   resolved together by the generalized Newton law (one LCP); chattering ended by a
+//!   sticking rule.
+//! * [`MoreauJean`] (`moreau_jean`): θ-method time stepping with one LCP per step on the
+//!   gap velocities (Moreau 1988, Jean 1999).
+//!
+//! Rigid gaps are accepted only by these methods, and these methods accept only rigid gaps
+//! ([`check_method_laws`]). Both write the same impact table as the compliant integrators:
+//! an impact is a row with `t_start = t_end` (the impact instant), `v_in`, `v_out`, the
+//! impulse `P` (N·s), `delta_max = 0` and `force_max = NaN` (an impact has no finite force).
+//! A contact that sticks (event-driven) is a row from the impact that ended the chattering
+//! to the release, with `force_max` the largest contact force while stuck and `impulse`
+//! including `∫ λ dt`. See docs/rigid-impacts.md.
+
+mod event_driven;
+pub mod lcp;
+mod moreau_jean;
+
+pub use event_driven::EventDriven;
+pub use moreau_jean::MoreauJean;
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::error::{invalid, SimError};
+use crate::gap::ImpactRecord;
+use crate::simulate::{EnergyHistory, Method, RunOutput, RunSettings, Stats};
+use crate::system::System;
+
+/// Refuses rigid gaps with the compliant integrators and compliant laws with the impulsive
+/// methods (one line naming the gap, its law and the method).
+pub fn check_method_laws(sys: &System, method: &Method) -> Result<(), SimError> {
+    let impulsive = is_impulsive(method);
+    for (i, g) in sys.gaps.iter().enumerate() {
+        if g.law.is_rigid() && !impulsive {
+            return invalid(format!(
+                "gaps[{i}].law.kind: 'rigid' needs solver.method = 'event-driven' or \
+                 'moreau-jean'; method '{}' takes force laws only",
+                method_name(method)
+            ));
+        }
+        if !g.law.is_rigid() && impulsive {
+            return invalid(format!(
+                "gaps[{i}].law.kind: '{}' is a force law; solver.method '{}' takes rigid gaps \
+                 only (kind = 'rigid')",
+                g.law.name(),
+                method_name(method)
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Whether `method` is one of the impulsive methods of this module.
+pub fn is_impulsive(method: &Method) -> bool {
+    matches!(method, Method::EventDriven(_) | Method::MoreauJean(_))
+}
+
+fn method_name(method: &Method) -> &'static str {
+    match method {
+        Method::NewmarkFamily(_) => "newmark",
+        Method::Precise(_) => "precise",
+        Method::Bathe(_) => "bathe",
+        Method::EventDriven(_) => "event-driven",
+        Method::MoreauJean(_) => "moreau-jean",
+    }
+}
+
+/// Runs an impulsive method (called by `simulate::simulate_observed`; settings already
+/// checked there).
+pub(crate) fn simulate_impulsive(
+    sys: &System,
+    method: Method,
+    settings: &RunSettings,
+    x0: DVector<f64>,
+    v0: DVector<f64>,
+) -> Result<RunOutput, SimError> {
+    check_method_laws(sys, &method)?;
+    if settings.adaptive.is_some() {
+        return invalid(format!(
+            "solver.adaptive: true is not available for method '{}'; expected false",
+            method_name(&method)
+        ));
+    }
+    let n = sys.n_dof();
+    for (name, vec) in [("initial.displacement", &x0), ("initial.velocity", &v0)] {
+        if vec.len() != n {
+            return invalid(format!(
+                "{name}: {} values; expected {n} (one per DOF)",
+                vec.len()
+            ));
+        }
+        if vec.iter().any(|v| !v.is_finite()) {
+            return invalid(format!("{name}: contains a non-finite value"));
+        }
+    }
+    match method {
+        Method::EventDriven(m) => event_driven::run(sys, m, settings, x0, v0),
+        Method::MoreauJean(m) => moreau_jean::run(sys, m, settings, x0, v0),
+        _ => unreachable!("simulate_impulsive called with a compliant method"),
+    }
+}
+
+/// What the impulsive methods need of the system: the walls as rows `g_j = s_j b_g` of the
+/// constraint Jacobian (`δ_j = g_j · x − d_j`), `M⁻¹`, and the load columns.
+pub(crate) struct Rigidity {
+    pub n: usize,
+    pub m_inv: DMatrix<f64>,
+    /// One row per wall (n columns).
+    pub g: Vec<DVector<f64>>,
+    pub clearance: Vec<f64>,
+    pub restitution: Vec<f64>,
+    /// `n × n_loads`: the DOF pattern of each load.
+    pub load_cols: DMatrix<f64>,
+}
+
+impl Rigidity {
+    pub fn new(sys: &System) -> Result<Self, SimError> {
+        let n = sys.n_dof();
+        let m_inv = sys
+            .structure
+            .mass
+            .clone()
+            .cholesky()
+            .ok_or_else(|| SimError::InvalidModel("structure.mass: not positive definite".into()))?
+            .inverse();
+        let mut g = Vec::new();
+        let mut clearance = Vec::new();
+        let mut restitution = Vec::new();
+        for wall in &sys.walls {
+            let gap = &sys.gaps[wall.gap];
+            let mut row = DVector::zeros(n);
+            for (&d, &c) in gap.dofs.iter().zip(&gap.coefficients) {
+                row[d] += wall.sign * c;
+            }
+            g.push(row);
+            clearance.push(wall.clearance);
+            restitution.push(match &gap.law {
+                crate::contact::Law::Rigid(r) => r.restitution,
+                _ => 1.0,
+            });
+        }
+        let mut load_cols = DMatrix::zeros(n, sys.loads.len());
+        for (l, load) in sys.loads.iter().enumerate() {
+            for &d in &load.dofs {
+                load_cols[(d, l)] += 1.0;
+            }
+        }
+        Ok(Self {
+            n,
+            m_inv,
+            g,
+            clearance,
+            restitution,
+            load_cols,
+        })
+    }
+
+    pub fn n_walls(&self) -> usize {
+        self.g.len()
+    }
+
+    /// Penetration `δ_j` (negative: open).
+    pub fn penetration(&self, j: usize, x: &DVector<f64>) -> f64 {
+        self.g[j].dot(x) - self.clearance[j]
+    }
+
+    pub fn rate(&self, j: usize, v: &DVector<f64>) -> f64 {
+        self.g[j].dot(v)
+    }
+
+    /// `G_S` (rows of the walls in `set`).
+    pub fn jacobian(&self, set: &[usize]) -> DMatrix<f64> {
+        DMatrix::from_fn(set.len(), self.n, |r, c| self.g[set[r]][c])
+    }
+
+    /// `F(t) − C v − K x`.
+    pub fn smooth_force(
+        &self,
+        sys: &System,
+        t: f64,
+        x: &DVector<f64>,
+        v: &DVector<f64>,
+    ) -> DVector<f64> {
+        let st = &sys.structure;
+        let mut f = DVector::zeros(self.n);
+        for load in &sys.loads {
+            let val = load.value(t);
+            for &d in &load.dofs {
+                f[d] += val;
+            }
+        }
+        f.gemv(-1.0, &st.damping, v, 1.0);
+        f.gemv(-1.0, &st.stiffness, x, 1.0);
+        f
+    }
+
+    /// Energy `½ vᵀ M v` and `½ xᵀ K x`.
+    pub fn energies(&self, sys: &System, x: &DVector<f64>, v: &DVector<f64>) -> (f64, f64) {
+        let st = &sys.structure;
+        (
+            0.5 * v.dot(&(&st.mass * v)),
+            0.5 * x.dot(&(&st.stiffness * x)),
+        )
+    }
+}
+
+/// Work integrals between two states (trapezoidal in displacement, as the compliant driver).
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Work {
+    pub external: f64,
+    pub damping: f64,
+    pub contact_dissipated: f64,
+}
+
+impl Work {
+    #[allow(clippy::too_many_arguments)]
+    pub fn commit(
+        &mut self,
+        sys: &System,
+        t0: f64,
+        x0: &DVector<f64>,
+        v0: &DVector<f64>,
+        t1: f64,
+        x1: &DVector<f64>,
+        v1: &DVector<f64>,
+    ) {
+        for load in &sys.loads {
+            let moved: f64 = load.dofs.iter().map(|&d| x1[d] - x0[d]).sum();
+            self.external += 0.5 * (load.value(t0) + load.value(t1)) * moved;
+        }
+        let dx = x1 - x0;
+        let vs = v0 + v1;
+        self.damping += 0.5 * dx.dot(&(&sys.structure.damping * vs));
+    }
+}
+
+/// Decimated output of the impulsive methods.
+pub(crate) struct Output {
+    pub record_dofs: Vec<usize>,
+    pub time: Vec<f64>,
+    pub x: Vec<f64>,
+    pub v: Vec<f64>,
+    pub a: Vec<f64>,
+    pub penetration: Vec<f64>,
+    pub force: Vec<f64>,
+    pub energy: EnergyHistory,
+    pub max_abs: Vec<f64>,
+}
+
+impl Output {
+    pub fn new(record_dofs: Vec<usize>) -> Self {
+        let nd = record_dofs.len();
+        Self {
+            record_dofs,
+            time: Vec::new(),
+            x: Vec::new(),
+            v: Vec::new(),
+            a: Vec::new(),
+            penetration: Vec::new(),
+            force: Vec::new(),
+            energy: EnergyHistory::default(),
+            max_abs: vec![0.0; nd],
+        }
+    }
+
+    pub fn peaks(&mut self, x: &DVector<f64>) {
+        for (m, &d) in self.max_abs.iter_mut().zip(&self.record_dofs) {
+            *m = m.max(x[d].abs());
+        }
+    }
+
+    /// Records one instant; `wall_force` is the contact force of each wall (N).
+    #[allow(clippy::too_many_arguments)]
+    pub fn record(
+        &mut self,
+        sys: &System,
+        rig: &Rigidity,
+        t: f64,
+        x: &DVector<f64>,
+        v: &DVector<f64>,
+        a: &DVector<f64>,
+        wall_force: &[f64],
+        work: &Work,
+    ) {
+        self.peaks(x);
+        self.time.push(t);
+        for &d in &self.record_dofs {
+            self.x.push(x[d]);
+            self.v.push(v[d]);
+            self.a.push(a[d]);
+        }
+        let ng = sys.gaps.len();
+        let mut pen = vec![f64::NEG_INFINITY; ng];
+        let mut force = vec![0.0; ng];
+        for (j, wall) in sys.walls.iter().enumerate() {
+            pen[wall.gap] = pen[wall.gap].max(rig.penetration(j, x));
+            force[wall.gap] += wall_force[j];
+        }
+        self.penetration.extend_from_slice(&pen);
+        self.force.extend_from_slice(&force);
+        let (kinetic, strain) = rig.energies(sys, x, v);
+        let e = &mut self.energy;
+        e.kinetic.push(kinetic);
+        e.strain.push(strain);
+        e.contact_potential.push(0.0);
+        e.external_work.push(work.external);
+        e.damping_dissipated.push(work.damping);
+        e.contact_dissipated.push(work.contact_dissipated);
+    }
+
+    pub fn finish(
+        self,
+        impacts: Vec<ImpactRecord>,
+        stats: Stats,
+        dt: f64,
+        error: Option<SimError>,
+    ) -> RunOutput {
+        RunOutput {
+            time: self.time,
+            record_dofs: self.record_dofs,
+            max_abs_displacement: self.max_abs,
+            displacement: self.x,
+            velocity: self.v,
+            acceleration: self.a,
+            gap_penetration: self.penetration,
+            gap_force: self.force,
+            energy: self.energy,
+            impacts,
+            stats,
+            dt,
+            error,
+        }
+    }
+}
+
+/// Number of steps and the step actually used (as the compliant driver: `t_end` a whole
+/// number of steps).
+pub(crate) fn steps(settings: &RunSettings) -> (usize, f64) {
+    let n = (settings.t_end / settings.dt - 1e-9).ceil().max(1.0) as usize;
+    (n, settings.t_end / n as f64)
+}
