@@ -8,7 +8,6 @@ import math
 import numpy as np
 import pytest
 import reference
-
 import vibroimpact as vi
 from vibroimpact import cases
 

@@ -14,13 +14,17 @@ Build a :class:`Model` (a :class:`Structure`, :class:`Gap` elements with laws fr
 
 from vibroimpact import contact as contact
 from vibroimpact._core import build_profile as build_profile
+from vibroimpact.errors import ContactResolutionWarning as ContactResolutionWarning
+from vibroimpact.errors import Interrupted as Interrupted
 from vibroimpact.errors import ModelError as ModelError
 from vibroimpact.errors import SolverError as SolverError
 from vibroimpact.integrators import HHT as HHT
 from vibroimpact.integrators import Adaptive as Adaptive
 from vibroimpact.integrators import Bathe as Bathe
+from vibroimpact.integrators import EventDriven as EventDriven
 from vibroimpact.integrators import GeneralizedAlpha as GeneralizedAlpha
 from vibroimpact.integrators import Integrator as Integrator
+from vibroimpact.integrators import MoreauJean as MoreauJean
 from vibroimpact.integrators import Newmark as Newmark
 from vibroimpact.integrators import NewtonOptions as NewtonOptions
 from vibroimpact.integrators import PreciseIntegration as PreciseIntegration

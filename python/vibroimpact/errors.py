@@ -9,9 +9,11 @@ from typing import TYPE_CHECKING
 from vibroimpact._core import ModelError as ModelError
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
     from vibroimpact.result import Result
 
-__all__ = ["ModelError", "SolverError"]
+__all__ = ["ContactResolutionWarning", "Interrupted", "ModelError", "SolverError"]
 
 
 class SolverError(RuntimeError):
@@ -21,6 +23,23 @@ class SolverError(RuntimeError):
     def __init__(self, message: str, partial: Result | None = None) -> None:
         super().__init__(message)
         self.partial = partial
+        #: Files already holding the results up to the failure (streamed runs), if any.
+        self.written: list[Path] = []
+
+
+class Interrupted(SolverError):
+    """The run was stopped by ``Ctrl-C`` (SIGINT) or SIGTERM. ``partial`` holds the results up
+    to the instant it stopped (``partial.complete`` is False unless the run had just finished);
+    ``signum`` is the signal received."""
+
+    def __init__(self, message: str, partial: Result | None = None, signum: int = 2) -> None:
+        super().__init__(message, partial)
+        self.signum = signum
+
+
+class ContactResolutionWarning(UserWarning):
+    """The step is too long to resolve a contact: fewer than 10 steps per period of the
+    contact oscillation estimated for a gap (:func:`vibroimpact.simulate.contact_periods`)."""
 
 
 def require(condition: bool, field: str, value: object, expected: str) -> None:

@@ -1,6 +1,7 @@
 """The ``vibroimpact`` command line. Each subcommand lives in its own module with
 ``add_parser(subparsers)`` and ``main(args) -> int``; this module only dispatches and turns
-user mistakes into one-line errors (exit code 2) and solver failures into exit code 3."""
+user mistakes into one-line errors (exit code 2), solver failures into exit code 3 and
+interruptions (:class:`~vibroimpact.Interrupted`) into 130 (SIGINT) or 143 (SIGTERM)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from vibroimpact.errors import ModelError, SolverError
+from vibroimpact.errors import Interrupted, ModelError, SolverError
 
 __all__ = ["main"]
 
@@ -36,6 +37,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         for line in str(e).splitlines() or [""]:
             print(f"vibroimpact: error: {line}", file=sys.stderr)
         return 2
+    except Interrupted as e:
+        print(f"vibroimpact: interrupted: {e}", file=sys.stderr)
+        return 128 + int(e.signum)
     except SolverError as e:
         print(f"vibroimpact: solver failed: {e}", file=sys.stderr)
         return 3

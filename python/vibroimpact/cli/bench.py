@@ -28,10 +28,22 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="sweep rows (text output): N frequencies x 300 periods of the impact "
                    "oscillator, in-process on 1 and 2 threads and on Dask (default 400, 40 "
                    "with --quick; 0 skips them; JSON: python benchmarks/bench_sweep.py)")
+    p.add_argument("--peers", action="store_true",
+                   help="instead: the side-by-side table against SciPy solve_ivp, OpenSeesPy and "
+                   "Exudyn (pip install '.[peers]'; a missing peer gives a 'not available' row)")
+    p.add_argument("--peer-repeats", type=int, default=5, metavar="N",
+                   help="with --peers: timed runs per peer (median; default 5, 1 with --quick)")
+    p.add_argument("--write", metavar="FILE.md", default=None,
+                   help="with --peers: also write the table and the machine to FILE.md")
     p.set_defaults(handler=main)
 
 
 def main(args: argparse.Namespace) -> int:
+    if getattr(args, "peers", False):
+        from vibroimpact.peers.table import cli_main
+
+        return cli_main(quick=args.quick, repeats=None if args.quick else args.peer_repeats,
+                        write=args.write, as_json=args.json)
     repeats = 3 if args.quick else max(1, args.repeats)
     rows = sdof_benchmark(repeats=repeats, peer_repeats=1 if args.quick else 5)
     if args.json:

@@ -10,11 +10,13 @@ from __future__ import annotations
 import argparse
 import json
 import logging
+import signal
 import sys
+import warnings
 from pathlib import Path
 from typing import Any
 
-from vibroimpact.errors import ModelError
+from vibroimpact.errors import ContactResolutionWarning, Interrupted, ModelError, SolverError
 from vibroimpact.io import results_file
 from vibroimpact.io.model_file import ModelFile, ModelFileError, load_model
 from vibroimpact.report import (
@@ -23,6 +25,7 @@ from vibroimpact.report import (
     configure_logging,
     log_run,
 )
+from vibroimpact.simulate import contact_resolution_messages
 
 __all__ = ["OUTPUT_SUFFIXES", "add_parser", "main"]
 
@@ -46,7 +49,9 @@ examples:
   vibroimpact run long.toml -o long.nc --window 500000   # streamed to disk, with progress
 
 exit codes: 0 done, 2 mistakes in the model file or the arguments (one line each),
-3 the solver failed."""
+3 the solver failed, 130 interrupted by Ctrl-C, 143 by SIGTERM. After a failure or an
+interrupt, -o OUT holds the results up to then, marked incomplete (attribute complete = 0;
+"complete": 0 in OUT_meta.json)."""
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -119,6 +124,35 @@ def _print_summary(mf: ModelFile, summary: dict[str, Any]) -> None:
     print(f"  energy balance error {summary['energy_balance_error']:.3e} (relative)")
 
 
+def _stopped(e: SolverError, out: Path | None, args: argparse.Namespace) -> int:
+    """Report a run that stopped early (solver failure or interrupt) on one line, write its
+    partial results to ``out`` (marked incomplete) and return the exit code."""
+    interrupted = isinstance(e, Interrupted)
+    what = "interrupted" if interrupted else "solver failed"
+    print(f"vibroimpact: {what}: {e}", file=sys.stderr)
+    partial = e.partial
+    if e.written:
+        print(f"vibroimpact: wrote the results up to the failure (marked incomplete) to "
+              f"{', '.join(str(p) for p in e.written)}", file=sys.stderr)
+    if partial is not None:
+        if out is not None:
+            try:
+                written = results_file.save(partial, out)
+            except OSError as err:
+                print(f"vibroimpact: error: -o: cannot write {str(err.filename or out)!r}: "
+                      f"{err.strerror}", file=sys.stderr)
+            else:
+                state = "complete" if partial.complete else "marked incomplete"
+                print(f"vibroimpact: wrote the results up to t = {partial.time[-1]:.6g} s "
+                      f"({state}) to {', '.join(str(p) for p in written)}", file=sys.stderr)
+        if args.json:
+            json.dump(partial.summary(), sys.stdout)
+            sys.stdout.write("\n")
+    if interrupted:
+        return 128 + int(getattr(e, "signum", signal.SIGINT))
+    return 3
+
+
 def main(args: argparse.Namespace) -> int:
     """Run ``args.model``; print a summary (``--json``: one JSON object); write ``-o``."""
     out, errors = _output_errors(args.output)
@@ -139,15 +173,26 @@ def main(args: argparse.Namespace) -> int:
     try:
         if args.window is not None and out is not None:
             progress = Progress(1, quiet=args.quiet)
-            with progress.item(f"{mf.path.name} -> {out.name}") as update:
-                summary = results_file.simulate_to_file(
-                    mf.model, out, mf.t_end, mf.dt, mf.method, every=mf.every, dofs=mf.dofs,
-                    window_steps=args.window, progress=update,
-                )
+            try:
+                with progress.item(f"{mf.path.name} -> {out.name}") as update:
+                    summary = results_file.simulate_to_file(
+                        mf.model, out, mf.t_end, mf.dt, mf.method, every=mf.every,
+                        dofs=mf.dofs, window_steps=args.window, progress=update,
+                    )
+            except SolverError as e:
+                return _stopped(e, out, args)
             written = [out]
             log_run(log, summary)
         else:
-            result = mf.simulate()
+            if mf.method.adaptive is None:
+                for line in contact_resolution_messages(mf.model, mf.dt):
+                    print(f"vibroimpact: warning: {line}", file=sys.stderr)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", ContactResolutionWarning)  # printed above
+                try:
+                    result = mf.simulate()
+                except SolverError as e:
+                    return _stopped(e, out, args)
             summary = result.summary()
             log_run(log, summary)
             if out is not None:

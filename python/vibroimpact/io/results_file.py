@@ -17,9 +17,12 @@
 Every file is first written to a hidden temporary file in the target's folder and then moved
 into place with :func:`os.replace`, so a crash, ``Ctrl-C`` or ``SIGTERM`` leaves either the
 previous complete file or none, never a half-written one. ``Ctrl-C`` and ``SIGTERM`` take
-effect when the file being written is complete (or, for a streamed run, after the current
-window); the temporary files are then removed and :class:`KeyboardInterrupt` is raised. Only
-``SIGKILL`` or a crash can leave a hidden ``.NAME.*.tmp`` file behind.
+effect when the file being written is complete; the temporary files are then removed and
+:class:`KeyboardInterrupt` is raised. A streamed run (:func:`simulate_to_file`) stopped by a
+signal (after the current window; SIGTERM within a few steps) or by a solver failure writes
+the windows done, marked incomplete (``complete = 0``), and raises
+:class:`~vibroimpact.Interrupted` or :class:`~vibroimpact.SolverError` (``written`` names the
+file). Only ``SIGKILL`` or a crash can leave a hidden ``.NAME.*.tmp`` file behind.
 
 Example::
 
@@ -47,7 +50,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vibroimpact.errors import ModelError
+from vibroimpact.errors import Interrupted, ModelError, SolverError
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -726,8 +729,10 @@ def simulate_to_file(
     """Run ``model`` from 0 to ``t_end`` in time windows of about ``window_steps`` steps and
     append each window to the NetCDF-4 file ``path`` (``.nc``/``.h5``) as it is computed, so
     that memory holds one window, not the whole run. The file appears (atomically) when the
-    run is complete. Returns the summary of :meth:`vibroimpact.Result.summary` for the whole
-    run plus ``windows`` and ``steps_computed``.
+    run is complete, or, marked incomplete (``complete = 0``) with the windows done, when a
+    solver failure or a signal stops it (the error is then raised with ``written = [path]``).
+    Returns the summary of :meth:`vibroimpact.Result.summary` for the whole run plus
+    ``windows`` and ``steps_computed``.
 
     The compiled core cannot yet be handed a contact state or a start time, so a window is
     continued from an instant at which **every gap is open** (the recorded sample closest to
@@ -773,12 +778,21 @@ def simulate_to_file(
     newton = rejected = cuts = 0
     wall = balance_error = 0.0
     last: Result | None = None
+    # a solver failure or a signal: the windows done (and the failed one's partial result)
+    # are written, marked incomplete (complete = 0), then the error is raised
+    failure: SolverError | None = None
     tmp = _temp_path(path)
     stream: _NetcdfStream | None = None
     with _deferred_interrupts() as interrupts:
         try:
             stream = _NetcdfStream(tmp, keep, n_gaps)
             while done < n_steps:
+                if interrupts.signum is not None and last is not None:
+                    signum, interrupts.signum = interrupts.signum, None
+                    name = signal.Signals(signum).name
+                    failure = Interrupted(f"interrupted at t = {done * h:.9e} s; the results "
+                                          f"up to then are kept ({name})", signum=signum)
+                    break
                 interrupts.check()
                 t0 = done * h
                 steps = min(window, n_steps - done)
@@ -786,11 +800,26 @@ def simulate_to_file(
                     model, loads=tuple(_shifted_load(ld, t0) for ld in model.loads),
                     initial_displacement=x, initial_velocity=v,
                 )
-                r = simulate(shifted, t_end=steps * h, dt=h, method=method, every=every,
-                             throw=True)
+                try:
+                    r = simulate(shifted, t_end=steps * h, dt=h, method=method, every=every,
+                                 throw=True)
+                except Interrupted as e:  # SIGTERM (Ctrl-C is deferred to the window's end)
+                    if e.partial is None:
+                        raise
+                    r = e.partial
+                    failure = Interrupted(
+                        f"interrupted at t = {t0 + float(r.time[-1]):.9e} s; the results up "
+                        f"to then are kept ({signal.Signals(e.signum).name})", signum=e.signum)
+                except SolverError as e:
+                    if e.partial is None:
+                        raise
+                    r = e.partial
+                    failure = SolverError(
+                        f"{e} (in the window from t = {t0:.9e} s: times are from its start; "
+                        f"the run stopped at t = {t0 + float(r.time[-1]):.9e} s)")
                 windows += 1
                 computed += r.stats.steps
-                if done + steps >= n_steps:
+                if failure is not None or done + steps >= n_steps:
                     k = len(r.time) - 1
                 else:
                     open_all = np.all(r.gap_penetration < 0.0, axis=1) if n_gaps else None
@@ -837,13 +866,17 @@ def simulate_to_file(
                 last = r
                 if progress is not None:
                     progress(done / n_steps)
+                if failure is not None:
+                    break
             assert last is not None
             summary_result = dataclasses.replace(last, model=model, method=method,
                                                  t_end=float(t_end))
             attrs, extra = run_metadata(summary_result)
             attrs.update(
-                complete=1, message="completed", dt=h, t_end=float(t_end),
-                method=repr(method), steps=n_steps, newton_iterations=newton,
+                complete=int(failure is None),
+                message="completed" if failure is None else str(failure), dt=h,
+                t_end=float(t_end), method=repr(method),
+                steps=n_steps if failure is None else done, newton_iterations=newton,
                 energy_balance_error=balance_error, rejected_steps=rejected, step_cuts=cuts,
                 wall_time_s=wall, windows=windows, steps_computed=computed,
             )
@@ -860,6 +893,9 @@ def simulate_to_file(
             if stream is not None:
                 stream.close()
             tmp.unlink(missing_ok=True)
+    if failure is not None:
+        failure.written = [path]
+        raise failure
     records = [
         {k: (impacts[k][i] if k in ("gap", "side") else
              (None if not math.isfinite(impacts[k][i]) else impacts[k][i]))

@@ -24,6 +24,25 @@ pub enum SimError {
     Diverged {
         /// Time at which the state stopped being finite, s.
         t: f64,
+        /// The gap in contact with the largest force at the last finite state, if any.
+        gap: Option<usize>,
+    },
+    /// The mechanical energy grew far beyond every energy that entered the system (initial
+    /// energy plus external work): the integration is unstable or a law creates energy.
+    EnergyGrowth {
+        /// Time of the check that found it, s.
+        t: f64,
+        /// Kinetic + strain + contact potential energy then, J.
+        energy: f64,
+        /// Largest energy that entered the system up to then, J.
+        reference: f64,
+        /// The gap in contact with the largest force then, if any.
+        gap: Option<usize>,
+    },
+    /// An interrupt was requested ([`crate::interrupt`]): the run stopped at `t`.
+    Interrupted {
+        /// Time of the last accepted step, s.
+        t: f64,
     },
     /// The effective stiffness `K + a0 M + a1 C` cannot be factorised.
     SingularTangent {
@@ -48,21 +67,53 @@ impl fmt::Display for SimError {
                  (penetration {penetration:.3e} m) after {iterations} iterations \
                  with the step cut to {dt:.3e} s; reduce dt or check the contact stiffness"
             ),
-            SimError::Diverged { t } => write!(
+            SimError::Diverged { t, gap } => write!(
                 f,
-                "the solution diverged (non-finite state) at t = {t:.9e} s; \
-                 reduce dt or check the model's units"
+                "the solution diverged (non-finite state) at t = {t:.9e} s{}; \
+                 reduce dt or check the model's units",
+                on_gap(*gap)
+            ),
+            SimError::EnergyGrowth {
+                t,
+                energy,
+                reference,
+                gap,
+            } => write!(
+                f,
+                "the solution diverged (energy blow-up) at t = {t:.9e} s{}: the mechanical \
+                 energy {energy:.3e} J exceeds {:.0e} times the largest energy that entered \
+                 the system ({reference:.3e} J); reduce dt, use an unconditionally stable \
+                 method (Newmark average acceleration) or check the contact law",
+                on_gap(*gap),
+                ENERGY_GROWTH_LIMIT
+            ),
+            SimError::Interrupted { t } => write!(
+                f,
+                "interrupted at t = {t:.9e} s; the results up to then are kept"
             ),
             SimError::SingularTangent { dt } => write!(
                 f,
                 "the effective stiffness K + M/(beta dt^2) + gamma C/(beta dt) is singular \
-                 for dt = {dt:.3e} s; check the mass matrix"
+                 for dt = {dt:.3e} s (at t = 0 s, before the first step, on no gap); check \
+                 the mass and stiffness matrices (a negative stiffness cancelling the \
+                 inertia term) or change dt"
             ),
         }
     }
 }
 
 impl std::error::Error for SimError {}
+
+/// Energy growth, relative to the largest energy that entered the system, that counts as a
+/// blow-up ([`SimError::EnergyGrowth`]).
+pub const ENERGY_GROWTH_LIMIT: f64 = 1e3;
+
+fn on_gap(gap: Option<usize>) -> String {
+    match gap {
+        Some(g) => format!(" with gap {g} in contact"),
+        None => " with no gap in contact".to_string(),
+    }
+}
 
 /// Shorthand for refusing a model with a message naming the field.
 pub(crate) fn invalid<T>(msg: impl Into<String>) -> Result<T, SimError> {

@@ -78,6 +78,10 @@ impl HermiteSegment {
     pub fn crossing_between(&self, lo: f64, hi: f64) -> f64 {
         let (mut lo, mut hi) = (lo, hi);
         let (f_lo, f_hi) = (self.value(lo), self.value(hi));
+        if !(f_lo.is_finite() && f_hi.is_finite()) || f_lo == f_hi {
+            // a diverged state (the driver reports it) or no crossing to locate
+            return lo;
+        }
         if f_lo == 0.0 {
             return lo;
         }
@@ -106,6 +110,9 @@ impl HermiteSegment {
             if (self.value(s)).abs() <= 1e-16 * (f_lo.abs() + f_hi.abs()) {
                 break;
             }
+        }
+        if s.is_nan() {
+            return lo;
         }
         s.clamp(lo, hi)
     }

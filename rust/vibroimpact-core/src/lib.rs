@@ -8,12 +8,15 @@
 pub mod contact;
 pub mod error;
 pub mod gap;
+pub mod impulsive;
 pub mod integrators;
 pub mod interpolation;
 pub mod interrupt;
 pub mod linalg;
 pub mod simulate;
 pub mod step_control;
+#[cfg(test)]
+mod step_cut_tests;
 pub mod structure;
 pub mod sweep;
 pub mod system;

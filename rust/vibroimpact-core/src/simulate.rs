@@ -5,12 +5,13 @@ use std::time::Instant;
 
 use nalgebra::DVector;
 
-use crate::error::{invalid, SimError};
+use crate::error::{invalid, SimError, ENERGY_GROWTH_LIMIT};
 use crate::gap::{ImpactLog, ImpactRecord};
 use crate::integrators::{
     Bathe, BatheStepper, NewmarkFamily, NewmarkStepper, NewtonSettings, PreciseIntegration,
     PreciseStepper, Stepper,
 };
+use crate::interrupt;
 use crate::step_control::{Adaptive, StepControl};
 use crate::system::{State, System};
 
@@ -23,6 +24,11 @@ pub enum Method {
     Precise(PreciseIntegration),
     /// Bathe's composite trapezoidal / three-point backward scheme with Newton on the gaps.
     Bathe(Bathe),
+    /// Rigid gaps only: event-driven impacts with Newton's restitution law
+    /// (`crate::impulsive`, docs/rigid-impacts.md).
+    EventDriven(crate::impulsive::EventDriven),
+    /// Rigid gaps only: Moreau–Jean θ-method time stepping with one LCP per step.
+    MoreauJean(crate::impulsive::MoreauJean),
 }
 
 /// Step size, duration and what to record.
@@ -185,6 +191,17 @@ pub fn simulate_observed(
             "output.dofs: {d} is out of range; expected 0 <= dof < {n}"
         ));
     }
+    // Rigid gaps (massless bar) are for the impulsive methods only, and they take no others.
+    crate::impulsive::check_method_laws(sys, &method)?;
+    if crate::impulsive::is_impulsive(&method) {
+        if observer.is_some() {
+            return invalid(
+                "solver.method: the impulsive methods (event-driven, moreau-jean) do not feed \
+                 step observers (sweep reducers); expected a force law and a compliant method",
+            );
+        }
+        return crate::impulsive::simulate_impulsive(sys, method, settings, x0, v0);
+    }
     // Fixed steps: dt is shortened so that t_end is a whole number of steps. Adaptive steps:
     // the cached sizes are dt_max / 2^k, with dt_max likewise a whole fraction of t_end.
     let control = match adaptive {
@@ -207,38 +224,6 @@ pub fn simulate_observed(
         None => newton.max_step_cuts,
     };
 
-    let mut stepper: Box<dyn Stepper> = match method {
-        Method::NewmarkFamily(scheme) => {
-            let mut s = NewmarkStepper::new(
-                sys,
-                scheme,
-                NewtonSettings {
-                    max_step_cuts: max_levels,
-                    ..newton
-                },
-            )?;
-            s.prepare(sys, h0)?;
-            Box::new(s)
-        }
-        Method::Precise(variant) => {
-            let settings = NewtonSettings {
-                max_step_cuts: max_levels,
-                ..newton
-            };
-            let mut s = PreciseStepper::new(sys, variant, settings)?;
-            s.prepare(sys, h0)?;
-            Box::new(s)
-        }
-        Method::Bathe(scheme) => {
-            let settings = NewtonSettings {
-                max_step_cuts: max_levels,
-                ..newton
-            };
-            let mut s = BatheStepper::new(sys, scheme, settings)?;
-            s.prepare(sys, h0)?;
-            Box::new(s)
-        }
-    };
     let n_rec = if control.is_some() {
         1024
     } else {
@@ -246,16 +231,62 @@ pub fn simulate_observed(
     };
     let mut run = Run::new(sys, x0, v0, record_dofs.clone(), n_rec)?;
     run.observer = observer;
-    let error = match &control {
-        None => run.fixed_steps(
-            sys,
-            stepper.as_mut(),
-            h0,
-            n_steps,
-            every,
-            newton.max_step_cuts,
-        ),
-        Some(c) => c.run(&mut run, sys, stepper.as_mut(), every),
+    let stepper: Result<Box<dyn Stepper>, SimError> = (|| -> Result<Box<dyn Stepper>, SimError> {
+        Ok(match method {
+            Method::NewmarkFamily(scheme) => {
+                let mut s = NewmarkStepper::new(
+                    sys,
+                    scheme,
+                    NewtonSettings {
+                        max_step_cuts: max_levels,
+                        ..newton
+                    },
+                )?;
+                s.prepare(sys, h0)?;
+                Box::new(s)
+            }
+            Method::Precise(variant) => {
+                let settings = NewtonSettings {
+                    max_step_cuts: max_levels,
+                    ..newton
+                };
+                let mut s = PreciseStepper::new(sys, variant, settings)?;
+                s.prepare(sys, h0)?;
+                Box::new(s)
+            }
+            Method::Bathe(scheme) => {
+                let settings = NewtonSettings {
+                    max_step_cuts: max_levels,
+                    ..newton
+                };
+                let mut s = BatheStepper::new(sys, scheme, settings)?;
+                s.prepare(sys, h0)?;
+                Box::new(s)
+            }
+            Method::EventDriven(_) | Method::MoreauJean(_) => {
+                unreachable!("the impulsive methods returned above")
+            }
+        })
+    })();
+    let error = match stepper {
+        // A singular tangent is a solver failure at t = 0: the initial state is the result.
+        Err(e @ SimError::SingularTangent { .. }) => Some(e),
+        Err(e) => return Err(e),
+        Ok(mut stepper) => {
+            let error = match &control {
+                None => run.fixed_steps(
+                    sys,
+                    stepper.as_mut(),
+                    h0,
+                    n_steps,
+                    every,
+                    newton.max_step_cuts,
+                ),
+                Some(c) => c.run(&mut run, sys, stepper.as_mut(), every),
+            };
+            // the last check of the energy (runs shorter than interrupt::CHECK_EVERY steps)
+            error.or_else(|| run.check_energy(sys).err())
+        }
     };
     if error.is_some() && run.out.time.last() != Some(&run.cur.t) {
         run.out.record(sys, &run.cur, &run.account);
@@ -288,10 +319,16 @@ pub(crate) struct Run<'o> {
     pub account: Account,
     pub stats: Stats,
     pub observer: Option<&'o mut dyn StepObserver>,
+    /// Accepted steps since the last poll of the interrupt flag and check of the energy.
+    since_check: usize,
+    /// Mechanical energy at t = 0, J.
+    e0: f64,
+    /// Largest energy that entered the system up to the last check, J.
+    energy_in: f64,
 }
 
 impl Run<'_> {
-    fn new(
+    pub(crate) fn new(
         sys: &System,
         x0: DVector<f64>,
         v0: DVector<f64>,
@@ -304,7 +341,11 @@ impl Run<'_> {
         let account = Account::default();
         let mut out = Recorder::new(sys, record_dofs, n_rec);
         out.record(sys, &cur, &account);
+        let e0 = mechanical_energy(sys, &cur);
         Ok(Self {
+            since_check: 0,
+            e0,
+            energy_in: e0,
             trial: cur.clone(),
             cur,
             log,
@@ -328,7 +369,10 @@ impl Run<'_> {
         self.stats.steps += 1;
         let trial = &self.trial;
         if trial.x.iter().chain(trial.v.iter()).any(|v| !v.is_finite()) {
-            return Err(SimError::Diverged { t: trial.t });
+            return Err(SimError::Diverged {
+                t: trial.t,
+                gap: busiest_gap(sys, &self.cur),
+            });
         }
         self.account.commit(sys, &self.cur, trial);
         for (m, &d) in self.out.max_abs.iter_mut().zip(&self.out.dofs) {
@@ -341,12 +385,38 @@ impl Run<'_> {
         }
         std::mem::swap(&mut self.cur, &mut self.trial);
         stepper.accept(sys, &self.cur);
+        self.since_check += 1;
+        if self.since_check >= interrupt::CHECK_EVERY {
+            self.since_check = 0;
+            if interrupt::requested() {
+                return Err(SimError::Interrupted { t: self.cur.t });
+            }
+            self.check_energy(sys)?;
+        }
+        Ok(())
+    }
+
+    /// [`SimError::EnergyGrowth`] if the mechanical energy exceeds
+    /// [`ENERGY_GROWTH_LIMIT`] times the largest energy that entered the system (the initial
+    /// energy plus the external work, or the initial energy alone).
+    pub(crate) fn check_energy(&mut self, sys: &System) -> Result<(), SimError> {
+        let entered = self.e0 + self.account.external_work.abs();
+        self.energy_in = self.energy_in.max(entered);
+        let energy = mechanical_energy(sys, &self.cur);
+        if self.energy_in > 0.0 && energy > ENERGY_GROWTH_LIMIT * self.energy_in {
+            return Err(SimError::EnergyGrowth {
+                t: self.cur.t,
+                energy,
+                reference: self.energy_in,
+                gap: busiest_gap(sys, &self.cur),
+            });
+        }
         Ok(())
     }
 
     /// `n_steps` steps of `h0`, each halved (recursively, up to `max_cuts` times) when
     /// Newton fails.
-    fn fixed_steps(
+    pub(crate) fn fixed_steps(
         &mut self,
         sys: &System,
         stepper: &mut dyn Stepper,
@@ -374,6 +444,10 @@ impl Run<'_> {
                             pending.push(level + 1);
                             pending.push(level + 1);
                         } else {
+                            // Newton failing on a blown-up state: report the blow-up
+                            if let Err(e) = self.check_energy(sys) {
+                                return Some(e);
+                            }
                             return Some(SimError::NewtonFailed {
                                 t: self.cur.t,
                                 gap: failure.gap,
@@ -410,14 +484,11 @@ impl Account {
             self.external_work += 0.5 * (s0.load[l] + s1.load[l]) * moved;
         }
         if sys.has_damping {
-            // Δxᵀ C (v₀ + v₁)/2, with C symmetric (its storage read as row-major).
-            let n = s0.x.len();
-            let c = sys.structure.damping.as_slice();
-            let mut d = 0.0;
-            for i in 0..n {
-                let cv: f64 = (0..n).map(|j| c[i * n + j] * (s0.v[j] + s1.v[j])).sum();
-                d += (s1.x[i] - s0.x[i]) * cv;
-            }
+            // Δxᵀ C (v₀ + v₁)/2
+            let d = sys
+                .sparse
+                .damping
+                .increment_form(&s0.x, &s1.x, &s0.v, &s1.v);
             self.damping_dissipated += 0.5 * d;
         }
         for (w0, w1) in s0.walls.iter().zip(&s1.walls) {
@@ -430,16 +501,20 @@ impl Account {
     }
 }
 
-/// `½ yᵀ A y` for a symmetric matrix.
-fn quadratic_form(a: &nalgebra::DMatrix<f64>, y: &[f64]) -> f64 {
-    let n = y.len();
-    let a = a.as_slice();
-    let mut sum = 0.0;
-    for i in 0..n {
-        let row: f64 = (0..n).map(|j| a[i * n + j] * y[j]).sum();
-        sum += y[i] * row;
-    }
-    0.5 * sum
+/// Kinetic + strain + contact potential energy of a state, J.
+fn mechanical_energy(sys: &System, s: &State) -> f64 {
+    let potential: f64 = s.walls.iter().map(|w| w.potential).sum();
+    sys.sparse.mass.quadratic_form(&s.v) + sys.sparse.stiffness.quadratic_form(&s.x) + potential
+}
+
+/// The gap of the wall in contact with the largest force, if any.
+fn busiest_gap(sys: &System, s: &State) -> Option<usize> {
+    sys.walls
+        .iter()
+        .zip(&s.walls)
+        .filter(|(_, w)| w.closed())
+        .max_by(|a, b| a.1.force.abs().total_cmp(&b.1.force.abs()))
+        .map(|(wall, _)| wall.gap)
 }
 
 /// Decimated output buffers.
@@ -505,8 +580,8 @@ impl Recorder {
             self.penetration.push(pen);
             self.force.push(force);
         }
-        let kinetic = quadratic_form(&sys.structure.mass, &s.v);
-        let strain = quadratic_form(&sys.structure.stiffness, &s.x);
+        let kinetic = sys.sparse.mass.quadratic_form(&s.v);
+        let strain = sys.sparse.stiffness.quadratic_form(&s.x);
         let e = &mut self.energy;
         e.kinetic.push(kinetic);
         e.strain.push(strain);

@@ -165,6 +165,10 @@ impl StepControl {
                         level = (self.level_for(h) + 1).min(self.levels);
                         continue;
                     }
+                    // Newton failing on a blown-up state: report the blow-up
+                    if let Err(e) = run.check_energy(sys) {
+                        return Some(e);
+                    }
                     return Some(SimError::NewtonFailed {
                         t: run.cur.t,
                         gap: failure.gap,

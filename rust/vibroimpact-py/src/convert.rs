@@ -8,9 +8,11 @@ use pyo3::types::{PyDict, PyList};
 
 use crate::{to_py_err, ModelError};
 use vibroimpact_core::contact::{
-    Hertz, HuntCrossley, HuntCrossleyDamping, KelvinVoigt, Law, Tabulated, LAW_NAMES,
+    Hertz, HuntCrossley, HuntCrossleyDamping, KelvinVoigt, Law, Rigid, Tabulated, LAW_NAMES,
+    RIGID_NAME,
 };
 use vibroimpact_core::gap::{Gap, Side};
+use vibroimpact_core::impulsive::{EventDriven, MoreauJean};
 use vibroimpact_core::integrators::{Bathe, NewmarkFamily, NewtonSettings, PreciseIntegration};
 use vibroimpact_core::simulate::{Method, RunSettings};
 use vibroimpact_core::step_control::Adaptive;
@@ -81,6 +83,11 @@ pub(crate) fn law(d: &Bound<'_, PyDict>, ctx: &str) -> PyResult<Law> {
         )
         .map(Law::Tabulated)
         .map_err(to_py_err);
+    }
+    if kind == RIGID_NAME {
+        return Rigid::new(item(d, "restitution", ctx)?)
+            .map(Law::Rigid)
+            .map_err(to_py_err);
     }
     let stiffness: f64 = item(d, "stiffness", ctx)?;
     let exponent: f64 = opt(d, "exponent", ctx)?.unwrap_or(1.5);
@@ -184,6 +191,24 @@ fn method(d: &Bound<'_, PyDict>) -> PyResult<Method> {
             };
             scheme.validate().map_err(to_py_err)?;
             Ok(Method::Bathe(scheme))
+        }
+        "event-driven" => {
+            let default = EventDriven::default();
+            let scheme = EventDriven {
+                chatter_fraction: opt(d, "chatter_fraction", "solver")?
+                    .unwrap_or(default.chatter_fraction),
+                max_events_per_step: opt(d, "max_events_per_step", "solver")?
+                    .unwrap_or(default.max_events_per_step),
+            };
+            scheme.validate().map_err(to_py_err)?;
+            Ok(Method::EventDriven(scheme))
+        }
+        "moreau-jean" => {
+            let scheme = MoreauJean {
+                theta: opt(d, "theta", "solver")?.unwrap_or(0.5),
+            };
+            scheme.validate().map_err(to_py_err)?;
+            Ok(Method::MoreauJean(scheme))
         }
         other => Err(ModelError::new_err(format!(
             "solver.method: '{other}' is not available"

@@ -40,14 +40,92 @@ pub(crate) fn to_py_err(e: SimError) -> PyErr {
     }
 }
 
+/// Steps × DOFs² × gaps below which a run is short enough to go without a worker thread.
+const INLINE_WORK: f64 = 1e5;
+
 /// Runs one model spec (a dict built by `vibroimpact._spec`) and returns a dict of arrays.
+///
+/// The run goes on a worker thread while this one, with the GIL released, waits for it and
+/// every 50 ms lets Python run its signal handlers (`check_signals`): a `KeyboardInterrupt`
+/// (Ctrl-C) or a handler calling `request_interrupt` (SIGTERM, set up by `vibroimpact.simulate`)
+/// makes the core stop at its next poll and return the results up to then. The dict's
+/// `keyboard_interrupt` is then True (the exception itself is consumed).
+///
+/// A short run (under [`INLINE_WORK`], about 10 ms) skips the thread (its ~50 µs would be most
+/// of the cost): it runs on this thread, and a Ctrl-C during it is noted when it returns.
 #[pyfunction]
 fn simulate<'py>(py: Python<'py>, spec: &Bound<'py, PyDict>) -> PyResult<Bound<'py, PyDict>> {
     let job = convert::job_from_spec(spec)?;
-    let out = py
-        .detach(|| run(&job.system, job.method, &job.settings, job.x0, job.v0))
-        .map_err(to_py_err)?;
-    output_to_dict(py, out)
+    let steps = if job.settings.adaptive.is_some() {
+        f64::INFINITY
+    } else {
+        job.settings.t_end / job.settings.dt
+    };
+    let n = job.system.n_dof() as f64;
+    let work = steps * n.max(1.0).powi(2) * (job.system.gaps.len().max(1) as f64);
+    if work <= INLINE_WORK {
+        let out = py.detach(|| run(&job.system, job.method, &job.settings, job.x0, job.v0));
+        let keyboard_interrupt = py.check_signals().is_err();
+        let d = output_to_dict(py, out.map_err(to_py_err)?)?;
+        d.set_item("keyboard_interrupt", keyboard_interrupt)?;
+        return Ok(d);
+    }
+    let (out, keyboard_interrupt) = py.detach(|| {
+        let (tx, rx) = std::sync::mpsc::channel();
+        let convert::Job {
+            system,
+            method,
+            settings,
+            x0,
+            v0,
+        } = job;
+        let system = &system;
+        let settings = &settings;
+        std::thread::scope(|scope| {
+            scope.spawn(move || {
+                // the receiver outlives the scope's threads
+                let _ = tx.send(run(system, method, settings, x0, v0));
+            });
+            let mut keyboard_interrupt = false;
+            loop {
+                match rx.recv_timeout(std::time::Duration::from_millis(50)) {
+                    Ok(out) => return (out, keyboard_interrupt),
+                    Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
+                        if Python::attach(|py| py.check_signals()).is_err() {
+                            keyboard_interrupt = true;
+                            vibroimpact_core::interrupt::request();
+                        }
+                    }
+                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
+                        panic!("the simulation thread ended without a result")
+                    }
+                }
+            }
+        })
+    });
+    let d = output_to_dict(py, out.map_err(to_py_err)?)?;
+    d.set_item("keyboard_interrupt", keyboard_interrupt)?;
+    Ok(d)
+}
+
+/// Asks the runs in progress (`simulate`, `sweep`) to stop at their next poll (every ~1000
+/// steps); they return the results up to then with an "interrupted" error. Safe to call from a
+/// signal handler or another thread.
+#[pyfunction]
+fn request_interrupt() {
+    vibroimpact_core::interrupt::request();
+}
+
+/// Withdraws an interrupt request (before starting a new run).
+#[pyfunction]
+fn clear_interrupt() {
+    vibroimpact_core::interrupt::clear();
+}
+
+/// Whether an interrupt has been requested and not cleared.
+#[pyfunction]
+fn interrupt_requested() -> bool {
+    vibroimpact_core::interrupt::requested()
 }
 
 /// Force of a law (spec dict as in a gap's `law`) at penetration δ (m), rate δ̇ (m/s) and
@@ -350,8 +428,22 @@ fn output_to_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>>
     stats.set_item("dt", out.dt)?;
     d.set_item("stats", stats)?;
     match out.error {
-        None => d.set_item("error", py.None())?,
-        Some(e) => d.set_item("error", e.to_string())?,
+        None => {
+            d.set_item("error", py.None())?;
+            d.set_item("error_kind", py.None())?;
+        }
+        Some(e) => {
+            let kind = match &e {
+                SimError::InvalidModel(_) => "invalid-model",
+                SimError::NewtonFailed { .. } => "newton-failed",
+                SimError::Diverged { .. } => "diverged",
+                SimError::EnergyGrowth { .. } => "energy-growth",
+                SimError::SingularTangent { .. } => "singular-tangent",
+                SimError::Interrupted { .. } => "interrupted",
+            };
+            d.set_item("error", e.to_string())?;
+            d.set_item("error_kind", kind)?;
+        }
     }
     Ok(d)
 }
@@ -360,6 +452,9 @@ fn output_to_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>>
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(simulate, m)?)?;
     m.add_function(wrap_pyfunction!(expm, m)?)?;
+    m.add_function(wrap_pyfunction!(request_interrupt, m)?)?;
+    m.add_function(wrap_pyfunction!(clear_interrupt, m)?)?;
+    m.add_function(wrap_pyfunction!(interrupt_requested, m)?)?;
     m.add_function(wrap_pyfunction!(precise_matrices, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_check, m)?)?;

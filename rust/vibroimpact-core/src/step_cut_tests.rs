@@ -1,0 +1,150 @@
+//! A rejected or cut step leaves no trace (issue 10, item 2): attempts never mutate the
+//! current state, so a run whose every full step is rejected (after a real attempt that also
+//! scribbles over the trial state) and then taken as two half steps is identical to a run at
+//! the half step.
+
+use nalgebra::{DMatrix, DVector};
+
+use crate::contact::{LankaraniNikravesh, Law};
+use crate::gap::{Gap, Side, WallState};
+use crate::integrators::{NewmarkFamily, NewmarkStepper, NewtonSettings, StepFailure, Stepper};
+use crate::simulate::{simulate, Method, Run, RunSettings};
+use crate::structure::LinearStructure;
+use crate::system::{State, System};
+
+/// Takes every step of the largest size for real, then wrecks the trial state and reports a
+/// failure, so that the driver must cut it.
+struct Flaky {
+    inner: NewmarkStepper,
+    rejected: usize,
+}
+
+impl Stepper for Flaky {
+    fn attempt(
+        &mut self,
+        sys: &System,
+        from: &State,
+        level: usize,
+        h: f64,
+        to: &mut State,
+    ) -> Result<usize, StepFailure> {
+        let result = self.inner.attempt(sys, from, level, h, to);
+        if level > 0 {
+            return result;
+        }
+        self.rejected += 1;
+        to.t = f64::NAN;
+        to.x.fill(f64::NAN);
+        to.v.fill(1e9);
+        to.phi.fill(-7.0);
+        for w in to.walls.iter_mut() {
+            *w = WallState {
+                penetration: 1.0,
+                rate: -3.0,
+                force: 1e12,
+                elastic_force: 1e12,
+                potential: 1e6,
+                d_penetration: 1.0,
+                d_rate: 1.0,
+                impact_speed: 42.0,
+            };
+        }
+        Err(StepFailure {
+            gap: 0,
+            penetration: 1.0,
+            iterations: 1,
+        })
+    }
+
+    fn accept(&mut self, sys: &System, state: &State) {
+        self.inner.accept(sys, state);
+    }
+}
+
+fn system() -> System {
+    let s = LinearStructure::new(
+        DMatrix::from_element(2, 2, 0.0)
+            + DMatrix::from_diagonal(&DVector::from_vec(vec![100.0, 10.0])),
+        DMatrix::from_row_slice(2, 2, &[50.0, -50.0, -50.0, 50.0]),
+        DMatrix::from_row_slice(2, 2, &[1e6, -1e6, -1e6, 1e6]),
+    )
+    .unwrap();
+    let law = |ce| Law::LankaraniNikravesh(LankaraniNikravesh::new(1.5e11, 1.5, ce).unwrap());
+    let gaps = vec![
+        Gap {
+            dofs: vec![0],
+            coefficients: vec![1.0],
+            clearance: 0.005,
+            side: Side::Both,
+            law: law(0.9),
+        },
+        Gap {
+            dofs: vec![0, 1],
+            coefficients: vec![1.0, -1.0],
+            clearance: 0.001,
+            side: Side::Both,
+            law: law(0.5),
+        },
+    ];
+    System::new(s, gaps, vec![]).unwrap()
+}
+
+#[test]
+fn cut_steps_equal_a_run_at_the_cut_step_size() {
+    let sys = system();
+    let (t_end, n_steps) = (0.02, 1000);
+    let x0 = DVector::zeros(2);
+    let v0 = DVector::from_vec(vec![8.0, -3.0]);
+    let scheme = NewmarkFamily::average_acceleration();
+    let newton = NewtonSettings::default();
+
+    let h0 = t_end / n_steps as f64;
+    let mut flaky = Flaky {
+        inner: NewmarkStepper::new(&sys, scheme, newton).unwrap(),
+        rejected: 0,
+    };
+    flaky.inner.prepare(&sys, h0).unwrap();
+    let mut run = Run::new(&sys, x0.clone(), v0.clone(), vec![0, 1], n_steps + 2).unwrap();
+    let error = run.fixed_steps(&sys, &mut flaky, h0, n_steps, 1, 1);
+    assert!(error.is_none(), "{error:?}");
+    assert_eq!(flaky.rejected, n_steps);
+    assert_eq!(run.stats.step_cuts, n_steps);
+    assert_eq!(run.stats.steps, 2 * n_steps);
+
+    let settings = RunSettings {
+        t_end,
+        dt: t_end / (2 * n_steps) as f64,
+        every: 1,
+        record_dofs: vec![0, 1],
+        newton,
+        adaptive: None,
+    };
+    let reference = simulate(&sys, Method::NewmarkFamily(scheme), &settings, x0, v0).unwrap();
+    assert!(reference.error.is_none());
+    assert_eq!(reference.stats.steps, 2 * n_steps);
+
+    // the same trajectory, bit for bit, and the same impact table (times, and the peaks
+    // interpolated in time, to the last bits of the step instants)
+    let last = reference.time.len() - 1;
+    assert_eq!(run.cur.x[..], reference.displacement[2 * last..]);
+    assert_eq!(run.cur.v[..], reference.velocity[2 * last..]);
+    let ours = &run.log.records;
+    assert!(ours.len() >= 4, "{} impacts", ours.len());
+    assert_eq!(ours.len(), reference.impacts.len());
+    let close =
+        |x: f64, y: f64| (x - y).abs() <= 1e-12 * y.abs().max(1e-12) || (x.is_nan() && y.is_nan());
+    for (a, b) in ours.iter().zip(&reference.impacts) {
+        assert_eq!((a.gap, a.side), (b.gap, b.side));
+        for (x, y) in [
+            (a.t_start, b.t_start),
+            (a.t_end, b.t_end),
+            (a.v_in, b.v_in),
+            (a.v_out, b.v_out),
+            (a.delta_max, b.delta_max),
+            (a.force_max, b.force_max),
+            (a.impulse, b.impulse),
+        ] {
+            assert!(close(x, y), "{a:?}\n{b:?}");
+        }
+    }
+}

@@ -1,0 +1,71 @@
+//! The interrupt flag (`vibroimpact_core::interrupt`) stops a run with its results up to
+//! then. In its own test binary: the flag is process-wide, and other tests run in parallel.
+
+use nalgebra::{DMatrix, DVector};
+use vibroimpact_core::contact::{LankaraniNikravesh, Law};
+use vibroimpact_core::gap::{Gap, Side};
+use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings};
+use vibroimpact_core::interrupt;
+use vibroimpact_core::simulate::{simulate, Method, RunSettings};
+use vibroimpact_core::structure::LinearStructure;
+use vibroimpact_core::system::System;
+use vibroimpact_core::SimError;
+
+#[test]
+fn a_requested_interrupt_stops_the_run_with_its_results_up_to_then() {
+    let s = LinearStructure::new(
+        DMatrix::from_element(1, 1, 100.0),
+        DMatrix::zeros(1, 1),
+        DMatrix::zeros(1, 1),
+    )
+    .unwrap();
+    let gap = Gap {
+        dofs: vec![0],
+        coefficients: vec![1.0],
+        clearance: 0.005,
+        side: Side::Both,
+        law: Law::LankaraniNikravesh(LankaraniNikravesh::new(1.5e11, 1.5, 0.9).unwrap()),
+    };
+    let sys = System::new(s, vec![gap], vec![]).unwrap();
+    let settings = RunSettings {
+        t_end: 1.0,
+        dt: 1e-6,
+        every: 100,
+        record_dofs: vec![0],
+        newton: NewtonSettings::default(),
+        adaptive: None,
+    };
+    let method = Method::NewmarkFamily(NewmarkFamily::average_acceleration());
+    let x0 = DVector::zeros(1);
+    let v0 = DVector::from_element(1, 8.0);
+
+    interrupt::request();
+    assert!(interrupt::requested());
+    let out = simulate(&sys, method, &settings, x0.clone(), v0.clone()).unwrap();
+    interrupt::clear();
+    assert!(!interrupt::requested());
+    // stopped at the first poll, after interrupt::CHECK_EVERY steps
+    let t_stop = interrupt::CHECK_EVERY as f64 * 1e-6;
+    match out.error {
+        Some(SimError::Interrupted { t }) => assert!((t - t_stop).abs() < 1e-12, "{t}"),
+        ref other => panic!("expected an interrupt, got {other:?}"),
+    }
+    assert!(out
+        .error
+        .as_ref()
+        .unwrap()
+        .to_string()
+        .contains("interrupted at t = "));
+    assert_eq!(out.stats.steps, interrupt::CHECK_EVERY);
+    assert!((out.time.last().unwrap() - t_stop).abs() < 1e-12);
+    assert_eq!(out.displacement.len(), out.time.len());
+    // the recorded samples are those of an uninterrupted run
+    let short = RunSettings {
+        t_end: t_stop,
+        ..settings
+    };
+    let full = simulate(&sys, method, &short, x0, v0).unwrap();
+    assert!(full.error.is_none());
+    assert_eq!(full.time.len(), out.time.len());
+    assert_eq!(full.displacement, out.displacement);
+}

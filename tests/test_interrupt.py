@@ -1,0 +1,150 @@
+"""Interruptions (issue 10, item 3): Ctrl-C (SIGINT) or SIGTERM during a run stops it within
+a few steps, writes the results up to then (atomically, marked incomplete: ``complete = 0``)
+and leaves no temporary file; exit codes 130 and 143."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import vibroimpact as vi
+from vibroimpact import _core, cases
+from vibroimpact.io import results_file
+
+PAPER = Path(__file__).parents[1] / "examples" / "models" / "sdof_paper_ln.toml"
+
+pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+
+
+def _long_model(tmp_path: Path, every: int = 100000) -> Path:
+    """The paper's SDOF case run for 1000 s at 1 µs (1e9 steps: minutes), every k-th step
+    kept."""
+    text = PAPER.read_text().replace("t_end = 0.02 ", "t_end = 1000.0 ")
+    path = tmp_path / "long.toml"
+    path.write_text(text + f"\n[output]\nevery = {every}\n")
+    return path
+
+
+def _interrupt_cli(tmp_path: Path, sig: int, out: str) -> subprocess.CompletedProcess[str]:
+    model = _long_model(tmp_path)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "vibroimpact", "run", str(model), "-o", str(tmp_path / out),
+         "--json"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    time.sleep(3.0)  # imports done, the run under way
+    proc.send_signal(sig)
+    started = time.monotonic()
+    stdout, stderr = proc.communicate(timeout=60)
+    assert time.monotonic() - started < 20, "the run did not stop promptly"
+    return subprocess.CompletedProcess(proc.args, proc.returncode, stdout, stderr)
+
+
+def _no_temporary_files(folder: Path) -> None:
+    assert not [p.name for p in folder.iterdir() if p.name.endswith(".tmp")]
+
+
+@pytest.mark.parametrize(("sig", "code", "name"), [(signal.SIGINT, 130, "SIGINT"),
+                                                   (signal.SIGTERM, 143, "SIGTERM")])
+def test_a_signal_stops_the_run_and_keeps_what_was_computed(
+        tmp_path: Path, sig: int, code: int, name: str) -> None:
+    proc = _interrupt_cli(tmp_path, sig, "out.nc")
+    assert proc.returncode == code, proc.stderr
+    assert "Traceback" not in proc.stderr
+    first = proc.stderr.splitlines()[0]
+    assert first.startswith("vibroimpact: interrupted: interrupted at t = ") and name in first
+    ds = results_file.load(tmp_path / "out.nc")
+    assert int(ds.attrs["complete"]) == 0
+    assert "interrupted at t = " in ds.attrs["message"]
+    t_stop = float(ds.time[-1])
+    assert 0.0 < t_stop < 1000.0
+    assert np.all(np.diff(ds.time.values) > 0)
+    assert ds.sizes["impact"] > 0 and np.all(ds.impact_t_start.values <= t_stop)
+    summary = json.loads(proc.stdout)
+    assert summary["complete"] is False
+    _no_temporary_files(tmp_path)
+
+
+def test_an_interrupted_csv_result_is_marked_incomplete(tmp_path: Path) -> None:
+    proc = _interrupt_cli(tmp_path, signal.SIGINT, "out.csv")
+    assert proc.returncode == 130, proc.stderr
+    meta = json.loads((tmp_path / "out_meta.json").read_text())
+    assert meta["complete"] == 0
+    for name in ("out.csv", "out_impacts.csv", "out_energy.csv"):
+        assert (tmp_path / name).exists()
+    _no_temporary_files(tmp_path)
+
+
+def _signal_soon(sig: int, delay: float = 0.3) -> threading.Timer:
+    timer = threading.Timer(delay, os.kill, (os.getpid(), sig))
+    timer.start()
+    return timer
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_in_process_a_signal_raises_interrupted_with_the_partial_result(sig: int) -> None:
+    model = cases.sdof_model("lankarani-nikravesh")
+    term_handler = signal.getsignal(signal.SIGTERM)
+    timer = _signal_soon(sig)
+    try:
+        with pytest.raises(vi.Interrupted) as err:
+            vi.simulate(model, t_end=1000.0, dt=1e-6, every=100000)
+    finally:
+        timer.cancel()
+    e = err.value
+    assert isinstance(e, vi.SolverError) and e.signum == sig
+    assert "interrupted at t = " in str(e) and signal.Signals(sig).name in str(e)
+    partial = e.partial
+    assert partial is not None and not partial.complete
+    assert 0 < partial.time[-1] < 1000.0
+    assert len(partial.impacts) > 0
+    # the handler is restored and the flag withdrawn: the next run completes
+    assert signal.getsignal(signal.SIGTERM) == term_handler
+    assert not _core.interrupt_requested()
+    assert vi.simulate(model, t_end=0.002, dt=1e-6).complete
+
+
+def test_a_stale_interrupt_request_does_not_stop_the_next_run() -> None:
+    _core.request_interrupt()
+    r = vi.simulate(cases.sdof_model("hertz"), t_end=0.002, dt=1e-6)
+    assert r.complete and not _core.interrupt_requested()
+
+
+def test_simulate_in_a_worker_thread_runs_directly() -> None:
+    model = cases.sdof_model("hertz")
+    box: dict[str, object] = {}
+    worker = threading.Thread(
+        target=lambda: box.update(r=vi.simulate(model, t_end=0.002, dt=1e-6)))
+    worker.start()
+    worker.join(30)
+    result = box["r"]
+    assert isinstance(result, vi.Result) and result.complete
+    reference = vi.simulate(model, t_end=0.002, dt=1e-6)
+    assert np.array_equal(result.displacement, reference.displacement)
+
+
+@pytest.mark.parametrize(("sig", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_a_streamed_run_keeps_the_windows_done(tmp_path: Path, sig: int, code: int) -> None:
+    model = _long_model(tmp_path, every=1000)  # samples with the gap open in every window
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "vibroimpact", "run", str(model), "-o", str(tmp_path / "w.nc"),
+         "--window", "200000", "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )
+    time.sleep(3.0)
+    proc.send_signal(sig)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == code, stderr
+    assert "Traceback" not in stderr and "marked incomplete" in stderr
+    ds = results_file.load(tmp_path / "w.nc")
+    assert int(ds.attrs["complete"]) == 0 and "interrupted at t = " in ds.attrs["message"]
+    assert 0 < float(ds.time[-1]) < 1000.0 and np.all(np.diff(ds.time.values) > 0)
+    _no_temporary_files(tmp_path)
