@@ -11,8 +11,12 @@ use vibroimpact_core::structure::LinearStructure;
 use vibroimpact_core::system::System;
 use vibroimpact_core::SimError;
 
+/// The flag is process-wide: the tests of this binary take turns.
+static FLAG: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 #[test]
 fn a_requested_interrupt_stops_the_run_with_its_results_up_to_then() {
+    let _turn = FLAG.lock().unwrap_or_else(|e| e.into_inner());
     let s = LinearStructure::new(
         DMatrix::from_element(1, 1, 100.0),
         DMatrix::zeros(1, 1),
@@ -68,4 +72,54 @@ fn a_requested_interrupt_stops_the_run_with_its_results_up_to_then() {
     assert!(full.error.is_none());
     assert_eq!(full.time.len(), out.time.len());
     assert_eq!(full.displacement, out.displacement);
+}
+
+/// The impulsive methods poll the flag once per step too.
+#[test]
+fn impulsive_methods_stop_on_an_interrupt() {
+    let _turn = FLAG.lock().unwrap_or_else(|e| e.into_inner());
+    use vibroimpact_core::contact::Rigid;
+    use vibroimpact_core::impulsive::{EventDriven, MoreauJean};
+    let s = LinearStructure::new(
+        DMatrix::from_element(1, 1, 1.0),
+        DMatrix::zeros(1, 1),
+        DMatrix::from_element(1, 1, 100.0),
+    )
+    .unwrap();
+    let gap = Gap {
+        dofs: vec![0],
+        coefficients: vec![1.0],
+        clearance: 0.01,
+        side: Side::Both,
+        law: Law::Rigid(Rigid::new(0.9).unwrap()),
+    };
+    let sys = System::new(s, vec![gap], vec![]).unwrap();
+    let settings = RunSettings {
+        t_end: 1.0,
+        dt: 1e-3,
+        every: 1,
+        record_dofs: vec![0],
+        newton: NewtonSettings::default(),
+        adaptive: None,
+    };
+    for method in [
+        Method::EventDriven(EventDriven::default()),
+        Method::MoreauJean(MoreauJean::default()),
+    ] {
+        interrupt::request();
+        let out = simulate(
+            &sys,
+            method,
+            &settings,
+            DVector::zeros(1),
+            DVector::from_element(1, 1.0),
+        );
+        interrupt::clear();
+        let out = out.unwrap();
+        match out.error {
+            Some(SimError::Interrupted { t }) => assert!((t - 1e-3).abs() < 1e-12, "{t}"),
+            ref other => panic!("expected an interrupt, got {other:?}"),
+        }
+        assert!(*out.time.last().unwrap() <= 1e-3 + 1e-12);
+    }
 }

@@ -742,6 +742,10 @@ pub(crate) fn run(
             error = Some(SimError::Diverged { t: p.t, gap: None });
             break;
         }
+        if crate::interrupt::requested() {
+            error = Some(SimError::Interrupted { t: p.t });
+            break;
+        }
         out.peaks(&p.x);
         if k % settings.every == 0 || k == n_steps {
             let (_, a) = d.accel(&p);

@@ -159,6 +159,12 @@ pub(crate) fn run(
             out.record(sys, &rig, t1, &x, &v, &a1, &forces, &work);
             break;
         }
+        if crate::interrupt::requested() {
+            error = Some(SimError::Interrupted { t: t1 });
+            let forces: Vec<f64> = impulse.iter().map(|p| p / h).collect();
+            out.record(sys, &rig, t1, &x, &v, &a1, &forces, &work);
+            break;
+        }
         out.peaks(&x);
         if k % settings.every == 0 || k == n_steps {
             let forces: Vec<f64> = impulse.iter().map(|p| p / h).collect();
