@@ -5,6 +5,14 @@
 
 use nalgebra::DMatrix;
 
+/// `y += alpha x`.
+#[inline]
+pub(crate) fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
+    for (yi, xi) in y.iter_mut().zip(x) {
+        *yi += alpha * xi;
+    }
+}
+
 /// Compressed sparse rows.
 #[derive(Debug, Clone)]
 pub struct Csr {

@@ -174,6 +174,18 @@ pub struct State {
 }
 
 impl State {
+    /// Sets the gap coordinates from Newton's converged `u` and the gap rates and
+    /// accelerations from the state's own `v`, `a` (the Newton iterate's rates differ from them
+    /// by a residual within tolerance amplified by 2/h), and the walls' rates to match.
+    pub fn finish_gaps(&mut self, sys: &System, u: &[f64]) {
+        self.u.copy_from_slice(u);
+        sys.gap_coordinates(&self.v, &mut self.u_rate);
+        sys.gap_coordinates(&self.a, &mut self.u_accel);
+        for (wall, state) in sys.walls.iter().zip(self.walls.iter_mut()) {
+            state.rate = wall.sign * self.u_rate[wall.gap];
+        }
+    }
+
     /// Initial state: contact forces at `x0, v0` and the acceleration from equilibrium.
     pub fn initial(
         sys: &System,

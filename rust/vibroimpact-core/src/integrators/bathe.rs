@@ -23,6 +23,7 @@ use super::newton::{GapNewton, GapProblem, NewtonSettings, RateMap};
 use super::{StepFailure, Stepper, ANY_LEVEL};
 use crate::error::{invalid, SimError};
 use crate::gap::WallState;
+use crate::linalg::axpy;
 use crate::system::{State, System};
 
 /// Parameters of Bathe's composite scheme.
@@ -289,19 +290,7 @@ impl Stepper for BatheStepper {
             s1.v[i] = c2 * self.dx_mid[i] + c3 * dx;
             s1.a[i] = self.v_comb[i] + c3 * s1.v[i];
         }
-        s1.u.copy_from_slice(&self.gap_newton.u);
-        sys.gap_coordinates(&s1.v, &mut s1.u_rate);
-        sys.gap_coordinates(&s1.a, &mut s1.u_accel);
-        for (wall, state) in sys.walls.iter().zip(s1.walls.iter_mut()) {
-            state.rate = wall.sign * s1.u_rate[wall.gap];
-        }
+        s1.finish_gaps(sys, &self.gap_newton.u);
         Ok(iterations)
-    }
-}
-
-#[inline]
-fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
-    for (yi, xi) in y.iter_mut().zip(x) {
-        *yi += alpha * xi;
     }
 }

@@ -13,6 +13,7 @@ use nalgebra::DMatrix;
 use super::newton::{GapNewton, GapProblem, NewtonSettings, RateMap};
 use super::{StepFailure, Stepper, ANY_LEVEL};
 use crate::error::{invalid, SimError};
+use crate::linalg::axpy;
 use crate::linalg::BandedCholesky;
 use crate::system::{State, System};
 
@@ -396,21 +397,7 @@ impl Stepper for NewmarkStepper {
             s1.a[i] = a0 * dx - a2 * s0.v[i] - a3 * s0.a[i];
             s1.v[i] = s0.v[i] + h * ((1.0 - gamma) * s0.a[i] + gamma * s1.a[i]);
         }
-        // Gap rates from the final velocities: the Newton iterate's `u̇ = a₁ Δu + …` differs
-        // from them by `a₁ r`, a residual within tolerance amplified by 2/h.
-        s1.u.copy_from_slice(&self.gap_newton.u);
-        sys.gap_coordinates(&s1.v, &mut s1.u_rate);
-        sys.gap_coordinates(&s1.a, &mut s1.u_accel);
-        for (wall, state) in sys.walls.iter().zip(s1.walls.iter_mut()) {
-            state.rate = wall.sign * s1.u_rate[wall.gap];
-        }
+        s1.finish_gaps(sys, &self.gap_newton.u);
         Ok(iterations)
-    }
-}
-
-#[inline]
-fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
-    for (yi, xi) in y.iter_mut().zip(x) {
-        *yi += alpha * xi;
     }
 }

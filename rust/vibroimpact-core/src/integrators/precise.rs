@@ -43,6 +43,7 @@ use super::newton::{solve_small, GapNewton, GapProblem, NewtonSettings, RateMap}
 use super::{StepFailure, Stepper, ANY_LEVEL};
 use crate::error::{invalid, SimError};
 use crate::gap::WallState;
+use crate::linalg::axpy;
 use crate::structure::LinearStructure;
 use crate::system::{State, System};
 
@@ -676,12 +677,5 @@ impl Stepper for PreciseStepper {
         newest.load.copy_from_slice(&state.load);
         newest.phi.copy_from_slice(&state.phi);
         self.history_len = (self.history_len + 1).min(3);
-    }
-}
-
-#[inline]
-fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
-    for (yi, xi) in y.iter_mut().zip(x) {
-        *yi += alpha * xi;
     }
 }
