@@ -528,41 +528,25 @@ impl Stepper for PreciseStepper {
         let past_loads = [&s0.load[..], &h1.load[..], &h2.load[..]];
         let past_phis = [&s0.phi[..], &h1.phi[..], &h2.phi[..]];
         let mut iterations = 0;
+        let mut gaps = GapBuffers {
+            u: &mut u[..],
+            u_rate: &mut u_rate[..],
+            d_phi_du: &mut d_phi_du[..],
+            d_phi_drate: &mut d_phi_drate[..],
+        };
 
         if !implicit && count == 3 {
             // Adams (eqs. 42–43): f extrapolated from t_k, t_{k−1}, t_{k−2}.
             predictor.set(&nodes);
             z.copy_from_slice(free);
             add_forces(&op.cols, predictor, past_loads, Some(past_phis), z);
-            sys.gap_coordinates(&z[..n], u);
-            sys.gap_coordinates(&z[n..], u_rate);
-            sys.evaluate_contacts(
-                &s0.walls,
-                u,
-                u_rate,
-                h,
-                &mut s1.walls,
-                &mut s1.phi,
-                d_phi_du,
-                d_phi_drate,
-            );
+            gaps.evaluate(sys, &s0.walls, &z[..], n, h, &mut s1.walls, &mut s1.phi);
         } else {
             // Predict with the points available; evaluate the contact forces there.
             predictor.set(&nodes[..count]);
             z_pred.copy_from_slice(free);
             add_forces(&op.cols, predictor, past_loads, Some(past_phis), z_pred);
-            sys.gap_coordinates(&z_pred[..n], u);
-            sys.gap_coordinates(&z_pred[n..], u_rate);
-            sys.evaluate_contacts(
-                &s0.walls,
-                u,
-                u_rate,
-                h,
-                walls_pred,
-                phi_pred,
-                d_phi_du,
-                d_phi_drate,
-            );
+            gaps.evaluate(sys, &s0.walls, &z_pred[..], n, h, walls_pred, phi_pred);
             // Correct with the polynomial through t_{k+1}, t_k (and t_{k−1}).
             let mut cnodes = [1.0, 0.0, 0.0];
             let ccount = (count + 1).min(3);
@@ -573,18 +557,7 @@ impl Stepper for PreciseStepper {
             if !implicit {
                 let phis_c = [&phi_pred[..], &s0.phi[..], &h1.phi[..]];
                 add_forces(&op.cols, corrector, loads_c, Some(phis_c), z);
-                sys.gap_coordinates(&z[..n], u);
-                sys.gap_coordinates(&z[n..], u_rate);
-                sys.evaluate_contacts(
-                    &s0.walls,
-                    u,
-                    u_rate,
-                    h,
-                    &mut s1.walls,
-                    &mut s1.phi,
-                    d_phi_du,
-                    d_phi_drate,
-                );
+                gaps.evaluate(sys, &s0.walls, &z[..], n, h, &mut s1.walls, &mut s1.phi);
             } else {
                 // Loads by the corrector's polynomial; contact force (φ_k + φ_{k+1})/2.
                 add_forces(&op.cols, corrector, loads_c, None, z);
@@ -677,5 +650,41 @@ impl Stepper for PreciseStepper {
         newest.load.copy_from_slice(&state.load);
         newest.phi.copy_from_slice(&state.phi);
         self.history_len = (self.history_len + 1).min(3);
+    }
+}
+
+/// Scratch buffers for evaluating the contacts at a predicted state `z = [x; v]`.
+struct GapBuffers<'a> {
+    u: &'a mut [f64],
+    u_rate: &'a mut [f64],
+    d_phi_du: &'a mut [f64],
+    d_phi_drate: &'a mut [f64],
+}
+
+impl GapBuffers<'_> {
+    /// Gap coordinates and rates of `z`, then every wall's state and force.
+    #[allow(clippy::too_many_arguments)]
+    fn evaluate(
+        &mut self,
+        sys: &System,
+        start: &[WallState],
+        z: &[f64],
+        n: usize,
+        h: f64,
+        walls: &mut [WallState],
+        phi: &mut [f64],
+    ) {
+        sys.gap_coordinates(&z[..n], self.u);
+        sys.gap_coordinates(&z[n..], self.u_rate);
+        sys.evaluate_contacts(
+            start,
+            self.u,
+            self.u_rate,
+            h,
+            walls,
+            phi,
+            self.d_phi_du,
+            self.d_phi_drate,
+        );
     }
 }
