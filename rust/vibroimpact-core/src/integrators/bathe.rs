@@ -257,10 +257,8 @@ impl Stepper for BatheStepper {
         // Newton on the gap coordinates from the mid-step contact forces; the crossing and
         // v_imp of a wall closing in this sub-step are located between t + γh and t + h.
         let newton = &mut self.gap_newton;
+        newton.start_from(&op.w, &self.du_lin, &mid.phi);
         for gi in 0..ng {
-            let wrow = &op.w[gi * ng..(gi + 1) * ng];
-            let wphi: f64 = wrow.iter().zip(&mid.phi).map(|(w, p)| w * p).sum();
-            newton.du[gi] = self.du_lin[gi] - wphi;
             self.rate_lin[gi] = c2 * (mid.u[gi] - s0.u[gi]);
         }
         let problem = GapProblem {

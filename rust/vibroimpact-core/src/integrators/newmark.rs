@@ -368,10 +368,8 @@ impl Stepper for NewmarkStepper {
         // Newton on the gap coordinates, starting from the previous step's contact forces;
         // the gap rates follow the increment through eq. 17: u̇₁ = a₁ Δu − a₄ u̇₀ − a₅ ü₀.
         let newton = &mut self.gap_newton;
+        newton.start_from(&op.w, &self.du_lin, &s0.phi);
         for gi in 0..ng {
-            let wrow = &op.w[gi * ng..(gi + 1) * ng];
-            let wphi: f64 = wrow.iter().zip(&s0.phi).map(|(w, p)| w * p).sum();
-            newton.du[gi] = self.du_lin[gi] - wphi;
             self.rate_lin[gi] = -a4 * s0.u_rate[gi] - a5 * s0.u_accel[gi];
         }
         let problem = GapProblem {

@@ -86,6 +86,17 @@ pub(crate) struct GapNewton {
 }
 
 impl GapNewton {
+    /// Initial guess `Δu = Δu_lin − W φ`: the linear predictor moved by given contact forces
+    /// (those of the start of the step, or of an earlier sub-step).
+    pub fn start_from(&mut self, w: &[f64], du_lin: &[f64], phi: &[f64]) {
+        let ng = du_lin.len();
+        for (gi, du) in self.du.iter_mut().enumerate() {
+            let wrow = &w[gi * ng..(gi + 1) * ng];
+            let wphi: f64 = wrow.iter().zip(phi).map(|(w, p)| w * p).sum();
+            *du = du_lin[gi] - wphi;
+        }
+    }
+
     pub fn new(n_gaps: usize) -> Self {
         let ng = n_gaps;
         Self {

@@ -570,16 +570,15 @@ impl Stepper for PreciseStepper {
                 if ng > 0 {
                     sys.gap_coordinates(&z[..n], du_lin);
                     sys.gap_coordinates(&z[n..], rate_lin);
-                    let guess = &mut gap_newton.du;
-                    for gi in 0..ng {
-                        du_lin[gi] -= s0.u[gi];
-                        let wrow = &op.w[gi * ng..(gi + 1) * ng];
-                        let srow = &op.s[gi * ng..(gi + 1) * ng];
-                        let wphi: f64 = wrow.iter().zip(phi_pred.iter()).map(|(a, b)| a * b).sum();
-                        guess[gi] = du_lin[gi] - wphi;
+                    // Every Δu_lin first: the rate correction below mixes all gaps.
+                    for (d, u0) in du_lin.iter_mut().zip(&s0.u) {
+                        *d -= u0;
+                    }
+                    gap_newton.start_from(&op.w, du_lin, phi_pred);
+                    // u̇ = u̇_lin − V φ = u̇_lin − S (Δu_lin − Δu).
+                    for (rate, srow) in rate_lin.iter_mut().zip(op.s.chunks_exact(ng)) {
                         let sdu: f64 = srow.iter().zip(du_lin.iter()).map(|(a, b)| a * b).sum();
-                        // u̇ = u̇_lin − V φ = u̇_lin − S (Δu_lin − Δu).
-                        rate_lin[gi] -= sdu;
+                        *rate -= sdu;
                     }
                     let problem = GapProblem {
                         w: &op.w,
