@@ -140,7 +140,6 @@ def test_predictor_corrector_with_two_coupled_gaps_matches_newmark() -> None:
     structure: the precise predictor-corrector against a fine-step Newmark run (the other
     precise tests have one gap)."""
     import numpy as np
-
     import vibroimpact as vi
 
     m = np.diag([1.0, 1.5])
