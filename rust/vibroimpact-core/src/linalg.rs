@@ -130,24 +130,30 @@ fn reverse_cuthill_mckee(n: usize, patterns: &[&Csr]) -> Vec<usize> {
 }
 
 /// `A = L Lᵀ` of a symmetric positive definite matrix stored as a band after reordering.
+///
+/// The solve works on a padded vector `z` (see [`BandedCholesky::work_len`]): row `i` of the
+/// reordered system lives at `z[bw + i]`, with `bw` zeros on either side, so every row's
+/// forward and backward sums are over contiguous slices of fixed length `bw`.
 #[derive(Debug, Clone)]
 pub struct BandedCholesky {
     n: usize,
     bandwidth: usize,
     /// `perm[new] = old`.
     perm: Vec<usize>,
-    /// Row `i` holds `L[i][i − bandwidth ..= i]`.
-    band: Vec<f64>,
+    /// Row `i` holds `L[i][i − bw .. i] / L[i][i]` (zero where the index is negative).
+    lower: Vec<f64>,
+    /// Row `i` holds `L[i + 1 ..= i + bw][i] / L[i][i]` (zero past the last row): column `i`
+    /// below the diagonal, for the backward solve.
+    upper: Vec<f64>,
+    /// `1 / L[i][i]`.
+    inv_diag: Vec<f64>,
 }
 
 impl BandedCholesky {
     /// Bandwidth that `matrices`' combined pattern has in reverse Cuthill–McKee order.
     pub fn ordering(n: usize, matrices: &[&Csr]) -> (Vec<usize>, usize) {
         let perm = reverse_cuthill_mckee(n, matrices);
-        let mut inv = vec![0; n];
-        for (new, &old) in perm.iter().enumerate() {
-            inv[old] = new;
-        }
+        let inv = inverse_permutation(&perm);
         let mut bandwidth = 0;
         for a in matrices {
             for i in 0..n {
@@ -163,11 +169,10 @@ impl BandedCholesky {
     /// not positive definite.
     pub fn factor(terms: &[(f64, &Csr)], perm: Vec<usize>, bandwidth: usize) -> Option<Self> {
         let n = perm.len();
-        let w = bandwidth + 1;
-        let mut inv = vec![0; n];
-        for (new, &old) in perm.iter().enumerate() {
-            inv[old] = new;
-        }
+        let bw = bandwidth;
+        let inv = inverse_permutation(&perm);
+        // Row i of the band: entries j = i − bw ..= i at offsets 0 ..= bw.
+        let w = bw + 1;
         let mut band = vec![0.0; n * w];
         for &(c, a) in terms {
             if c == 0.0 {
@@ -177,26 +182,39 @@ impl BandedCholesky {
                 for (j, v) in a.row(i) {
                     let (pi, pj) = (inv[i], inv[j]);
                     if pj <= pi {
-                        band[pi * w + (pj + bandwidth - pi)] += c * v;
+                        band[pi * w + (pj + bw - pi)] += c * v;
                     }
                 }
             }
         }
         for i in 0..n {
-            let lo = i.saturating_sub(bandwidth);
+            let lo = i.saturating_sub(bw);
             for j in lo..=i {
-                let mut s = band[i * w + (j + bandwidth - i)];
-                let klo = lo.max(j.saturating_sub(bandwidth));
-                for k in klo..j {
-                    s -= band[i * w + (k + bandwidth - i)] * band[j * w + (k + bandwidth - j)];
+                let mut s = band[i * w + (j + bw - i)];
+                for k in lo.max(j.saturating_sub(bw))..j {
+                    s -= band[i * w + (k + bw - i)] * band[j * w + (k + bw - j)];
                 }
                 if i == j {
                     if !(s > 0.0 && s.is_finite()) {
                         return None;
                     }
-                    band[i * w + bandwidth] = s.sqrt();
+                    band[i * w + bw] = s.sqrt();
                 } else {
-                    band[i * w + (j + bandwidth - i)] = s / band[j * w + bandwidth];
+                    band[i * w + (j + bw - i)] = s / band[j * w + bw];
+                }
+            }
+        }
+        let mut lower = vec![0.0; n * bw];
+        let mut upper = vec![0.0; n * bw];
+        let mut inv_diag = vec![0.0; n];
+        for i in 0..n {
+            inv_diag[i] = 1.0 / band[i * w + bw];
+            for k in 0..bw {
+                // L[i][i − bw + k] / L[i][i]
+                lower[i * bw + k] = band[i * w + k] * inv_diag[i];
+                // L[i + 1 + k][i] / L[i][i], stored in row i + 1 + k at offset bw − 1 − k
+                if i + 1 + k < n {
+                    upper[i * bw + k] = band[(i + 1 + k) * w + (bw - 1 - k)] * inv_diag[i];
                 }
             }
         }
@@ -204,36 +222,169 @@ impl BandedCholesky {
             n,
             bandwidth,
             perm,
-            band,
+            lower,
+            upper,
+            inv_diag,
         })
     }
 
-    /// Solves `A x = b` in place; `work` has length n.
-    pub fn solve_in_place(&self, b: &mut [f64], work: &mut [f64]) {
-        let (n, bw, w) = (self.n, self.bandwidth, self.bandwidth + 1);
-        let y = work;
-        for (new, &old) in self.perm.iter().enumerate() {
-            y[new] = b[old];
+    pub fn bandwidth(&self) -> usize {
+        self.bandwidth
+    }
+
+    /// `perm[new] = old`: the order the factor works in.
+    pub fn permutation(&self) -> &[usize] {
+        &self.perm
+    }
+
+    /// Length of the padded work vector of [`Self::solve_padded`] and [`Self::solve_in_place`].
+    pub fn work_len(&self) -> usize {
+        self.n + 2 * self.bandwidth
+    }
+
+    /// Solves `A x = b` with `b` in the factor's order at `z[bw .. bw + n]` (the padding
+    /// `z[.. bw]` and `z[bw + n ..]` must be zero); `x` replaces `b` there.
+    pub fn solve_padded(&self, z: &mut [f64]) {
+        debug_assert_eq!(z.len(), self.work_len());
+        // Narrow bands (beams: 3 to 6; 3-D frames: up to about 12) get unrolled row sums.
+        match self.bandwidth {
+            1 => self.substitute::<1>(z),
+            2 => self.substitute::<2>(z),
+            3 => self.substitute::<3>(z),
+            4 => self.substitute::<4>(z),
+            5 => self.substitute::<5>(z),
+            6 => self.substitute::<6>(z),
+            7 => self.substitute::<7>(z),
+            8 => self.substitute::<8>(z),
+            9 => self.substitute::<9>(z),
+            10 => self.substitute::<10>(z),
+            11 => self.substitute::<11>(z),
+            12 => self.substitute::<12>(z),
+            _ => self.substitute::<0>(z),
+        }
+    }
+
+    /// Forward and backward substitution with the rows scaled by `1/L[i][i]`, each row's
+    /// nearest term subtracted last: the chain from one row to the next is one multiply and
+    /// one subtraction. `B` is the bandwidth when it is known at compile time, 0 when not.
+    #[inline(always)]
+    fn substitute<const B: usize>(&self, z: &mut [f64]) {
+        let (n, bw) = (self.n, self.bandwidth);
+        for (zi, d) in z[bw..bw + n].iter_mut().zip(&self.inv_diag) {
+            *zi *= d;
+        }
+        if bw == 0 {
+            // a diagonal matrix: L = D^½
+            for (zi, d) in z.iter_mut().zip(&self.inv_diag) {
+                *zi *= d;
+            }
+            return;
         }
         for i in 0..n {
-            let lo = i.saturating_sub(bw);
-            let row = &self.band[i * w..(i + 1) * w];
-            let mut s = y[i];
-            for k in lo..i {
-                s -= row[k + bw - i] * y[k];
-            }
-            y[i] = s / row[bw];
+            let row = &self.lower[i * bw..(i + 1) * bw];
+            let far = band_dot::<B>(&row[..bw - 1], &z[i..i + bw - 1]);
+            z[bw + i] = (z[bw + i] - far) - row[bw - 1] * z[bw + i - 1];
+        }
+        for (zi, d) in z[bw..bw + n].iter_mut().zip(&self.inv_diag) {
+            *zi *= d;
         }
         for i in (0..n).rev() {
-            let hi = (i + bw).min(n - 1);
-            let mut s = y[i];
-            for (k, yk) in y.iter().enumerate().take(hi + 1).skip(i + 1) {
-                s -= self.band[k * w + (i + bw - k)] * yk;
-            }
-            y[i] = s / self.band[i * w + bw];
+            let col = &self.upper[i * bw..(i + 1) * bw];
+            let far = band_dot::<B>(&col[1..], &z[bw + i + 2..2 * bw + i + 1]);
+            z[bw + i] = (z[bw + i] - far) - col[0] * z[bw + i + 1];
         }
+    }
+
+    /// Solves `A x = b` in place (`b` in the original order); `work` has length
+    /// [`Self::work_len`] and zero padding (a fresh zero vector, or one used only here).
+    pub fn solve_in_place(&self, b: &mut [f64], work: &mut [f64]) {
+        let bw = self.bandwidth;
         for (new, &old) in self.perm.iter().enumerate() {
-            b[old] = y[new];
+            work[bw + new] = b[old];
+        }
+        self.solve_padded(work);
+        for (new, &old) in self.perm.iter().enumerate() {
+            b[old] = work[bw + new];
+        }
+    }
+}
+
+/// `a · b` for two slices of the same length, `B − 1` when `B > 0` (the band's terms but the
+/// nearest).
+#[inline(always)]
+fn band_dot<const B: usize>(a: &[f64], b: &[f64]) -> f64 {
+    if B == 0 {
+        return a.iter().zip(b).map(|(x, y)| x * y).sum();
+    }
+    let (a, b) = (&a[..B - 1], &b[..B - 1]);
+    (0..B - 1).map(|k| a[k] * b[k]).sum()
+}
+
+/// `inv[old] = new` for `perm[new] = old`.
+pub(crate) fn inverse_permutation(perm: &[usize]) -> Vec<usize> {
+    let mut inv = vec![0; perm.len()];
+    for (new, &old) in perm.iter().enumerate() {
+        inv[old] = new;
+    }
+    inv
+}
+
+/// Several sparse operators applied together, `r = Σₖ Aₖ yₖ`, with the rows of the union
+/// pattern in a given order (the banded factor's) and `K` values per entry: one pass over
+/// the indices instead of one per matrix.
+#[derive(Debug, Clone)]
+pub struct StackedRows<const K: usize> {
+    row_start: Vec<usize>,
+    /// `(column, [A₀, …, A_{K−1}] at that column)`, row after row.
+    entries: Vec<(usize, [f64; K])>,
+}
+
+impl<const K: usize> StackedRows<K> {
+    /// `Aₖ = Σ_terms c A` for the terms listed under `k`; row `r` of the result is row
+    /// `order[r]` of the operators.
+    pub fn new(operators: [&[(f64, &Csr)]; K], order: &[usize]) -> Self {
+        let mut row_start = Vec::with_capacity(order.len() + 1);
+        let mut stacked: Vec<(usize, [f64; K])> = Vec::new();
+        row_start.push(0);
+        let mut entries: Vec<(usize, usize, f64)> = Vec::new();
+        for &i in order {
+            entries.clear();
+            for (k, terms) in operators.iter().enumerate() {
+                for &(c, a) in terms.iter() {
+                    entries.extend(a.row(i).map(|(j, v)| (j, k, c * v)));
+                }
+            }
+            entries.sort_unstable_by_key(|e| e.0);
+            for &(j, k, v) in &entries {
+                let row_begins = stacked.len() == *row_start.last().expect("pushed");
+                if row_begins || stacked.last().map(|e| e.0) != Some(j) {
+                    stacked.push((j, [0.0; K]));
+                }
+                stacked.last_mut().expect("pushed").1[k] += v;
+            }
+            row_start.push(stacked.len());
+        }
+        Self {
+            row_start,
+            entries: stacked,
+        }
+    }
+
+    /// `out[r] += Σₖ (Aₖ yₖ)[r]` for every row `r`, with `y(j) = [y₀[j], …, y_{K−1}[j]]`.
+    #[inline]
+    pub fn add_to(&self, y: impl Fn(usize) -> [f64; K], out: &mut [f64]) {
+        let mut lo = 0;
+        for (o, &hi) in out.iter_mut().zip(&self.row_start[1..]) {
+            // one accumulator per operator: K independent addition chains
+            let mut acc = [0.0; K];
+            for (j, v) in &self.entries[lo..hi] {
+                let yj = y(*j);
+                for k in 0..K {
+                    acc[k] += v[k] * yj[k];
+                }
+            }
+            *o += acc.iter().sum::<f64>();
+            lo = hi;
         }
     }
 }
@@ -265,7 +416,7 @@ mod tests {
         let f = BandedCholesky::factor(&[(1.0, &csr)], perm, bw).unwrap();
         let b: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
         let mut x = b.clone();
-        f.solve_in_place(&mut x, &mut vec![0.0; n]);
+        f.solve_in_place(&mut x, &mut vec![0.0; f.work_len()]);
         let exact = a.lu().solve(&nalgebra::DVector::from_vec(b)).unwrap();
         for i in 0..n {
             assert!((x[i] - exact[i]).abs() < 1e-12, "{i}");

@@ -13,8 +13,7 @@ use nalgebra::DMatrix;
 use super::newton::{GapNewton, GapProblem, NewtonSettings, RateMap};
 use super::{StepFailure, Stepper, ANY_LEVEL};
 use crate::error::{invalid, SimError};
-use crate::linalg::axpy;
-use crate::linalg::BandedCholesky;
+use crate::linalg::{axpy, inverse_permutation, BandedCholesky, StackedRows};
 use crate::system::{State, System};
 
 /// Parameters of a Newmark-family scheme.
@@ -103,9 +102,31 @@ enum Predictor {
         p_a: Vec<f64>,
         loads: Vec<Vec<f64>>,
     },
-    /// Large sparse models (beams, imported FE matrices): `R` from sparse mat-vecs and one
-    /// banded Cholesky solve in reverse Cuthill–McKee order.
-    Banded(BandedCholesky),
+    /// Large sparse models (beams, imported FE matrices): the right-hand side `R` from
+    /// sparse rows in the order of the banded Cholesky factor of `K̃` (reverse
+    /// Cuthill–McKee), then one banded solve.
+    Banded {
+        factor: BandedCholesky,
+        rhs: BandedRhs,
+        /// Each load's DOFs in the factor's order.
+        load_rows: Vec<Vec<usize>>,
+    },
+}
+
+/// The banded predictor's right-hand side in terms of Newmark's predictors (Hughes 1987,
+/// *The Finite Element Method*, §9.1) `x̃ = x₀ + d̃`, `d̃ = h v₀ + h²(½ − β) a₀`,
+/// `ṽ = v₀ + (1 − γ) h a₀`: with `x₁ = x̃ + e`, `v₁ = ṽ + a₁ e`, `a₁ = a₀ e` (Newmark's
+/// coefficients) the α-form becomes `K̃ e = F₁ + c_f F₀ − R` and `Δx = d̃ + e`, so Newmark-β
+/// needs only `K x̃` (and `C ṽ`) where the displacement form needs `M`, `C` and `K` products.
+/// (Equilibrium at t₀ could even replace `K x̃` by an `M` product, but then the round-off of
+/// `x` accumulates as an unbalanced force: 5e-4 energy drift in 10⁶ steps of a free beam.)
+enum BandedRhs {
+    /// Newmark-β without damping: `R = K x̃`.
+    Stiffness(StackedRows<1>),
+    /// Newmark-β: `R = K x̃ + C ṽ`.
+    StiffnessDamping(StackedRows<2>),
+    /// The α-form: `R = K (x̃ + c_f x₀) + C (ṽ + c_f v₀) + α_m/(1 − α_f) M a₀`.
+    Alpha(StackedRows<3>),
 }
 
 /// Models with fewer DOFs always use the dense predictor.
@@ -154,7 +175,7 @@ impl StepOperator {
         let (predictor, mut solve): (Predictor, Solve) = match banded {
             Some(factor) => {
                 let f = factor.clone();
-                let mut work = vec![0.0; n];
+                let mut work = vec![0.0; f.work_len()];
                 let solve = move |rhs: DMatrix<f64>| -> Result<Vec<f64>, SimError> {
                     let mut col = rhs.column(0).iter().copied().collect::<Vec<_>>();
                     f.solve_in_place(&mut col, &mut work);
@@ -163,7 +184,36 @@ impl StepOperator {
                     }
                     Ok(col)
                 };
-                (Predictor::Banded(factor), Box::new(solve))
+                let sp = &sys.sparse;
+                let order = factor.permutation();
+                let rhs = if alpha_m != 0.0 || alpha_f != 0.0 {
+                    let inertia = alpha_m / (1.0 - alpha_f);
+                    BandedRhs::Alpha(StackedRows::new(
+                        [
+                            &[(1.0, &sp.stiffness)],
+                            &[(1.0, &sp.damping)],
+                            &[(inertia, &sp.mass)],
+                        ],
+                        order,
+                    ))
+                } else if sys.has_damping {
+                    let (k, c) = (&[(1.0, &sp.stiffness)], &[(1.0, &sp.damping)]);
+                    BandedRhs::StiffnessDamping(StackedRows::new([k, c], order))
+                } else {
+                    BandedRhs::Stiffness(StackedRows::new([&[(1.0, &sp.stiffness)]], order))
+                };
+                let inv = inverse_permutation(factor.permutation());
+                let load_rows = sys
+                    .loads
+                    .iter()
+                    .map(|l| l.dofs.iter().map(|&d| inv[d]).collect())
+                    .collect();
+                let predictor = Predictor::Banded {
+                    factor,
+                    rhs,
+                    load_rows,
+                };
+                (predictor, Box::new(solve))
             }
             _ => {
                 let lu = (k + m * (c_m * a[0]) + c * a[1]).lu();
@@ -177,15 +227,14 @@ impl StepOperator {
                     }
                     Ok(sol.transpose().as_slice().to_vec()) // row-major
                 };
+                // The right-hand side's operators divided by 1 − α_f: −K, and those of the
+                // old velocity and acceleration from the Newmark relations.
                 let scale = -1.0 / (1.0 - alpha_f);
+                let (m_v, c_v) = (-(1.0 - alpha_m) * a[2], alpha_f - (1.0 - alpha_f) * a[4]);
+                let (m_a, c_a) = (alpha_m - (1.0 - alpha_m) * a[3], -(1.0 - alpha_f) * a[5]);
                 let p_x = solve(k * scale)?;
-                let p_v = solve(
-                    (m * (-(1.0 - alpha_m) * a[2]) + c * (alpha_f - (1.0 - alpha_f) * a[4]))
-                        * scale,
-                )?;
-                let p_a = solve(
-                    (m * (alpha_m - (1.0 - alpha_m) * a[3]) - c * ((1.0 - alpha_f) * a[5])) * scale,
-                )?;
+                let p_v = solve((m * m_v + c * c_v) * scale)?;
+                let p_a = solve((m * m_a + c * c_a) * scale)?;
                 let mut loads = Vec::with_capacity(sys.loads.len());
                 for l in &sys.loads {
                     let mut col = DMatrix::zeros(n, 1);
@@ -231,7 +280,10 @@ pub struct NewmarkStepper {
     /// Operator of the last step whose size is not `dt / 2^level` ([`ANY_LEVEL`]).
     one_off: Option<(f64, StepOperator)>,
     dx: Vec<f64>,
-    work: Vec<f64>,
+    /// Work vector of the banded solve (zero padding on both sides).
+    padded: Vec<f64>,
+    /// `[x̃, ṽ, a₀]` per DOF, the banded predictor's input.
+    tilde: Vec<[f64; 3]>,
     du_lin: Vec<f64>,
     rate_lin: Vec<f64>,
     gap_newton: GapNewton,
@@ -252,7 +304,8 @@ impl NewmarkStepper {
             operators: (0..=newton.max_step_cuts).map(|_| None).collect(),
             one_off: None,
             dx: vec![0.0; n],
-            work: vec![0.0; n],
+            padded: Vec::new(),
+            tilde: vec![[0.0; 3]; n],
             du_lin: vec![0.0; ng],
             rate_lin: vec![0.0; ng],
             gap_newton: GapNewton::new(ng),
@@ -294,7 +347,12 @@ impl Stepper for NewmarkStepper {
             }
             self.operators[level].as_ref().expect("built above")
         };
-        let NewmarkFamily { gamma, alpha_f, .. } = self.scheme;
+        let NewmarkFamily {
+            beta,
+            gamma,
+            alpha_f,
+            ..
+        } = self.scheme;
         let [a0, a1, a2, a3, a4, a5] = op.a;
         let n = s0.x.len();
         let ng = sys.gaps.len();
@@ -328,32 +386,47 @@ impl Stepper for NewmarkStepper {
                     }
                 }
             }
-            Predictor::Banded(factor) => {
-                let sp = &sys.sparse;
-                let (mass, damping, stiffness) = (&sp.mass, &sp.damping, &sp.stiffness);
-                // R = F₁ + [α_f F₀ − K x₀ − M m − C c]/(1−α_f) (the contact part of F₀ + f₀
-                // is added below through the gap shapes, as for the dense predictor).
-                let NewmarkFamily { alpha_m, .. } = self.scheme;
-                let scale = 1.0 / (1.0 - alpha_f);
-                self.dx.fill(0.0);
-                sys.add_loads(&s1.load, 1.0, &mut self.dx);
-                if alpha_f != 0.0 {
-                    sys.add_loads(&s0.load, alpha_f * scale, &mut self.dx);
-                }
-                stiffness.mul_add(-scale, &s0.x, &mut self.dx);
+            Predictor::Banded {
+                factor,
+                rhs,
+                load_rows,
+            } => {
+                let z = &mut self.padded;
+                z.resize(factor.work_len(), 0.0);
+                let bw = (z.len() - n) / 2;
+                let body = &mut z[bw..bw + n];
+                body.fill(0.0);
+                // d̃ in dx, and the predictors the right-hand side multiplies
+                let (x0, v0, a0) = (&s0.x[..n], &s0.v[..n], &s0.a[..n]);
+                let (d_a, v_a) = (h * h * (0.5 - beta), (1.0 - gamma) * h);
+                let (d, w) = (&mut self.dx[..n], &mut self.tilde[..n]);
                 for i in 0..n {
-                    self.work[i] =
-                        alpha_m * s0.a[i] - (1.0 - alpha_m) * (a2 * s0.v[i] + a3 * s0.a[i]);
+                    d[i] = h * v0[i] + d_a * a0[i];
+                    w[i] = [x0[i] + d[i], v0[i] + v_a * a0[i], a0[i]];
                 }
-                mass.mul_add(-scale, &self.work, &mut self.dx);
-                if sys.has_damping {
-                    for i in 0..n {
-                        self.work[i] =
-                            alpha_f * s0.v[i] - (1.0 - alpha_f) * (a4 * s0.v[i] + a5 * s0.a[i]);
+                match rhs {
+                    BandedRhs::Stiffness(rows) => rows.add_to(|j| [-w[j][0]], body),
+                    BandedRhs::StiffnessDamping(rows) => {
+                        rows.add_to(|j| [-w[j][0], -w[j][1]], body)
                     }
-                    damping.mul_add(-scale, &self.work, &mut self.dx);
+                    BandedRhs::Alpha(rows) => rows.add_to(
+                        |j| {
+                            let [xt, vt, a] = w[j];
+                            [-(xt + c_f * x0[j]), -(vt + c_f * v0[j]), -a]
+                        },
+                        body,
+                    ),
                 }
-                factor.solve_in_place(&mut self.dx, &mut self.work);
+                for (l, rows) in load_rows.iter().enumerate() {
+                    let value = s1.load[l] + c_f * s0.load[l];
+                    for &r in rows {
+                        body[r] += value;
+                    }
+                }
+                factor.solve_padded(z);
+                for (new, &old) in factor.permutation().iter().enumerate() {
+                    self.dx[old] += z[bw + new];
+                }
             }
         }
         if c_f != 0.0 {
