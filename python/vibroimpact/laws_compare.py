@@ -208,7 +208,7 @@ DESIGN_ACCURACY: dict[str, DesignAccuracy] = {
                                      "Lankarani–Nikravesh × e^{2(1−ce)}, for lower ce"),
     "flores": DesignAccuracy(0.1, 1.0, 0.05, "soft and hard materials: the whole range"),
     "ye": DesignAccuracy(0.1, 1.0, 0.05, "same factor as Flores et al."),
-    "hu-guo": DesignAccuracy(0.1, 1.0, 0.03, "the whole range, as the reviews present it"),
+    "hu-guo": DesignAccuracy(0.1, 1.0, 0.03, "hard and soft materials: the whole range"),
     "gharib-hurmuzlu": DesignAccuracy(0.0, 0.1, 0.015, "proposed for low ce"),
     "carvalho-martins": DesignAccuracy(0.3, 1.0, 0.005,
                                        "closed form of the exact relation, ce ≳ 1/3"),
