@@ -160,9 +160,11 @@ class ContactLaw:
     * carvalho-martins (2019): ``3(1-ce)(11-ce)/(2(1+9ce))``
     * safaeifar-karimi: the exact factor (:func:`exact_hunt_crossley_factor`)
 
-    tabulated: loading curve ``F_L`` while ``delta_dot >= 0``, unloading curve ``F_U`` while
-    ``delta_dot <= -w``, ``F_U + (F_L - F_U)(3x^2 - 2x^3)`` with ``x = 1 + delta_dot/w`` in
-    between, ``w = reversal_band * v_imp``; both piecewise linear, continued linearly.
+    tabulated: loading curve ``F_L`` while ``delta_dot >= 0``; while ``delta_dot <= -w`` the
+    unloading curve stretched to start on ``F_L`` at the contact's largest penetration ``dm``,
+    ``F_U* = min(F_L(dm) F_U(delta de/dm)/F_U(de), F_L)`` (``de``: last unloading point);
+    ``F_U* + (F_L - F_U*)(3x^2 - 2x^3)`` with ``x = 1 + delta_dot/w`` in between,
+    ``w = reversal_band * v_imp``; both piecewise linear, continued linearly.
     """
 
     name: str
@@ -233,15 +235,21 @@ class ContactLaw:
             raise ValueError(f"{self.name}: v_imp must be > 0 (got {v_imp!r})")
         return 1.0 + a * delta_dot / v_imp
 
-    def force(self, delta: Any, delta_dot: Any, v_imp: float) -> Any:
-        """Contact force (>= 0); zero for ``delta <= 0``. Accepts scalars or arrays."""
+    def force(self, delta: Any, delta_dot: Any, v_imp: float, delta_max: Any = None) -> Any:
+        """Contact force (>= 0); zero for ``delta <= 0``. Accepts scalars or arrays.
+        ``delta_max``: largest penetration of the contact so far (tabulated only; default
+        the last unloading point)."""
         d = np.asarray(delta, dtype=float)
         dd = np.asarray(delta_dot, dtype=float)
         pen = np.maximum(d, 0.0)
         if self.name == "tabulated":
             assert self.loading is not None and self.unloading is not None
+            (ux, uy), de = self.unloading, self.unloading[0][-1]
+            dm = np.maximum(pen, de if delta_max is None else delta_max)
+            dm = np.maximum(dm, 1e-300)
             f_load = _table_eval(*self.loading, pen)
-            f_unload = _table_eval(*self.unloading, pen)
+            f_turn = _table_eval(*self.loading, dm)
+            f_unload = np.minimum(f_turn * _table_eval(ux, uy, pen * de / dm) / uy[-1], f_load)
             w = self.reversal_band * v_imp
             x = np.clip(1.0 + dd / w, 0.0, 1.0)
             s = x * x * (3.0 - 2.0 * x)
@@ -407,6 +415,7 @@ class _Segment:
     side: int = 0  # 0 free, +1/-1 in contact with that wall
     v_imp: float = 0.0
     impact: int | None = None  # index into the impact list
+    delta_max: float | None = None  # largest penetration of the contact so far (tabulated)
 
 
 @dataclass
@@ -450,9 +459,11 @@ def _simulate(
     def rhs_free(t: float, y: np.ndarray) -> np.ndarray:
         return np.array([y[1], (-c * y[1] - k * y[0]) / m])
 
-    def make_rhs_contact(s: int, v_imp: float) -> Callable[[float, np.ndarray], np.ndarray]:
+    def make_rhs_contact(
+        s: int, v_imp: float, dmax: float | None
+    ) -> Callable[[float, np.ndarray], np.ndarray]:
         def rhs(t: float, y: np.ndarray) -> np.ndarray:
-            f = law.force(s * y[0] - d, s * y[1], v_imp)
+            f = law.force(s * y[0] - d, s * y[1], v_imp, dmax)
             return np.array([y[1], (-c * y[1] - k * y[0] - s * f) / m])
 
         return rhs
@@ -463,6 +474,10 @@ def _simulate(
     y = np.array([float(x0), float(v0)])
     # phase: 0 free, +1/-1 contact with that wall
     side, v_imp, engaged, impact_idx = 0, 0.0, True, None
+    # The tabulated law unloads from the largest penetration: its contact segments end where
+    # the penetration turns (rising: at a maximum, then falling: at a minimum).
+    turns = law.name == "tabulated"
+    rising = True
     for s in (+1, -1):
         if s * x0 - d == 0.0 and s * v0 > 0.0:
             side, v_imp = s, s * v0
@@ -481,11 +496,13 @@ def _simulate(
                 ev_velocity,
             ]
         else:
-            rhs = make_rhs_contact(side, v_imp)
+            dmax = run.impacts[impact_idx]["delta_max"] if turns else None  # type: ignore[index]
+            rhs = make_rhs_contact(side, v_imp, dmax)
             s_, vi_ = side, v_imp
             events = [
                 _event(lambda t, y, s_=s_: s_ * y[0] - d, -1.0, True),
-                ev_velocity,
+                _event(lambda t, y, s_=s_: s_ * y[1], -1.0 if rising else 1.0, True)
+                if turns else ev_velocity,
             ]
             if law.can_clamp:
                 events.append(
@@ -510,7 +527,8 @@ def _simulate(
             raise RuntimeError(f"solve_ivp failed at t={t}: {sol.message}")
         t_new = float(sol.t[-1])
         y_new = np.array(sol.y[:, -1], dtype=float)
-        run.segments.append(_Segment(t, t_new, sol.sol, rhs, side, v_imp, impact_idx))
+        run.segments.append(_Segment(t, t_new, sol.sol, rhs, side, v_imp, impact_idx,
+                                     dmax if side else None))
         iv = 1 if side else 2  # index of the velocity (extremum) event
         for te, ye in zip(sol.t_events[iv], sol.y_events[iv], strict=True):
             run.extrema.append((float(te), float(ye[0])))
@@ -533,6 +551,7 @@ def _simulate(
             engaged = True
             run.impacts.append(_new_impact(side, t, v_imp))
             impact_idx = len(run.impacts) - 1
+            rising = True
         elif fired == 0:  # separation
             y[0] = side * d
             imp = run.impacts[impact_idx]  # type: ignore[index]
@@ -541,6 +560,8 @@ def _simulate(
             side, v_imp, impact_idx = 0, 0.0, None
             if stop_after_separation:
                 break
+        elif turns:  # the penetration turned (delta_max recorded above)
+            rising = not rising
         else:  # the force formula crossed zero: clamp / re-engage, same contact
             engaged = not engaged
     else:
@@ -575,7 +596,7 @@ def _locate_force_maxima(run: _Run, law: ContactLaw, d: float, samples: int = 25
 
         def force_at(tt: Any, seg: _Segment = seg, s: int = s, vi: float = vi) -> Any:
             yy = seg.sol(tt)
-            return law.force(s * yy[0] - d, s * yy[1], vi)
+            return law.force(s * yy[0] - d, s * yy[1], vi, seg.delta_max)
 
         ts = np.linspace(seg.t0, seg.t1, samples)
         fs = np.asarray(force_at(ts))

@@ -29,7 +29,7 @@ STEEL = {"youngs_modulus": 207e9, "poisson": 0.3}
 def _tabulated() -> contact.Tabulated:
     x = np.linspace(0.0, 2e-5, 15)
     f = 2.0e9 * x**1.5
-    return contact.Tabulated(x, f, x, 0.3 * f, reversal_band=0.05)
+    return contact.Tabulated(x, f, x, f[-1] * (x / x[-1]) ** 4, reversal_band=0.05)
 
 
 def _law(name: str) -> contact.ContactLaw:
@@ -106,6 +106,7 @@ def test_restitution_is_validated(name: str, ce: float | None) -> None:
         ({"loading_penetration": [0.0, 2e-5, 1e-5]}, "law.loading_penetration"),
         ({"loading_force": [0.0, 20.0, 10.0]}, "law.loading_force"),
         ({"unloading_force": [0.0, 11.0, 30.0]}, "unloading curve is above"),
+        ({"unloading_force": [0.0, 0.0, 0.0]}, "unloading_force ends at 0 N"),
         ({"reversal_band": 0.0}, "law.reversal_band"),
         ({"loading_force": [0.0, 10.0, 10.0]}, "law.loading_force"),
     ],
@@ -131,10 +132,12 @@ def test_law_from_name_refuses_foreign_parameters() -> None:
 
 def test_tabulated_follows_its_curves() -> None:
     t = contact.Tabulated.from_curves([(0, 0), (1e-5, 10), (2e-5, 30)],
-                                      [(0, 0), (1e-5, 5), (2e-5, 15)])
+                                      [(0, 0), (1e-5, 5), (2e-5, 30)])
     assert t.force(1.5e-5, 0.2, 0.3)[0] == pytest.approx(20.0)
-    assert t.force(1.5e-5, -0.2, 0.3)[0] == pytest.approx(10.0)
-    assert t.force(3e-5, -0.2, 0.3)[0] == pytest.approx(25.0)  # continued linearly
+    assert t.force(1.5e-5, -0.2, 0.3)[0] == pytest.approx(17.5)  # the unloading curve
+    assert t.force(3e-5, -0.2, 0.3)[0] == pytest.approx(50.0)  # loading, continued linearly
+    # Turned at 1e-5 (10 N): the unloading curve stretched by 1/2 in δ, by 10/30 in F.
+    assert t.force(0.5e-5, -0.2, 0.3, max_penetration=1e-5)[0] == pytest.approx(5.0 / 3.0)
     assert t.contact_stiffness == pytest.approx(1.5e6)
 
 
@@ -197,8 +200,8 @@ dof = 0
 kind = "tabulated"
 loading_penetration = [0.0, 1e-5, 2e-5, 4e-5]
 loading_force = [0.0, 100.0, 300.0, 800.0]
-unloading_penetration = [0.0, 1e-5, 2e-5, 4e-5]
-unloading_force = [0.0, 25.0, 75.0, 200.0]
+unloading_penetration = [0.0, 2e-5, 4e-5]
+unloading_force = [0.0, 0.0, 800.0]
 
 [[gaps]]
 dof = 0
@@ -228,8 +231,14 @@ t_end = 1e-3
     assert isinstance(mf.model.gaps[0].law, contact.Tabulated)
     assert isinstance(mf.model.gaps[1].law, contact.CarvalhoMartins)
     result = mf.simulate()
-    # unloading = 1/4 of loading returns a quarter of the energy: e ≈ 0.5
-    assert result.impacts.restitution_effective[0] == pytest.approx(0.5, abs=2e-3)
+    # ½ m v² = 1.8 mJ is stored at δ_m on the loading segment 100 N + 2e7 N/m (δ − 1e-5);
+    # the unloading line stretched to (δ_m/2, 0)–(δ_m, F_L(δ_m)) returns F_L(δ_m) δ_m / 4.
+    energy = 0.5 * 0.04 * 0.3**2
+    u = (-100.0 + math.sqrt(100.0**2 + 4e7 * (energy - 0.5e-3))) / 2e7
+    dm, f_m = 1e-5 + u, 100.0 + 2e7 * u
+    assert result.impacts.delta_max[0] == pytest.approx(dm, rel=1e-5)
+    e = math.sqrt(f_m * dm / 4.0 / energy)
+    assert result.impacts.restitution_effective[0] == pytest.approx(e, abs=1e-4)
 
 
 # --------------------------------------------------------------------------------------------

@@ -99,6 +99,9 @@ pub struct WallState {
     pub d_rate: f64,
     /// Approach speed of the current impact (valid while closed), m/s.
     pub impact_speed: f64,
+    /// Largest penetration of the current contact at the ends of its steps (valid while
+    /// closed), m: where a tabulated law's unloading curve starts.
+    pub max_penetration: f64,
 }
 
 impl WallState {
@@ -143,7 +146,12 @@ pub fn evaluate_wall(
     } else {
         0.0
     };
-    let f = law.force(penetration, rate, s.impact_speed);
+    s.max_penetration = if start.closed() {
+        start.max_penetration.max(penetration)
+    } else {
+        penetration
+    };
+    let f = law.force_in_contact(penetration, rate, s.impact_speed, s.max_penetration);
     s.force = f.force;
     s.d_penetration = f.d_penetration;
     s.d_rate = f.d_rate;

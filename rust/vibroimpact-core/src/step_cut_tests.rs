@@ -47,6 +47,7 @@ impl Stepper for Flaky {
                 d_penetration: 1.0,
                 d_rate: 1.0,
                 impact_speed: 42.0,
+                max_penetration: 2.0,
             };
         }
         Err(StepFailure {

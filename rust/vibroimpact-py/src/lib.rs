@@ -129,24 +129,31 @@ fn interrupt_requested() -> bool {
 }
 
 /// Force of a law (spec dict as in a gap's `law`) at penetration δ (m), rate δ̇ (m/s) and
-/// approach speed v_imp (m/s): `(F, ∂F/∂δ, ∂F/∂δ̇)`, clamped to be compressive.
+/// approach speed v_imp (m/s): `(F, ∂F/∂δ, ∂F/∂δ̇)`, clamped to be compressive; inside a
+/// contact that reached `max_penetration` (m) if given (the tabulated law depends on it).
 #[pyfunction]
+#[pyo3(signature = (law, penetration, rate, impact_speed, max_penetration = None))]
 fn contact_force(
     law: &Bound<'_, PyDict>,
     penetration: f64,
     rate: f64,
     impact_speed: f64,
+    max_penetration: Option<f64>,
 ) -> PyResult<(f64, f64, f64)> {
     let law = convert::law(law, "law")?;
-    let f = law.force(penetration, rate, impact_speed);
+    let f = match max_penetration {
+        Some(m) => law.force_in_contact(penetration, rate, impact_speed, m),
+        None => law.force(penetration, rate, impact_speed),
+    };
     Ok((f.force, f.d_penetration, f.d_rate))
 }
 
 /// A law evaluated at arrays of states (same length): `(F, ∂F/∂δ, ∂F/∂δ̇)` as arrays, the
 /// raw formula (`clamp=False`: may be tensile; for derivative checks and plots) or clamped
-/// to be compressive as in a run (`clamp=True`).
+/// to be compressive as in a run (`clamp=True`); inside contacts that reached
+/// `max_penetration` (m, an array of the same length) if given.
 #[pyfunction]
-#[pyo3(signature = (law, penetration, rate, impact_speed, clamp = false))]
+#[pyo3(signature = (law, penetration, rate, impact_speed, clamp = false, max_penetration = None))]
 #[allow(clippy::type_complexity)]
 fn contact_law_evaluate<'py>(
     py: Python<'py>,
@@ -155,6 +162,7 @@ fn contact_law_evaluate<'py>(
     rate: numpy::PyReadonlyArray1<'py, f64>,
     impact_speed: numpy::PyReadonlyArray1<'py, f64>,
     clamp: bool,
+    max_penetration: Option<numpy::PyReadonlyArray1<'py, f64>>,
 ) -> PyResult<(
     Bound<'py, PyArray1<f64>>,
     Bound<'py, PyArray1<f64>>,
@@ -176,16 +184,27 @@ fn contact_law_evaluate<'py>(
         )));
     }
     let n = pen.len();
+    let max_pen = max_penetration.as_ref().map(|m| m.as_array());
+    if let Some(m) = &max_pen {
+        if m.len() != n {
+            return Err(ModelError::new_err(format!(
+                "contact_law_evaluate: {} max penetrations for {n} penetrations; expected arrays \
+                 of the same length",
+                m.len()
+            )));
+        }
+    }
     let (mut f, mut dp, mut dr) = (
         Vec::with_capacity(n),
         Vec::with_capacity(n),
         Vec::with_capacity(n),
     );
     for i in 0..n {
-        let c = if clamp {
-            law.force(pen[i], rate[i], speed[i])
-        } else {
-            law.evaluate(pen[i], rate[i], speed[i])
+        let c = match (&max_pen, clamp) {
+            (Some(m), true) => law.force_in_contact(pen[i], rate[i], speed[i], m[i]),
+            (Some(m), false) => law.evaluate_in_contact(pen[i], rate[i], speed[i], m[i]),
+            (None, true) => law.force(pen[i], rate[i], speed[i]),
+            (None, false) => law.evaluate(pen[i], rate[i], speed[i]),
         };
         f.push(c.force);
         dp.push(c.d_penetration);

@@ -180,23 +180,32 @@ hysteresis_law!(
 hysteresis_law!(
     /// Gharib & Hurmuzlu (2012, J. Appl. Mech. 79:064506, "A new contact force model for low
     /// coefficient of restitution impact"): `χ = 1/ce − 1 = (1 − ce)/ce`, built for low
-    /// restitutions (e_eff → ce as ce → 0).
+    /// restitutions. Not checked against a copy of the paper (none was found); what is
+    /// checked is the property it is built for: with `χ ≫ 1` one impact restitutes
+    /// `e ≈ 1/χ`, so `e_eff = ce/(1 − ce) → ce` as ce → 0 (0.111 at ce = 0.1).
     GharibHurmuzlu, "gharib-hurmuzlu", |ce| (1.0 - ce) / ce
 );
 
 hysteresis_law!(
     /// Hu & Guo (2015, Multibody Syst. Dyn. 35:131, "A dissipative contact force model for
     /// impact analysis in multibody dynamics"): `χ = 3(1 − ce)/(2 ce)`, Hunt–Crossley's factor
-    /// divided by ce, for hard and soft materials.
+    /// divided by ce, for hard and soft materials. The variant `3(1 − ce)/(4 ce)` found in
+    /// some reviews and codes is rejected: a factor `a(1 − ce)/ce` agrees with the exact
+    /// relation ([`exact_hysteresis_factor`], `3(1 − ce)/2` to first order) as ce → 1 only
+    /// for `a = 3/2`, and with `a = 3/4` one impact restitutes 0.663 for ce = 0.5 and 0.947
+    /// for ce = 0.9 (0.488 and 0.900 with `a = 3/2`), contradicting the paper's claim of
+    /// reproducing ce (see docs/laws/hu-guo.md).
     HuGuo, "hu-guo", |ce| 1.5 * (1.0 - ce) / ce
 );
 
 hysteresis_law!(
     /// Ye, Li & Zhu (2009, Earthq. Eng. Struct. Dyn. 38:1135, "A note on the Hertz contact
     /// model with nonlinear damping for pounding simulation"; the "Hertzdamp" law of
-    /// structural pounding): `χ = 8(1 − ce)/(5 ce)`. Derived independently of Flores et al.
-    /// (2011), who reached the same factor; kept under its own name because the pounding
-    /// literature uses it.
+    /// structural pounding): `F = K δ^{3/2} + ξ δ^{3/2} δ̇`, `ξ = 8K(1 − ce)/(5 ce v_imp)`,
+    /// i.e. `χ = 8(1 − ce)/(5 ce)`, derived for `n = 3/2` (other exponents keep the factor).
+    /// Flores et al. (2011) reached the same factor independently; kept under its own name
+    /// because the pounding literature uses it. Not to be confused with the same authors'
+    /// linear "modified Kelvin" model (2009, Earthq. Eng. Eng. Vib. 8:433), not provided.
     Ye, "ye", |ce| 1.6 * (1.0 - ce) / ce
 );
 
@@ -364,6 +373,24 @@ mod tests {
         let cm = CarvalhoMartins::new(1e9, 1.5, ce).unwrap();
         let g = Gonthier::new(1e9, 1.5, ce).unwrap();
         assert!((cm.hysteresis_factor() - g.hysteresis_factor()).abs() < 1e-14);
+    }
+
+    /// Hu–Guo's `3(1 − ce)/(2 ce)` tends to the exact relation as ce → 1 (the `4 ce` variant
+    /// would tend to half of it); Gharib–Hurmuzlu's restitutes `ce/(1 − ce)` for small ce.
+    #[test]
+    fn hu_guo_and_gharib_hurmuzlu_limits() {
+        for &ce in &[0.999, 0.9999] {
+            let chi = HuGuo::new(1e9, 1.5, ce).unwrap().hysteresis_factor();
+            let ratio = chi / exact_hysteresis_factor(ce);
+            assert!((ratio - 1.0).abs() < 5.0 * (1.0 - ce), "{ce}: {ratio}");
+        }
+        for &ce in &[0.01, 0.05, 0.1] {
+            let chi = GharibHurmuzlu::new(1e9, 1.5, ce)
+                .unwrap()
+                .hysteresis_factor();
+            let e = restitution_of_factor(chi);
+            assert!((e / (ce / (1.0 - ce)) - 1.0).abs() < 1e-3, "{ce}: {e}");
+        }
     }
 
     /// The exact factor and the restitution it gives are inverse functions.

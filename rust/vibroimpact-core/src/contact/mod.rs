@@ -75,6 +75,19 @@ pub trait ContactLaw {
         self.evaluate(penetration, 0.0, 1.0).potential
     }
 
+    /// The force inside a contact whose largest penetration so far is `max_penetration`
+    /// (only [`Tabulated`] depends on it; the others are [`ContactLaw::evaluate`]).
+    #[inline]
+    fn evaluate_in_contact(
+        &self,
+        penetration: f64,
+        rate: f64,
+        impact_speed: f64,
+        _max_penetration: f64,
+    ) -> ContactForce {
+        self.evaluate(penetration, rate, impact_speed)
+    }
+
     /// Force clamped to be compressive: zero force and zero tangent where the formula is
     /// tensile (the conservative part and its potential are still reported).
     #[inline]
@@ -82,16 +95,37 @@ pub trait ContactLaw {
         if penetration <= 0.0 {
             return ContactForce::default();
         }
-        let f = self.evaluate(penetration, rate, impact_speed);
-        if f.force > 0.0 {
-            f
-        } else {
-            ContactForce {
-                force: 0.0,
-                d_penetration: 0.0,
-                d_rate: 0.0,
-                ..f
-            }
+        compressive(self.evaluate(penetration, rate, impact_speed))
+    }
+
+    /// [`ContactLaw::force`] inside a contact whose largest penetration so far is
+    /// `max_penetration` (what the time integrators evaluate).
+    #[inline]
+    fn force_in_contact(
+        &self,
+        penetration: f64,
+        rate: f64,
+        impact_speed: f64,
+        max_penetration: f64,
+    ) -> ContactForce {
+        if penetration <= 0.0 {
+            return ContactForce::default();
+        }
+        compressive(self.evaluate_in_contact(penetration, rate, impact_speed, max_penetration))
+    }
+}
+
+/// Zero force and tangent where the formula is tensile, the conservative part kept.
+#[inline]
+fn compressive(f: ContactForce) -> ContactForce {
+    if f.force > 0.0 {
+        f
+    } else {
+        ContactForce {
+            force: 0.0,
+            d_penetration: 0.0,
+            d_rate: 0.0,
+            ..f
         }
     }
 }
@@ -168,6 +202,22 @@ impl ContactLaw for Law {
     #[inline]
     fn evaluate(&self, penetration: f64, rate: f64, impact_speed: f64) -> ContactForce {
         dispatch!(self, law => law.evaluate(penetration, rate, impact_speed))
+    }
+
+    #[inline]
+    fn evaluate_in_contact(
+        &self,
+        penetration: f64,
+        rate: f64,
+        impact_speed: f64,
+        max_penetration: f64,
+    ) -> ContactForce {
+        match self {
+            Law::Tabulated(t) => {
+                t.evaluate_in_contact(penetration, rate, impact_speed, max_penetration)
+            }
+            _ => self.evaluate(penetration, rate, impact_speed),
+        }
     }
 }
 

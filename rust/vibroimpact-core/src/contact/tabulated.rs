@@ -1,22 +1,33 @@
 //! A user law from tabulated force–indentation data: a loading curve and an unloading curve.
 //!
-//! Rule (stateless: the law sees only `δ`, `δ̇` and `v_imp`, not the largest penetration of
-//! the current impact):
+//! Rule, in a contact whose largest penetration so far is `δ_m` (the wall state carries it
+//! beside `v_imp`, `gap::WallState::max_penetration`):
 //!
 //! * while `δ̇ ≥ 0` (loading) the force is the loading curve `F_L(δ)`;
-//! * while `δ̇ ≤ −w` (unloading) it is the unloading curve `F_U(δ)`, as given (neither scaled
-//!   nor shifted: the unloading curve is that of an impact whose largest penetration is at
-//!   least the current one);
+//! * while `δ̇ ≤ −w` (unloading) it is the unloading curve stretched to start on the loading
+//!   curve at `δ_m`: `F_U*(δ) = F_L(δ_m) · F_U(δ δ_e/δ_m) / F_U(δ_e)`, where `δ_e` is the last
+//!   unloading point (the given curve is the unloading from `δ_e`, and is reproduced when
+//!   `δ_m = δ_e` and `F_U(δ_e) = F_L(δ_e)`). Penetrations are scaled by `δ_m/δ_e` and forces by
+//!   `F_L(δ_m)/F_U(δ_e)`, so every impact unloads along the same shape, from where it turned.
+//!   `F_U*` is capped by `F_L` (never above the loading curve, so no impact gains energy);
 //! * in between it passes smoothly from one to the other,
-//!   `F = F_U + (F_L − F_U) s(1 + δ̇/w)` with `s(x) = 3x² − 2x³`, so that the force and its
+//!   `F = F_U* + (F_L − F_U*) s(1 + δ̇/w)` with `s(x) = 3x² − 2x³`, so that the force and its
 //!   derivatives stay continuous where the motion reverses (Newton needs that);
 //! * `w = reversal_band · v_imp` (default `reversal_band` 0.01).
 //!
+//! At `δ ≥ δ_m` both curves give `F_L(δ)`. The integrators take `δ_m` as the largest
+//! penetration at the ends of the steps of the current contact (`max(δ_m(start), δ)`, so the
+//! Newton tangent is exact); a lone evaluation ([`ContactLaw::evaluate`]) takes `δ_m = δ_e`.
+//! For a linear loading curve `k δ` and an unloading shape with residual indentation `r δ_e`
+//! (points `(0, 0)`, `(r δ_e, 0)`, `(δ_e, k δ_e)`), one impact to `δ_m` dissipates
+//! `k δ_m² r / 2` of the `k δ_m² / 2` it stored: the restitution `√(1 − r)` for every speed.
+//!
 //! Both curves are piecewise linear through the points given, start at `(0, 0)`, have
-//! increasing penetrations and non-decreasing forces, and are continued linearly beyond
-//! their last point. The unloading curve lies on or below the loading curve everywhere (so
-//! the loop dissipates). The conservative part reported to the energy account is `F_L` and
-//! its potential `∫₀^δ F_L`; what the force does below it is dissipated.
+//! increasing penetrations and non-decreasing forces; the loading curve is continued linearly
+//! beyond its last point (the stretched unloading curve only samples `[0, δ_e]`). The
+//! unloading points lie on or below the loading curve and end at a positive force. The
+//! conservative part reported to the energy account is `F_L` and its potential `∫₀^δ F_L`;
+//! what the force does below it is dissipated.
 
 use super::{ContactForce, ContactLaw, MIN_IMPACT_SPEED};
 use crate::error::{invalid, SimError};
@@ -107,14 +118,19 @@ impl Curve {
 }
 
 /// User law from tabulated loading and unloading curves (see the module documentation for
-/// the rule). Its hysteresis is rate-independent: the damping does not depend on ce or on
-/// `v_imp` except through the width `w = reversal_band · v_imp` of the reversal.
+/// the rule: the unloading curve is stretched to start on the loading curve at the largest
+/// penetration of each contact). Its hysteresis is rate-independent: the damping does not
+/// depend on ce or on `v_imp` except through the width `w = reversal_band · v_imp` of the
+/// reversal.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Tabulated {
     loading: Curve,
     unloading: Curve,
     /// Width of the reversal as a fraction of `v_imp`, 0 < reversal_band <= 1.
     pub reversal_band: f64,
+    /// Last point `(δ_e, F_U(δ_e))` of the unloading curve.
+    end_penetration: f64,
+    end_force: f64,
 }
 
 impl Tabulated {
@@ -152,19 +168,43 @@ impl Tabulated {
                 ));
             }
         }
-        if unloading.last_slope() > loading.last_slope() * (1.0 + 1e-12) {
+        let last = unloading.penetration.len() - 1;
+        let (end_penetration, end_force) = (unloading.penetration[last], unloading.force[last]);
+        if end_force <= 0.0 {
             return invalid(format!(
-                "tabulated: the unloading curve rises faster than the loading curve beyond the \
-                 data ({} N/m > {} N/m); expected unloading <= loading at every penetration",
-                unloading.last_slope(),
-                loading.last_slope()
+                "tabulated: unloading_force ends at {end_force} N; expected a last force > 0 (the \
+                 curve is scaled to start on the loading curve at each impact's largest \
+                 penetration)"
             ));
         }
         Ok(Self {
             loading,
             unloading,
             reversal_band,
+            end_penetration,
+            end_force,
         })
+    }
+
+    /// The unloading curve of a contact that reached `max_penetration > penetration`, capped
+    /// by the loading value `(fl, dl)`: `(F_U*, ∂F_U*/∂δ)`.
+    #[inline]
+    fn stretched_unloading(
+        &self,
+        penetration: f64,
+        max_penetration: f64,
+        (fl, dl): (f64, f64),
+    ) -> (f64, f64) {
+        let (f_turn, _, _) = self.loading.eval(max_penetration);
+        let stretch = self.end_penetration / max_penetration;
+        let scale = f_turn / self.end_force;
+        let (fu, du, _) = self.unloading.eval(penetration * stretch);
+        let (fu, du) = (scale * fu, scale * du * stretch);
+        if fu < fl {
+            (fu, du)
+        } else {
+            (fl, dl)
+        }
     }
 
     pub fn loading(&self) -> &Curve {
@@ -184,13 +224,25 @@ impl Tabulated {
 }
 
 impl ContactLaw for Tabulated {
+    /// A lone evaluation: the contact's largest penetration is taken as `δ_e`.
     #[inline]
     fn evaluate(&self, penetration: f64, rate: f64, impact_speed: f64) -> ContactForce {
+        self.evaluate_in_contact(penetration, rate, impact_speed, self.end_penetration)
+    }
+
+    #[inline]
+    fn evaluate_in_contact(
+        &self,
+        penetration: f64,
+        rate: f64,
+        impact_speed: f64,
+        max_penetration: f64,
+    ) -> ContactForce {
         let (fl, dl, potential) = self.loading.eval(penetration);
-        let (force, d_penetration, d_rate) = if rate >= 0.0 {
+        let (force, d_penetration, d_rate) = if rate >= 0.0 || penetration >= max_penetration {
             (fl, dl, 0.0)
         } else {
-            let (fu, du, _) = self.unloading.eval(penetration);
+            let (fu, du) = self.stretched_unloading(penetration, max_penetration, (fl, dl));
             let w = self.reversal_band * impact_speed.max(MIN_IMPACT_SPEED);
             let x = 1.0 + rate / w;
             if x <= 0.0 {
@@ -232,16 +284,120 @@ mod tests {
         let v = 0.3;
         assert_eq!(t.evaluate(1.5e-5, 0.1, v).force, 20.0);
         assert_eq!(t.evaluate(1.5e-5, 0.0, v).force, 20.0);
-        assert!((t.evaluate(1.5e-5, -0.1, v).force - 6.5).abs() < 1e-12);
-        // Beyond the data: continued with the last slope (2.5e6 N/m loading, 0.9e6 unloading).
+        // Alone, the unloading curve starts at δ_e = 3e-5 on the loading curve (55 N): the
+        // given one (20 N there) scaled by 55/20, 6.5 N → 17.875 N at 1.5e-5.
+        let unloading = 6.5 * 55.0 / 20.0;
+        assert!((t.evaluate(1.5e-5, -0.1, v).force - unloading).abs() < 1e-12);
+        // Beyond the data the loading curve is continued with its last slope, 2.5e6 N/m; past
+        // the largest penetration unloading gives the loading force.
         assert!((t.evaluate(5e-5, 0.1, v).force - 105.0).abs() < 1e-9);
-        assert!((t.evaluate(5e-5, -1.0, v).force - 38.0).abs() < 1e-9);
+        assert!((t.evaluate(5e-5, -1.0, v).force - 105.0).abs() < 1e-9);
         // Half-way through the reversal band: s(1/2) = 1/2.
         let mid = t.evaluate(1.5e-5, -0.5 * 0.01 * v, v).force;
-        assert!((mid - 0.5 * (20.0 + 6.5)).abs() < 1e-12);
+        assert!((mid - 0.5 * (20.0 + unloading)).abs() < 1e-12);
         // Potential of the loading curve.
         let p = t.evaluate(2e-5, 0.0, v).potential;
         assert!((p - (0.5 * 1e-5 * 10.0 + 0.5 * 1e-5 * 40.0)).abs() < 1e-18);
+    }
+
+    /// `F_U*(δ) = F_L(δ_m) F_U(δ δ_e/δ_m)/F_U(δ_e)`, written out for the table's points.
+    #[test]
+    fn unloading_is_stretched_to_the_largest_penetration() {
+        let t = law();
+        let loading = |d: f64| t.loading.eval(d).0;
+        // Inside the data (δ_m = 2e-5: 30 N) and beyond it (δ_m = 6e-5: 130 N).
+        for &(dm, f_turn) in &[(2e-5, 30.0), (6e-5, 130.0)] {
+            assert!((loading(dm) - f_turn).abs() < 1e-9);
+            let stretch = 3e-5 / dm;
+            for &d in &[0.2 * dm, 0.5 * dm, 0.9 * dm, 0.999 * dm] {
+                let x = d * stretch; // on the given curve
+                let given = if x <= 1e-5 {
+                    2.0 * x / 1e-5
+                } else {
+                    2.0 + 18.0 * (x - 1e-5) / 2e-5
+                };
+                let expected = (f_turn * given / 20.0).min(loading(d));
+                let f = t.evaluate_in_contact(d, -1.0, 0.3, dm).force;
+                assert!(
+                    (f - expected).abs() < 1e-9 * f_turn,
+                    "{dm} {d}: {f} vs {expected}"
+                );
+            }
+            // It starts on the loading curve.
+            let f = t
+                .evaluate_in_contact(dm * (1.0 - 1e-12), -1.0, 0.3, dm)
+                .force;
+            assert!((f - f_turn).abs() < 1e-6 * f_turn);
+        }
+    }
+
+    /// Linear loading `k δ`, unloading shape with residual indentation `r δ_e`: one impact
+    /// to `δ_m` returns `k δ_m² (1 − r)/2` of the `k δ_m²/2` stored, whatever `δ_m`.
+    #[test]
+    fn returned_energy_has_the_closed_form() {
+        let (k, de, r) = (3.0e7, 2e-5, 0.35);
+        let t = Tabulated::new(
+            vec![0.0, de],
+            vec![0.0, k * de],
+            vec![0.0, r * de, de],
+            vec![0.0, 0.0, k * de],
+            0.01,
+        )
+        .unwrap();
+        for &dm in &[0.3 * de, de, 2.5 * de] {
+            let n = 4000;
+            let h = dm / n as f64;
+            let f = |d: f64| t.evaluate_in_contact(d, -1.0, 1.0, dm).force;
+            let mut returned = 0.0;
+            for i in 0..n {
+                let a = i as f64 * h;
+                returned += h * (f(a) + 4.0 * f(a + 0.5 * h) + f(a + h)) / 6.0;
+            }
+            let expected = k * dm * dm * (1.0 - r) / 2.0;
+            // The kink at r δ_m falls on a node of the Simpson grid for these δ_m.
+            assert!(
+                (returned - expected).abs() < 1e-9 * expected,
+                "{dm}: {returned} vs {expected}"
+            );
+        }
+    }
+
+    /// The tangent inside a contact (δ_m fixed, as in a step whose start is deeper) equals
+    /// finite differences, away from the kinks.
+    #[test]
+    fn derivatives_in_contact_match_finite_differences() {
+        let t = law();
+        let v = 0.3;
+        let w = 0.01 * v;
+        for &dm in &[2.5e-5, 5e-5] {
+            for i in 1..40 {
+                let d = dm * (i as f64 + 0.37) / 41.0;
+                for &rate in &[-1.0, -0.4 * w, 0.2] {
+                    let hp = 1e-6 * d;
+                    let hr = 1e-7;
+                    let c = t.evaluate_in_contact(d, rate, v, dm);
+                    let fd_p = (t.evaluate_in_contact(d + hp, rate, v, dm).force
+                        - t.evaluate_in_contact(d - hp, rate, v, dm).force)
+                        / (2.0 * hp);
+                    let fd_r = (t.evaluate_in_contact(d, rate + hr, v, dm).force
+                        - t.evaluate_in_contact(d, rate - hr, v, dm).force)
+                        / (2.0 * hr);
+                    let near_kink = [1e-5, 2e-5, 4e-5]
+                        .iter()
+                        .chain(&[1e-5 * dm / 3e-5])
+                        .any(|k| (d - k).abs() < 4.0 * hp);
+                    if near_kink {
+                        continue;
+                    }
+                    let scale = c.d_penetration.abs() + c.force / d;
+                    assert!(
+                        (c.d_penetration - fd_p).abs() <= 1e-5 * scale,
+                        "{dm} {d} {rate}"
+                    );
+                    assert!((c.d_rate - fd_r).abs() <= 1e-5 * (c.d_rate.abs() + c.force / w));
+                }
+            }
+        }
     }
 
     #[test]
@@ -257,8 +413,14 @@ mod tests {
         assert!(Tabulated::new(vec![0.0, 1e-5, 1e-5], f(), ok(), f(), 0.01).is_err());
         assert!(Tabulated::new(ok(), vec![0.0, 1.0], ok(), f(), 0.01).is_err());
         assert!(Tabulated::new(ok(), f(), ok(), f(), 0.0).is_err());
-        // Unloading continued more steeply than loading.
-        assert!(Tabulated::new(ok(), f(), ok(), vec![0.0, 0.0, 25.0], 0.01).is_err());
+        // An unloading curve without force has no shape to scale.
+        let msg = Tabulated::new(ok(), f(), ok(), vec![0.0, 0.0, 0.0], 0.01)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            msg.starts_with("tabulated: unloading_force ends at 0 N"),
+            "{msg}"
+        );
         assert!(Tabulated::new(ok(), f(), ok(), f(), 0.01).is_ok());
     }
 }
