@@ -46,7 +46,9 @@ pub enum SimError {
     },
     /// The effective stiffness `K + a0 M + a1 C` cannot be factorised.
     SingularTangent {
-        /// Step size for which the factorisation failed, s.
+        /// Time at the start of the step that needed it, s (0 when found before the run).
+        t: f64,
+        /// Step size for which the factorisation failed (the smallest tried), s.
         dt: f64,
     },
 }
@@ -91,12 +93,17 @@ impl fmt::Display for SimError {
                 f,
                 "interrupted at t = {t:.9e} s; the results up to then are kept"
             ),
-            SimError::SingularTangent { dt } => write!(
+            SimError::SingularTangent { t, dt } => write!(
                 f,
                 "the effective stiffness K + M/(beta dt^2) + gamma C/(beta dt) is singular \
-                 for dt = {dt:.3e} s (at t = 0 s, before the first step, on no gap); check \
-                 the mass and stiffness matrices (a negative stiffness cancelling the \
-                 inertia term) or change dt"
+                 for dt = {dt:.3e} s at t = {} (a property of the structure, on no \
+                 gap); check the mass and stiffness matrices (a negative stiffness \
+                 cancelling the inertia term) or change dt",
+                if *t == 0.0 {
+                    "0 s, before the first step".to_string()
+                } else {
+                    format!("{t:.9e} s")
+                }
             ),
         }
     }

@@ -448,13 +448,7 @@ impl Run<'_> {
                             if let Err(e) = self.check_energy(sys) {
                                 return Some(e);
                             }
-                            return Some(SimError::NewtonFailed {
-                                t: self.cur.t,
-                                gap: failure.gap,
-                                penetration: failure.penetration,
-                                iterations: failure.iterations,
-                                dt: h,
-                            });
+                            return Some(failure.into_error(self.cur.t, h));
                         }
                     }
                 }

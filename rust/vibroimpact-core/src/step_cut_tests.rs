@@ -6,6 +6,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::contact::{LankaraniNikravesh, Law};
+use crate::error::SimError;
 use crate::gap::{Gap, Side, WallState};
 use crate::integrators::{NewmarkFamily, NewmarkStepper, NewtonSettings, StepFailure, Stepper};
 use crate::simulate::{simulate, Method, Run, RunSettings};
@@ -54,6 +55,7 @@ impl Stepper for Flaky {
             gap: 0,
             penetration: 1.0,
             iterations: 1,
+            singular: false,
         })
     }
 
@@ -148,4 +150,72 @@ fn cut_steps_equal_a_run_at_the_cut_step_size() {
             assert!(close(x, y), "{a:?}\n{b:?}");
         }
     }
+}
+
+/// Finds the effective stiffness singular for every step from `t_fail` on, whatever its
+/// size (as a structure whose stiffness cancels the inertia term would).
+struct SingularFrom {
+    inner: NewmarkStepper,
+    t_fail: f64,
+    attempts_after: usize,
+}
+
+impl Stepper for SingularFrom {
+    fn attempt(
+        &mut self,
+        sys: &System,
+        from: &State,
+        level: usize,
+        h: f64,
+        to: &mut State,
+    ) -> Result<usize, StepFailure> {
+        if from.t >= self.t_fail {
+            self.attempts_after += 1;
+            return Err(StepFailure::singular_tangent());
+        }
+        self.inner.attempt(sys, from, level, h, to)
+    }
+
+    fn accept(&mut self, sys: &System, state: &State) {
+        self.inner.accept(sys, state);
+    }
+}
+
+/// A singular operator met mid-run, after the step cuts, is reported as such (with the time
+/// and the smallest step tried), not as a Newton failure, and the steps before it are kept.
+#[test]
+fn singular_operator_mid_run_is_reported_with_its_time() {
+    let sys = system();
+    let (h0, n_steps, max_cuts) = (1e-5, 100, 2);
+    let mut stepper = SingularFrom {
+        inner: NewmarkStepper::new(
+            &sys,
+            NewmarkFamily::average_acceleration(),
+            NewtonSettings::default(),
+        )
+        .unwrap(),
+        t_fail: 40.5 * h0,
+        attempts_after: 0,
+    };
+    stepper.inner.prepare(&sys, h0).unwrap();
+    let x0 = DVector::zeros(2);
+    let v0 = DVector::from_vec(vec![1.0, -1.0]);
+    let mut run = Run::new(&sys, x0, v0, vec![0, 1], n_steps + 2).unwrap();
+    let error = run.fixed_steps(&sys, &mut stepper, h0, n_steps, 1, max_cuts);
+    match &error {
+        Some(SimError::SingularTangent { t, dt }) => {
+            assert!((t - 41.0 * h0).abs() < 1e-15, "{t}");
+            assert_eq!(*dt, h0 / 4.0);
+        }
+        other => panic!("expected a singular tangent, got {other:?}"),
+    }
+    // one attempt per level: h0, the first h0/2, the first h0/4
+    assert_eq!(stepper.attempts_after, 1 + max_cuts);
+    assert_eq!(run.stats.steps, 41);
+    let message = error.expect("checked above").to_string();
+    assert!(
+        message.contains("singular for dt = 2.500e-6 s at t = 4.1"),
+        "{message}"
+    );
+    assert!(message.contains("on no gap"), "{message}");
 }

@@ -72,7 +72,7 @@ pub(crate) fn run(
     let a_inv = a_hat
         .lu()
         .try_inverse()
-        .ok_or(SimError::SingularTangent { dt: h })?;
+        .ok_or(SimError::SingularTangent { t: 0.0, dt: h })?;
     let ainv_g: Vec<DVector<f64>> = rig.g.iter().map(|g| &a_inv * g).collect();
     let (mut x, mut v) = (x0, v0);
     let mut out = Output::new(settings.record_dofs.clone());

@@ -82,12 +82,14 @@ impl BackwardOperator {
         let (m, cd, k) = (&st.mass, &st.damping, &st.stiffness);
         let lu = (k + cd * c[2] + m * (c[2] * c[2])).lu();
         if !lu.is_invertible() {
-            return Err(SimError::SingularTangent { dt: h });
+            return Err(SimError::SingularTangent { t: 0.0, dt: h });
         }
         let solve = |rhs: DMatrix<f64>| -> Result<DMatrix<f64>, SimError> {
-            let sol = lu.solve(&rhs).ok_or(SimError::SingularTangent { dt: h })?;
+            let sol = lu
+                .solve(&rhs)
+                .ok_or(SimError::SingularTangent { t: 0.0, dt: h })?;
             if sol.iter().any(|v| !v.is_finite()) {
-                return Err(SimError::SingularTangent { dt: h });
+                return Err(SimError::SingularTangent { t: 0.0, dt: h });
             }
             Ok(sol)
         };
@@ -205,9 +207,8 @@ impl Stepper for BatheStepper {
 
         // Sub-step 2: three-point backward formula to t + h.
         let singular = |_| StepFailure {
-            gap: 0,
-            penetration: 0.0,
             iterations,
+            ..StepFailure::singular_tangent()
         };
         let cached = level != ANY_LEVEL && level < self.operators.len();
         if cached {

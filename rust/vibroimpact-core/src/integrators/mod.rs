@@ -12,6 +12,7 @@ pub use newmark::{NewmarkFamily, NewmarkStepper};
 pub use newton::NewtonSettings;
 pub use precise::{precise_matrices, PreciseIntegration, PreciseMatrices, PreciseStepper};
 
+use crate::error::SimError;
 use crate::system::{State, System};
 
 /// `level` of a step whose size is not `dt / 2^level` (adaptive steps landing on an event or
@@ -24,6 +25,35 @@ pub struct StepFailure {
     pub gap: usize,
     pub penetration: f64,
     pub iterations: usize,
+    /// The step's effective stiffness could not be factorised (no Newton iteration ran).
+    pub singular: bool,
+}
+
+impl StepFailure {
+    /// A step whose effective stiffness is singular.
+    pub fn singular_tangent() -> Self {
+        Self {
+            gap: 0,
+            penetration: 0.0,
+            iterations: 0,
+            singular: true,
+        }
+    }
+
+    /// The run's error when a step from `t` failed at its smallest size `dt`.
+    pub fn into_error(self, t: f64, dt: f64) -> SimError {
+        if self.singular {
+            SimError::SingularTangent { t, dt }
+        } else {
+            SimError::NewtonFailed {
+                t,
+                gap: self.gap,
+                penetration: self.penetration,
+                iterations: self.iterations,
+                dt,
+            }
+        }
+    }
 }
 
 /// The step lifecycle of an integrator (after OpenSees' `newStep`/`commit`): `attempt` a step

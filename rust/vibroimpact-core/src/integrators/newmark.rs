@@ -152,7 +152,7 @@ impl StepOperator {
         let st = &sys.structure;
         let (m, c, k) = (&st.mass, &st.damping, &st.stiffness);
         let n = sys.n_dof();
-        let singular = SimError::SingularTangent { dt: h };
+        let singular = SimError::SingularTangent { t: 0.0, dt: h };
         // A banded factor when the reordered band is narrow enough to beat 3 n² per step.
         let banded = (n >= BANDED_MIN_DOFS)
             .then(|| {
@@ -180,7 +180,7 @@ impl StepOperator {
                     let mut col = rhs.column(0).iter().copied().collect::<Vec<_>>();
                     f.solve_in_place(&mut col, &mut work);
                     if col.iter().any(|v| !v.is_finite()) {
-                        return Err(SimError::SingularTangent { dt: h });
+                        return Err(SimError::SingularTangent { t: 0.0, dt: h });
                     }
                     Ok(col)
                 };
@@ -221,9 +221,11 @@ impl StepOperator {
                     return Err(singular);
                 }
                 let solve = move |rhs: DMatrix<f64>| -> Result<Vec<f64>, SimError> {
-                    let sol = lu.solve(&rhs).ok_or(SimError::SingularTangent { dt: h })?;
+                    let sol = lu
+                        .solve(&rhs)
+                        .ok_or(SimError::SingularTangent { t: 0.0, dt: h })?;
                     if sol.iter().any(|v| !v.is_finite()) {
-                        return Err(SimError::SingularTangent { dt: h });
+                        return Err(SimError::SingularTangent { t: 0.0, dt: h });
                     }
                     Ok(sol.transpose().as_slice().to_vec()) // row-major
                 };
@@ -329,11 +331,7 @@ impl Stepper for NewmarkStepper {
         h: f64,
         s1: &mut State,
     ) -> Result<usize, StepFailure> {
-        let singular = |_| StepFailure {
-            gap: 0,
-            penetration: 0.0,
-            iterations: 0,
-        };
+        let singular = |_| StepFailure::singular_tangent();
         let op = if level == ANY_LEVEL {
             if self.one_off.as_ref().is_none_or(|(size, _)| *size != h) {
                 let op = StepOperator::new(sys, &self.scheme, h).map_err(singular)?;

@@ -201,6 +201,7 @@ impl GapNewton {
                     gap: gi,
                     penetration,
                     iterations,
+                    singular: false,
                 });
             }
             let solved = match p.rate {
@@ -212,6 +213,7 @@ impl GapNewton {
                     gap: self.worst_gap(settings),
                     penetration: 0.0,
                     iterations,
+                    singular: false,
                 });
             }
             iterations += 1;

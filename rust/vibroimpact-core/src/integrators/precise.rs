@@ -463,11 +463,7 @@ impl Stepper for PreciseStepper {
         s1: &mut State,
     ) -> Result<usize, StepFailure> {
         let implicit = self.variant.predictor_corrector;
-        let singular = |_| StepFailure {
-            gap: 0,
-            penetration: 0.0,
-            iterations: 0,
-        };
+        let singular = |_| StepFailure::singular_tangent();
         if level == ANY_LEVEL || level >= self.operators.len() {
             if self.one_off.as_ref().is_none_or(|(size, _)| *size != h) {
                 let op = self.fixed.operator(sys, h, implicit).map_err(singular)?;
