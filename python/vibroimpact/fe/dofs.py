@@ -234,8 +234,8 @@ class FEStructure:
         if len(bad_rows):
             bad = int(bad_rows[0])
             raise ModelError(
-                f"structure.mass: diagonal entry {bad} is {diag[bad]!r}; expected > 0, or 0 "
-                "with the whole row zero (a massless DOF)"
+                f"structure.mass: diagonal entry {bad} is {float(diag[bad])!r}; expected > 0, "
+                "or 0 with the whole row zero (a massless DOF)"
             )
         object.__setattr__(self, "mass", m)
         object.__setattr__(self, "stiffness", k)
