@@ -59,6 +59,8 @@ CLI_SAMPLE = [
     "output_every_zero",
     "multi_five",
     "multi_matrices",
+    "matrices_node_without_dof_map",
+    "matrices_load_massless",
 ]
 
 

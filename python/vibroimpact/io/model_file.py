@@ -1301,7 +1301,7 @@ def _build_initial(
                 d = moved[0]
                 ck.invalid(
                     p, ck.raw.get(p), f"0 on the massless {_dof_label(ck, d)} (it is condensed "
-                    f"out statically, its value follows from the others), not {x[d]!r}",
+                    f"out statically, its value follows from the others), not {float(x[d])!r}",
                 )
                 continue
             x = x[cond.retained]
