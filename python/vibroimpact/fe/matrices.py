@@ -53,7 +53,7 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibroimpact.errors import ModelError
-from vibroimpact.fe.dofs import DIRECTIONS, DofMap, FEStructure, as_sparse, direction_name
+from vibroimpact.fe.dofs import DIRECTIONS, DofMap, FEStructure, as_sparse
 
 __all__ = [
     "FORMATS",
@@ -245,21 +245,8 @@ def read_calculix(job: PathLike) -> FEStructure:
     """The stiffness (``job.sti``), mass (``job.mas``) and DOF map (``job.dof``, optional)
     that CalculiX's ``*MATRIX STORAGE`` writes (format: the module docstring). ``job`` is the
     job name or the path of any of the three files."""
-    sti, mas, dof = _calculix_paths(job)
-    rk, ck, vk = _read_triplets(sti, str(sti))
-    rm, cm, vm = _read_triplets(mas, str(mas))
-    dof_map = None
-    n = int(max(rk.max(), ck.max(), rm.max(), cm.max())) + 1
-    if dof.is_file():
-        dof_map = read_calculix_dofs(dof)
-        if len(dof_map) < n:
-            raise ModelError(
-                f"{dof}: {len(dof_map)} lines is not valid; expected one per equation ({n})"
-            )
-        n = len(dof_map)
-    k = _symmetrize(rk, ck, vk, n, str(sti))
-    m = _symmetrize(rm, cm, vm, n, str(mas))
-    return FEStructure(m, k, None, dof_map)
+    sti, mas, _ = _calculix_paths(job)
+    return read_structure(mas, sti, format="calculix")
 
 
 def read_calculix_dofs(path: PathLike) -> DofMap:
@@ -363,33 +350,10 @@ def read_abaqus_mtx(
     """One ABAQUS ``*MATRIX OUTPUT`` file. With node/DOF entries the DOF map is ``dof_map``
     if given (entries must be in it), else every ``(node, dof)`` present, sorted; with
     equation-number entries the map is ``dof_map`` (or None)."""
-    entries, by_node = _abaqus_entries(path)
-    if by_node:
-        if dof_map is None:
-            keys = sorted({k for e in entries for k in e[:2]})
-            dof_map = DofMap([k[0] for k in keys], [k[1] for k in keys])
-        index = {
-            (n, d): i
-            for i, (n, d) in enumerate(zip(dof_map.nodes, dof_map.directions, strict=True))
-        }
-        rows, cols = [], []
-        for rk, ck, _ in entries:
-            for key in (rk, ck):
-                if (key[0], direction_name(key[1])) not in index:
-                    raise ModelError(
-                        f"{path}: node {key[0]} DOF {key[1]} is not valid; expected a node and "
-                        "DOF of the DOF map"
-                    )
-            rows.append(index[(rk[0], direction_name(rk[1]))])
-            cols.append(index[(ck[0], direction_name(ck[1]))])
-        n = len(dof_map)
-    else:
-        rows = [e[0] - 1 for e in entries]
-        cols = [e[1] - 1 for e in entries]
-        n = max(max(rows), max(cols)) + 1 if dof_map is None else len(dof_map)
-    vals = np.array([e[2] for e in entries])
-    a = _symmetrize(np.array(rows), np.array(cols), vals, n, str(path))
-    return a, dof_map
+    got = read_matrix_files({"matrix": path}, format="abaqus", dof_map=dof_map)
+    if got.errors:
+        raise ModelError(got.errors["matrix"])
+    return got.matrices["matrix"], got.dof_map
 
 
 def read_abaqus(
@@ -398,23 +362,7 @@ def read_abaqus(
     """An :class:`FEStructure` from ABAQUS ``*MATRIX OUTPUT`` files (``job_STIF1.mtx``,
     ``job_MASS1.mtx``, optionally ``job_DMPV1.mtx``). The DOF map is every ``(node, dof)``
     of any of the files, sorted by node then DOF."""
-    paths = [p for p in (stiffness, mass, damping) if p is not None]
-    parsed = [_abaqus_entries(p) for p in paths]
-    if parsed[0][1]:
-        keys = sorted({k for entries, _ in parsed for e in entries for k in e[:2]})
-        dm: DofMap | None = DofMap([k[0] for k in keys], [k[1] for k in keys])
-    else:
-        dm = None
-    mats = [read_abaqus_mtx(p, dm)[0] for p in paths]
-    if dm is None:
-        n = max(a.shape[0] for a in mats)
-        mats = [
-            sp.csr_array(sp.block_diag([a, sp.csr_array((n - a.shape[0],) * 2)]))
-            if a.shape[0] < n
-            else a
-            for a in mats
-        ]
-    return FEStructure(mats[1], mats[0], mats[2] if damping is not None else None, dm)
+    return read_structure(mass, stiffness, damping, format="abaqus")
 
 
 def write_abaqus_mtx(path: PathLike, matrix: Any, dof_map: DofMap) -> None:
