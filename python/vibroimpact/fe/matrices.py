@@ -23,6 +23,12 @@ node/direction pairs):
   numbers. Lines starting with ``*`` are comments or keywords. :func:`read_abaqus_mtx`,
   :func:`read_abaqus`, :func:`write_abaqus_mtx`.
 
+Any mix of these (and arrays) is read as one structure by :func:`read_structure` /
+:func:`read_matrix_files` (what model files use): the format by suffix and content
+(:func:`detect_format`), the DOF map given (:func:`read_dof_map`) or carried by the files.
+Massless DOFs (zero rows of ``M``, e.g. the rotations of a lumped-mass export) are kept; condense
+them with :meth:`FEStructure.condense_massless` (:mod:`vibroimpact.fe.condensation`).
+
 A one-triangle file is mirrored; a square file must be symmetric. Sparse matrices stay sparse
 until a dense :class:`~vibroimpact.Structure` is built for the core
 (:meth:`FEStructure.to_structure`) — for large models reduce first
