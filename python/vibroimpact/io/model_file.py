@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 
 from vibroimpact import contact, integrators
 from vibroimpact.errors import ModelError
-from vibroimpact.fe.dofs import DofMap, FEStructure
+from vibroimpact.fe.dofs import DENSE_LIMIT, DofMap, FEStructure
 from vibroimpact.fe.matrices import FORMATS, SUFFIXES, read_dof_map, read_matrix_files
 from vibroimpact.integrators import Integrator, method_from_options
 from vibroimpact.model import ConstantLoad, Gap, HarmonicLoad, Load, Model, Structure, TableLoad
@@ -294,7 +294,9 @@ SCHEMA: tuple[Field, ...] = (
           default_text="zeros", rule="same shape as mass, symmetric", when=_MATRICES),
     Field("structure.format", "string", "how the matrix files are read: auto by suffix and "
           "content (.npy, .npz; .sti/.mas: calculix; .mtx: mtx if it starts %%MatrixMarket, else "
-          "abaqus); mtx: Matrix Market; calculix: *MATRIX STORAGE; abaqus: *MATRIX GENERATE",
+          "abaqus); mtx: Matrix Market; npz: scipy.sparse.save_npz, or an archive whose array "
+          "named mass, stiffness or damping (as the key) is read; calculix: *MATRIX STORAGE; "
+          "abaqus: *MATRIX GENERATE",
           default="auto", choices=FORMATS, when=_MATRICES),
     Field("structure.dof_map", "dof-map", "node and direction of every DOF, to address gaps and "
           "loads by node: a .csv file (dof,node,direction rows), a CalculiX .dof file, or a list "
@@ -1079,7 +1081,8 @@ def _build_matrices(ck: _Checker, s: Mapping[str, Any]) -> Structure | None:
                          got.dof_map)
         massless = fe.massless_dofs
         retained = np.setdiff1d(np.arange(fe.n_dof), massless)
-        np.linalg.cholesky(fe.mass[retained][:, retained].toarray())
+        if len(retained) <= DENSE_LIMIT:  # larger: to_structure says so
+            np.linalg.cholesky(fe.mass[retained][:, retained].toarray())
     except np.linalg.LinAlgError:
         ck.invalid(
             "structure.mass", None, "a positive definite matrix on the DOFs with mass (a "
