@@ -1174,7 +1174,8 @@ def _on_mass(ck: _Checker, p: str, dofs: tuple[int, ...], what: str) -> tuple[in
     cond = ck.context.get("condensation")
     if cond is None:
         return dofs
-    bad = [d for d in dofs if d in set(cond.condensed.tolist())]
+    massless = set(cond.condensed.tolist())
+    bad = [d for d in dofs if d in massless]
     if bad:
         ck.invalid(
             p, ck.raw.get(p), f"a DOF that carries mass ({what} on {_dof_label(ck, bad[0])}, "
@@ -1295,6 +1296,7 @@ def _build_initial(
         if n is not None and len(values) != n:
             what = "a number" if n == 1 else f"a list of {n} numbers (one per DOF)"
             ck.invalid(p, ck.raw.get(p), f"{what} in {unit}")
+            out[key] = None
             continue
         x = np.asarray(values, dtype=float)
         cond = ck.context.get("condensation")
@@ -1306,6 +1308,7 @@ def _build_initial(
                     p, ck.raw.get(p), f"0 on the massless {_dof_label(ck, d)} (it is condensed "
                     f"out statically, its value follows from the others), not {float(x[d])!r}",
                 )
+                out[key] = None
                 continue
             x = x[cond.retained]
         out[key] = x
