@@ -23,10 +23,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.linalg
 import scipy.sparse as sp
 from scipy.integrate import solve_ivp
 from vibroimpact.errors import ModelError
-from vibroimpact.fe import DofMap, FEStructure
+from vibroimpact.fe import DofMap, FEStructure, modes
 from vibroimpact.fe.condensation import CondensationWarning
 from vibroimpact.fe.matrices import (
     read_structure,
@@ -92,6 +93,24 @@ def test_condensed_stiffness_is_the_inverse_beam_flexibility() -> None:
     np.testing.assert_allclose(full[0::2], tip, rtol=1e-12)
     slope = x * (2 * LENGTH - x) / (2 * E_I)  # dw/dx of P x² (3L - x) / 6EI, P = 1
     np.testing.assert_allclose(full[1::2], slope, rtol=1e-10)
+
+
+def test_modes_of_a_structure_with_massless_dofs() -> None:
+    """Against scipy.linalg.eigh of (flexibility⁻¹, lumped M): the beam-theory model."""
+    fe = lumped_cantilever()
+    got = modes(fe, 3)
+    le = LENGTH / ELEMENTS
+    m = MASS_PER_LENGTH * le * np.diag([1.0, 1.0, 1.0, 1.0, 0.5])
+    lam, phi = scipy.linalg.eigh(np.linalg.inv(flexibility()), m)
+    np.testing.assert_allclose(got.eigenvalues, lam[:3], rtol=1e-10)
+    assert got.shapes.shape == (2 * ELEMENTS, 3) and got.dof_map == fe.dof_map
+    for j in range(3):  # translations: the reference shape (up to sign); mass-normalised
+        sign = np.sign(got.shapes[8, j] * phi[4, j])
+        np.testing.assert_allclose(got.shapes[0::2, j], sign * phi[:, j], rtol=1e-8, atol=1e-10)
+        assert got.shapes[:, j] @ fe.mass @ got.shapes[:, j] == pytest.approx(1.0, rel=1e-12)
+    # rotations: K φ = ω² M φ holds on every row, the massless ones included
+    residual = fe.stiffness @ got.shapes - fe.mass @ got.shapes * got.eigenvalues
+    assert np.abs(residual).max() <= 1e-8 * np.abs(fe.stiffness @ got.shapes).max()
 
 
 def test_damping_on_massless_dofs() -> None:
