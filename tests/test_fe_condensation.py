@@ -27,7 +27,7 @@ import scipy.linalg
 import scipy.sparse as sp
 from scipy.integrate import solve_ivp
 from vibroimpact.errors import ModelError
-from vibroimpact.fe import DofMap, FEStructure, modes
+from vibroimpact.fe import DofMap, FEStructure, craig_bampton, modes
 from vibroimpact.fe.condensation import CondensationWarning
 from vibroimpact.fe.matrices import (
     read_structure,
@@ -113,6 +113,16 @@ def test_modes_of_a_structure_with_massless_dofs() -> None:
     assert np.abs(residual).max() <= 1e-8 * np.abs(fe.stiffness @ got.shapes).max()
 
 
+def test_craig_bampton_of_the_condensed_structure() -> None:
+    """Condense, then reduce keeping every mode: the beam-theory model's frequencies."""
+    c = lumped_cantilever().condense_massless()
+    cb = craig_bampton(c.structure, boundary=[4], n_modes=4)
+    lam = scipy.linalg.eigh(cb.stiffness, cb.mass, eigvals_only=True)
+    m_ref = c.structure.mass.toarray()
+    ref = scipy.linalg.eigh(np.linalg.inv(flexibility()), m_ref, eigvals_only=True)
+    np.testing.assert_allclose(lam, ref, rtol=1e-9)
+
+
 def test_damping_on_massless_dofs() -> None:
     fe = lumped_cantilever()
     beta = 1e-4
@@ -137,6 +147,8 @@ def test_refusals() -> None:
     k[:, 9] = k[9, :] = 0.0  # the tip rotation held by nothing
     with pytest.raises(ModelError, match="does not hold the 5 massless DOFs"):
         FEStructure(fe.mass, k, dof_map=fe.dof_map).condense_massless()
+    with pytest.raises(ModelError, match=r"5 massless DOFs .*condense them first"):
+        craig_bampton(fe, boundary=[8], n_modes=2)
     m = fe.mass.toarray()
     m[1, 0] = m[0, 1] = 0.1  # a zero diagonal with a non-zero row
     with pytest.raises(ModelError, match=r"diagonal entry 1 is 0\.0"):
