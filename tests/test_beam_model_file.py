@@ -193,10 +193,10 @@ BAD = [
       "with theory = \"timoshenko\""]),
     ("node_on_sdof", lambda d: d.update(structure={"kind": "sdof", "mass": 1.0}),
      ["gaps[0].node: 'end' is not valid; expected no node when structure.kind = \"sdof\" (it "
-      "applies to structure.kind = \"beam\")",
+      "applies to structure.kind = \"beam\" | \"matrices\")",
       "gaps[0].dof: missing; expected a DOF index (integer >= 0) or a non-empty list of them",
       "loads[0].nodes: 'all' is not valid; expected no nodes when structure.kind = \"sdof\" (it "
-      "applies to structure.kind = \"beam\")",
+      "applies to structure.kind = \"beam\" | \"matrices\")",
       "loads[0].dof: missing; expected a DOF index (integer >= 0) or a non-empty list of them"]),
 ]
 

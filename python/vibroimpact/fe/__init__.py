@@ -1,6 +1,7 @@
 """Multi-DOF structures (issue 6): beam finite elements (:mod:`~vibroimpact.fe.beam`),
 imported FE matrices (:mod:`~vibroimpact.fe.matrices`), modal analysis
-(:mod:`~vibroimpact.fe.modal`) and Craig–Bampton reduction (:mod:`~vibroimpact.fe.reduction`).
+(:mod:`~vibroimpact.fe.modal`), Craig–Bampton reduction (:mod:`~vibroimpact.fe.reduction`)
+and static condensation of massless DOFs (:mod:`~vibroimpact.fe.condensation`).
 
 Example — the paper's hollow shaft (§3.2), its free–free modes and a slider gap::
 
@@ -24,6 +25,8 @@ from vibroimpact.fe.beam import Section as Section
 from vibroimpact.fe.beam import Spring as Spring
 from vibroimpact.fe.beam import Support as Support
 from vibroimpact.fe.beam import cowper_shear_coefficient as cowper_shear_coefficient
+from vibroimpact.fe.condensation import StaticCondensation as StaticCondensation
+from vibroimpact.fe.condensation import condense_massless as condense_massless
 from vibroimpact.fe.damping import ModalDamping as ModalDamping
 from vibroimpact.fe.damping import Rayleigh as Rayleigh
 from vibroimpact.fe.dofs import DIRECTIONS as DIRECTIONS

@@ -33,6 +33,7 @@ from vibroimpact.errors import ModelError
 from vibroimpact.model import Gap, Model, Structure
 
 if TYPE_CHECKING:
+    from vibroimpact.fe.condensation import StaticCondensation
     from vibroimpact.fe.damping import Damping
     from vibroimpact.model import Load
 
@@ -226,11 +227,15 @@ class FEStructure:
             raise ModelError(
                 f"dof_map: {len(dof_map)} DOFs is not valid; expected {n} (one per matrix row)"
             )
-        if np.any(m.diagonal() <= 0):
-            bad = int(np.flatnonzero(m.diagonal() <= 0)[0])
+        # a zero diagonal entry is a massless DOF (condense_massless) only if its row is zero
+        diag = m.diagonal()
+        row_nnz = np.diff(m.indptr)
+        bad_rows = np.flatnonzero((diag < 0) | ((diag == 0) & (row_nnz > 0)))
+        if len(bad_rows):
+            bad = int(bad_rows[0])
             raise ModelError(
-                f"structure.mass: diagonal entry {bad} is {m.diagonal()[bad]!r}; expected every "
-                "DOF to carry mass (> 0)"
+                f"structure.mass: diagonal entry {bad} is {float(diag[bad])!r}; expected > 0, "
+                "or 0 with the whole row zero (a massless DOF)"
             )
         object.__setattr__(self, "mass", m)
         object.__setattr__(self, "stiffness", k)
@@ -249,8 +254,28 @@ class FEStructure:
         c = damping.matrix(self.mass, self.stiffness) if isinstance(damping, Damping) else damping
         return FEStructure(self.mass, self.stiffness, c, self.dof_map)
 
+    @property
+    def massless_dofs(self) -> list[int]:
+        """The DOFs without mass (zero rows of ``M``)."""
+        from vibroimpact.fe.condensation import massless_dofs
+
+        return massless_dofs(self.mass).tolist()
+
+    def condense_massless(self, keep: Iterable[int] = ()) -> StaticCondensation:
+        """Static (Guyan) condensation of the massless DOFs; ``keep``: DOFs that must stay
+        (see :func:`vibroimpact.fe.condensation.condense_massless`)."""
+        from vibroimpact.fe.condensation import condense_massless
+
+        return condense_massless(self, keep)
+
     def to_structure(self) -> Structure:
         """The dense :class:`~vibroimpact.Structure` (n×n arrays) that the core integrates."""
+        massless = self.massless_dofs
+        if massless:
+            raise ModelError(
+                f"structure.mass: {len(massless)} massless DOFs (first: {massless[0]}); expected "
+                "every DOF to carry mass (condense them with FEStructure.condense_massless())"
+            )
         if self.n_dof > DENSE_LIMIT:
             raise ModelError(
                 f"structure: {self.n_dof} DOFs is too many for dense matrices; expected at most "

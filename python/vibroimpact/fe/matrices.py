@@ -23,6 +23,12 @@ node/direction pairs):
   numbers. Lines starting with ``*`` are comments or keywords. :func:`read_abaqus_mtx`,
   :func:`read_abaqus`, :func:`write_abaqus_mtx`.
 
+Any mix of these (and arrays) is read as one structure by :func:`read_structure` /
+:func:`read_matrix_files` (what model files use): the format by suffix and content
+(:func:`detect_format`), the DOF map given (:func:`read_dof_map`) or carried by the files.
+Massless DOFs (zero rows of ``M``, e.g. the rotations of a lumped-mass export) are kept; condense
+them with :meth:`FEStructure.condense_massless` (:mod:`vibroimpact.fe.condensation`).
+
 A one-triangle file is mirrored; a square file must be symmetric. Sparse matrices stay sparse
 until a dense :class:`~vibroimpact.Structure` is built for the core
 (:meth:`FEStructure.to_structure`) — for large models reduce first
@@ -42,6 +48,8 @@ from __future__ import annotations
 
 import os
 import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -51,16 +59,23 @@ import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibroimpact.errors import ModelError
-from vibroimpact.fe.dofs import DIRECTIONS, DofMap, FEStructure, as_sparse, direction_name
+from vibroimpact.fe.dofs import DIRECTIONS, DofMap, FEStructure, as_sparse
 
 __all__ = [
+    "FORMATS",
+    "MatrixSet",
+    "detect_format",
     "load_npz",
     "read_abaqus",
     "read_abaqus_mtx",
     "read_calculix",
+    "read_calculix_dofs",
+    "read_dof_map",
     "read_matrix",
+    "read_matrix_files",
     "read_matrix_market",
     "read_numpy",
+    "read_structure",
     "save_npz",
     "write_abaqus_mtx",
     "write_calculix",
@@ -236,33 +251,25 @@ def read_calculix(job: PathLike) -> FEStructure:
     """The stiffness (``job.sti``), mass (``job.mas``) and DOF map (``job.dof``, optional)
     that CalculiX's ``*MATRIX STORAGE`` writes (format: the module docstring). ``job`` is the
     job name or the path of any of the three files."""
-    sti, mas, dof = _calculix_paths(job)
-    rk, ck, vk = _read_triplets(sti, str(sti))
-    rm, cm, vm = _read_triplets(mas, str(mas))
-    dof_map = None
-    n = int(max(rk.max(), ck.max(), rm.max(), cm.max())) + 1
-    if dof.is_file():
-        nodes, dirs = [], []
-        for lineno, line in enumerate(_open_text(dof), 1):
-            s = line.strip()
-            if not s:
-                continue
-            m = re.fullmatch(r"(-?\d+)\.(\d+)", s)
-            if m is None:
-                raise ModelError(
-                    f"{dof}: line {lineno} ({s[:40]!r}) is not valid; expected node.direction"
-                )
-            nodes.append(int(m.group(1)))
-            dirs.append(int(m.group(2)))
-        if len(nodes) < n:
+    sti, mas, _ = _calculix_paths(job)
+    return read_structure(mas, sti, format="calculix")
+
+
+def read_calculix_dofs(path: PathLike) -> DofMap:
+    """A CalculiX ``job.dof`` file: line ``k`` is ``node.direction`` of equation ``k``."""
+    nodes, dirs = [], []
+    for lineno, line in enumerate(_open_text(path), 1):
+        s = line.strip()
+        if not s:
+            continue
+        m = re.fullmatch(r"(-?\d+)\.(\d+)", s)
+        if m is None:
             raise ModelError(
-                f"{dof}: {len(nodes)} lines is not valid; expected one per equation ({n})"
+                f"{path}: line {lineno} ({s[:40]!r}) is not valid; expected node.direction"
             )
-        n = len(nodes)
-        dof_map = DofMap(nodes, dirs)
-    k = _symmetrize(rk, ck, vk, n, str(sti))
-    m = _symmetrize(rm, cm, vm, n, str(mas))
-    return FEStructure(m, k, None, dof_map)
+        nodes.append(int(m.group(1)))
+        dirs.append(int(m.group(2)))
+    return DofMap(nodes, dirs)
 
 
 def _upper_triplets(
@@ -349,33 +356,10 @@ def read_abaqus_mtx(
     """One ABAQUS ``*MATRIX OUTPUT`` file. With node/DOF entries the DOF map is ``dof_map``
     if given (entries must be in it), else every ``(node, dof)`` present, sorted; with
     equation-number entries the map is ``dof_map`` (or None)."""
-    entries, by_node = _abaqus_entries(path)
-    if by_node:
-        if dof_map is None:
-            keys = sorted({k for e in entries for k in e[:2]})
-            dof_map = DofMap([k[0] for k in keys], [k[1] for k in keys])
-        index = {
-            (n, d): i
-            for i, (n, d) in enumerate(zip(dof_map.nodes, dof_map.directions, strict=True))
-        }
-        rows, cols = [], []
-        for rk, ck, _ in entries:
-            for key in (rk, ck):
-                if (key[0], direction_name(key[1])) not in index:
-                    raise ModelError(
-                        f"{path}: node {key[0]} DOF {key[1]} is not valid; expected a node and "
-                        "DOF of the DOF map"
-                    )
-            rows.append(index[(rk[0], direction_name(rk[1]))])
-            cols.append(index[(ck[0], direction_name(ck[1]))])
-        n = len(dof_map)
-    else:
-        rows = [e[0] - 1 for e in entries]
-        cols = [e[1] - 1 for e in entries]
-        n = max(max(rows), max(cols)) + 1 if dof_map is None else len(dof_map)
-    vals = np.array([e[2] for e in entries])
-    a = _symmetrize(np.array(rows), np.array(cols), vals, n, str(path))
-    return a, dof_map
+    got = read_matrix_files({"matrix": path}, format="abaqus", dof_map=dof_map)
+    if got.errors:
+        raise ModelError(got.errors["matrix"])
+    return got.matrices["matrix"], got.dof_map
 
 
 def read_abaqus(
@@ -384,23 +368,7 @@ def read_abaqus(
     """An :class:`FEStructure` from ABAQUS ``*MATRIX OUTPUT`` files (``job_STIF1.mtx``,
     ``job_MASS1.mtx``, optionally ``job_DMPV1.mtx``). The DOF map is every ``(node, dof)``
     of any of the files, sorted by node then DOF."""
-    paths = [p for p in (stiffness, mass, damping) if p is not None]
-    parsed = [_abaqus_entries(p) for p in paths]
-    if parsed[0][1]:
-        keys = sorted({k for entries, _ in parsed for e in entries for k in e[:2]})
-        dm: DofMap | None = DofMap([k[0] for k in keys], [k[1] for k in keys])
-    else:
-        dm = None
-    mats = [read_abaqus_mtx(p, dm)[0] for p in paths]
-    if dm is None:
-        n = max(a.shape[0] for a in mats)
-        mats = [
-            sp.csr_array(sp.block_diag([a, sp.csr_array((n - a.shape[0],) * 2)]))
-            if a.shape[0] < n
-            else a
-            for a in mats
-        ]
-    return FEStructure(mats[1], mats[0], mats[2] if damping is not None else None, dm)
+    return read_structure(mass, stiffness, damping, format="abaqus")
 
 
 def write_abaqus_mtx(path: PathLike, matrix: Any, dof_map: DofMap) -> None:
@@ -435,3 +403,250 @@ def read_matrix(path: PathLike, key: str | None = None) -> sp.csr_array:
     if head and head[0].lstrip().lower().startswith("%%matrixmarket"):
         return read_matrix_market(p)
     return read_abaqus_mtx(p)[0]
+
+
+# --------------------------------------------------------------------------------------------
+# A structure from a set of files (model files: [structure] kind = "matrices")
+# --------------------------------------------------------------------------------------------
+
+#: Matrix file formats: ``auto`` (by suffix and content, :func:`detect_format`), ``mtx``
+#: (Matrix Market), ``npy``, ``npz``, ``calculix`` (``.sti``/``.mas``), ``abaqus`` (``.mtx``).
+FORMATS: tuple[str, ...] = ("auto", "mtx", "npy", "npz", "calculix", "abaqus")
+
+#: Suffixes of matrix files.
+SUFFIXES: tuple[str, ...] = (".npy", ".mtx", ".npz", ".sti", ".mas")
+
+
+def detect_format(path: PathLike) -> str:
+    """The format of a matrix file: ``.npy``, ``.npz``; ``.sti``/``.mas``: ``calculix``;
+    ``.mtx``: ``mtx`` if it starts ``%%MatrixMarket``, else ``abaqus``."""
+    p = os.fspath(path)
+    suffix = Path(p).suffix.lower()
+    if suffix in (".npy", ".npz"):
+        return suffix[1:]
+    if suffix in (".sti", ".mas"):
+        return "calculix"
+    if suffix == ".mtx":
+        head = next((x for x in _open_text(p) if x.strip()), "")
+        return "mtx" if head.lstrip().lower().startswith("%%matrixmarket") else "abaqus"
+    raise ModelError(
+        f"{p!r}: suffix {suffix or '(none)'!r} is not valid; expected one of "
+        f"{', '.join(SUFFIXES)} (or give the format)"
+    )
+
+
+def read_dof_map(value: PathLike | Sequence[str]) -> DofMap:
+    """A DOF map from a ``.csv`` file (:meth:`DofMap.write_csv`), a CalculiX ``.dof`` file
+    (:func:`read_calculix_dofs`) or a list of ``"node.direction"`` labels (``"12.x"``,
+    ``"12.5"``; :meth:`DofMap.labels`)."""
+    if isinstance(value, (str, os.PathLike)):
+        p = os.fspath(value)
+        if p.lower().endswith(".dof"):
+            return read_calculix_dofs(p)
+        if p.lower().endswith(".csv"):
+            _open_text(p)  # a clear error for a missing file
+            return DofMap.read_csv(p)
+        raise ModelError(f"dof_map: {p!r} is not valid; expected a .csv or .dof file")
+    nodes, dirs = [], []
+    for i, label in enumerate(value):
+        m = re.fullmatch(r"\s*(-?\d+)\.(\w+)\s*", str(label))
+        if m is None:
+            raise ModelError(
+                f"dof_map[{i}]: {label!r} is not valid; expected \"node.direction\" "
+                "(\"12.x\" or \"12.1\")"
+            )
+        nodes.append(int(m.group(1)))
+        dirs.append(m.group(2))
+    return DofMap(nodes, dirs)
+
+
+@dataclass(frozen=True)
+class MatrixSet:
+    """What :func:`read_matrix_files` read: the matrices by name (symmetric CSR, all n×n),
+    the DOF map (given, or carried by the files; None if neither) and one error line per
+    name that could not be read (``"<shown> ... is not valid; expected ..."``)."""
+
+    matrices: dict[str, sp.csr_array]
+    dof_map: DofMap | None
+    errors: dict[str, str]
+
+
+@dataclass
+class _Pending:
+    """A file parsed but not yet sized: 0-based triplets, or ABAQUS node-keyed entries."""
+
+    rows: Any
+    cols: Any
+    vals: NDArray[np.float64]
+    keys: list[tuple[Any, Any, float]] | None = None
+    dof_map: Any = None  # set before sizing node-keyed entries
+
+
+def _strip(message: str, path: str) -> str:
+    for prefix in (f"{path!r}: ", f"{path}: "):
+        if message.startswith(prefix):
+            return message[len(prefix) :]
+    return message
+
+
+def read_matrix_files(
+    sources: Mapping[str, Any],
+    *,
+    format: str = "auto",
+    dof_map: DofMap | None = None,
+    shown: Mapping[str, str] | None = None,
+) -> MatrixSet:
+    """Read the matrices ``sources`` (name -> a path or an array/scipy.sparse matrix) as one
+    structure. ``format`` applies to every file (``auto``: :func:`detect_format` per file).
+
+    The DOF map is ``dof_map`` if given, else the CalculiX ``job.dof`` beside a ``.sti``/
+    ``.mas`` file, the ``dof_nodes``/``dof_directions`` of an ``.npz`` archive, or the
+    ``(node, DOF)`` pairs of the ABAQUS node-keyed files (sorted; their union, so a mass file
+    without the massless DOFs still fits). The size is the map's, else the largest matrix's;
+    a triplet file (CalculiX, ABAQUS) may stop short of it (its trailing rows are zero).
+    An ``.npz`` archive of named arrays gives the array of the source's name
+    (``mass``, ``stiffness``, ``damping``). ``shown``: how each source is named in errors."""
+    if format not in FORMATS:
+        raise ModelError(f"format: {format!r} is not valid; expected one of {', '.join(FORMATS)}")
+    shown = dict(shown or {})
+    errors: dict[str, str] = {}
+    parsed: dict[str, Any] = {}
+    found_maps: list[DofMap] = []
+    for name, src in sources.items():
+        label = shown.setdefault(name, repr(os.fspath(src)) if _is_path(src) else name)
+        if not _is_path(src):
+            parsed[name] = src
+            continue
+        p = os.fspath(src)
+        try:
+            fmt = detect_format(p) if format == "auto" else format
+            parsed[name] = _parse_file(p, fmt, name, found_maps)
+        except ModelError as e:
+            errors[name] = f"{label}: {_strip(str(e), p)}"
+    if dof_map is None and found_maps:
+        dof_map = found_maps[0]
+    abaqus = [x for x in parsed.values() if isinstance(x, _Pending) and x.keys is not None]
+    if dof_map is None and abaqus:
+        keys = sorted({k for x in abaqus for e in x.keys or () for k in e[:2]})
+        dof_map = DofMap([k[0] for k in keys], [k[1] for k in keys])
+    for x in abaqus:
+        x.dof_map = dof_map
+    shaped = [k for k, x in parsed.items() if not isinstance(x, _Pending)]
+    if dof_map is not None:
+        n, ref = len(dof_map), "one row per DOF of the DOF map"
+    elif shaped:
+        n, ref = _size(parsed[shaped[0]]), f"the shape of {shown[shaped[0]]}"
+    else:
+        n, ref = max((_size(x) for x in parsed.values()), default=0), ""
+    out: dict[str, sp.csr_array] = {}
+    for name, x in parsed.items():
+        try:
+            out[name] = _sized(x, n, ref, shown[name])
+        except ModelError as e:
+            errors[name] = f"{shown[name]}: {_strip(str(e), shown[name])}"
+    return MatrixSet(out, dof_map, errors)
+
+
+def _is_path(src: Any) -> bool:
+    return isinstance(src, (str, os.PathLike))
+
+
+def _parse_file(p: str, fmt: str, name: str, found_maps: list[DofMap]) -> Any:
+    if fmt == "mtx":
+        return read_matrix_market(p)
+    if fmt == "npy":
+        return _read_npy(p)
+    if fmt == "npz":
+        with np.load(p, allow_pickle=False) as z:
+            files = set(z.files)
+        if "dof_nodes" in files and "dof_directions" in files:
+            found_maps.append(load_npz(p).dof_map)  # type: ignore[arg-type]
+        return read_numpy(p, None if {"format", "shape"} <= files else name)
+    if fmt == "calculix":
+        dof = Path(p).with_suffix(".dof")
+        if dof.is_file():
+            found_maps.append(read_calculix_dofs(dof))
+        r, c, v = _read_triplets(p, p)
+        return _Pending(r, c, v)
+    entries, by_node = _abaqus_entries(p)
+    if by_node:
+        return _Pending(None, None, np.array([e[2] for e in entries]), entries)
+    return _Pending(
+        np.array([e[0] - 1 for e in entries]), np.array([e[1] - 1 for e in entries]),
+        np.array([e[2] for e in entries]),
+    )
+
+
+def _read_npy(p: str) -> Any:
+    try:
+        a = np.load(p, allow_pickle=False)
+    except Exception as e:  # a user's file that does not parse is a mistake in the file
+        raise ModelError(
+            f"{p!r}: not a readable .npy matrix file ({' '.join(str(e).split())[:80]}); "
+            "expected a .npy array"
+        ) from None
+    if a.dtype.kind not in "biuf":
+        raise ModelError(f"{p!r}: a {a.dtype} array is not valid; expected a real matrix")
+    return a
+
+
+def _size(x: Any) -> int:
+    """The number of rows of a matrix, or the largest equation number of triplets."""
+    if isinstance(x, _Pending):
+        return 0 if x.keys is not None else int(max(x.rows.max(), x.cols.max())) + 1
+    shape = np.shape(x)
+    return int(shape[0]) if len(shape) >= 1 else 1
+
+
+def _sized(x: Any, n: int, ref: str, label: str) -> sp.csr_array:
+    if not isinstance(x, _Pending):
+        shape = x.shape if sp.issparse(x) else np.shape(x)
+        a = as_sparse(x, label)
+        if a.shape != (n, n):
+            raise ModelError(f"shape {tuple(shape)} is not valid; expected shape ({n}, {n}), {ref}")
+        return a
+    if x.keys is not None:
+        # the DOF map of node-keyed files is theirs, or the given one: look every key up
+        rows, cols = [], []
+        dof_map = x.dof_map
+        for rk, ck, _ in x.keys:
+            for key in (rk, ck):
+                try:
+                    dof_map.index(key[0], key[1])
+                except ModelError:
+                    raise ModelError(
+                        f"node {key[0]} DOF {key[1]} is not valid; expected a node and DOF of "
+                        "the DOF map"
+                    ) from None
+            rows.append(dof_map.index(*rk))
+            cols.append(dof_map.index(*ck))
+        return _symmetrize(np.array(rows), np.array(cols), x.vals, n, label)
+    if _size(x) > n:
+        raise ModelError(
+            f"equation {_size(x)} is not valid; expected at most {n} ({ref or 'the DOF count'})"
+        )
+    return _symmetrize(x.rows, x.cols, x.vals, n, label)
+
+
+def read_structure(
+    mass: Any,
+    stiffness: Any,
+    damping: Any = None,
+    *,
+    format: str = "auto",
+    dof_map: DofMap | PathLike | Sequence[str] | None = None,
+) -> FEStructure:
+    """An :class:`FEStructure` from matrix files of any format (or arrays), read as
+    :func:`read_matrix_files` does; ``dof_map`` may also be a file or labels
+    (:func:`read_dof_map`). Massless DOFs are kept (condense them with
+    :meth:`FEStructure.condense_massless`)."""
+    dm = dof_map if dof_map is None or isinstance(dof_map, DofMap) else read_dof_map(dof_map)
+    sources = {"mass": mass, "stiffness": stiffness}
+    if damping is not None:
+        sources["damping"] = damping
+    got = read_matrix_files(sources, format=format, dof_map=dm)
+    if got.errors:
+        name, line = next(iter(got.errors.items()))
+        raise ModelError(f"structure.{name}: {line}")
+    m = got.matrices
+    return FEStructure(m["mass"], m["stiffness"], m.get("damping"), got.dof_map)

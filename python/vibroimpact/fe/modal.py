@@ -144,7 +144,17 @@ def modes(
     ``method``: ``"dense"`` (:func:`scipy.linalg.eigh`), ``"sparse"`` (ARPACK shift-invert
     about ``-shift`` rad²/s²) or ``"auto"`` (dense up to :data:`DENSE_MODAL_LIMIT` DOFs).
     ``rigid_body_modes``: the number of rigid-body modes if known (otherwise detected).
+
+    An :class:`~vibroimpact.fe.FEStructure` with massless DOFs is condensed first
+    (:meth:`~vibroimpact.fe.FEStructure.condense_massless`, exact for the modes: a massless
+    row reads ``K_s· φ = 0``) and its shapes are expanded back to every DOF (``φ = T φ_r``).
     """
+    if isinstance(structure, FEStructure) and structure.massless_dofs:
+        c = structure.condense_massless()
+        md = modes(c.structure, n_modes, method=method, rigid_body_modes=rigid_body_modes,
+                   shift=shift)
+        shapes = np.asarray(c.transform @ md.shapes)
+        return Modes(md.eigenvalues, shapes, md.rigid_body_modes, structure.dof_map)
     k, m, dof_map = _matrices(structure)
     n = int(m.shape[0])
     if not (isinstance(n_modes, int) and not isinstance(n_modes, bool) and n_modes >= 1):

@@ -62,6 +62,13 @@ def _parts(structure: Any) -> tuple[Any, Any, Any, DofMap | None]:
     if isinstance(structure, Beam):
         structure = structure.fe
     if isinstance(structure, FEStructure):
+        massless = structure.massless_dofs
+        if massless:
+            raise ModelError(
+                f"structure.mass: {len(massless)} massless DOFs (first: {massless[0]}); expected "
+                "every DOF to carry mass (condense them first: FEStructure.condense_massless(), "
+                "then reduce its .structure)"
+            )
         return structure.mass, structure.stiffness, structure.damping, structure.dof_map
     if isinstance(structure, Model):
         structure = structure.structure

@@ -37,6 +37,8 @@ from numpy.typing import NDArray
 
 from vibroimpact import contact, integrators
 from vibroimpact.errors import ModelError
+from vibroimpact.fe.dofs import DENSE_LIMIT, DofMap, FEStructure
+from vibroimpact.fe.matrices import FORMATS, SUFFIXES, read_dof_map, read_matrix_files
 from vibroimpact.integrators import Integrator, method_from_options
 from vibroimpact.model import ConstantLoad, Gap, HarmonicLoad, Load, Model, Structure, TableLoad
 
@@ -255,7 +257,8 @@ _MATRICES = ("kind", ("matrices",))
 _BEAM = ("kind", ("beam",))
 # keys of [[gaps]] and [[loads]] that depend on the structure (see _Checker.context)
 _ON_BEAM = ("structure.kind", ("beam",))
-_NOT_BEAM = ("structure.kind", ("sdof", "matrices"))
+_ON_SDOF = ("structure.kind", ("sdof",))
+_WITH_NODES = ("structure.kind", ("beam", "matrices"))
 _NODE_NAMES = ("start", "middle", "end")
 _DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 
@@ -283,11 +286,24 @@ SCHEMA: tuple[Field, ...] = (
     Field("structure.damping", "number", "dashpot to ground", unit="N·s/m", default=0.0,
           minimum=0, when=_SDOF),
     Field("structure.mass", "matrix", "mass matrix M", unit="kg", default=REQUIRED,
-          rule="square, symmetric, positive definite", when=_MATRICES),
+          rule="square, symmetric, positive semi-definite: a DOF whose row is zero is massless "
+          "and condensed out (see Massless DOFs)", when=_MATRICES),
     Field("structure.stiffness", "matrix", "stiffness matrix K", unit="N/m",
           default_text="zeros", rule="same shape as mass, symmetric", when=_MATRICES),
     Field("structure.damping", "matrix", "damping matrix C", unit="N·s/m",
           default_text="zeros", rule="same shape as mass, symmetric", when=_MATRICES),
+    Field("structure.format", "string", "how the matrix files are read: auto by suffix and "
+          "content (.npy, .npz; .sti/.mas: calculix; .mtx: mtx if it starts %%MatrixMarket, else "
+          "abaqus); mtx: Matrix Market; npz: scipy.sparse.save_npz, or an archive whose array "
+          "named mass, stiffness or damping (as the key) is read; calculix: *MATRIX STORAGE; "
+          "abaqus: *MATRIX GENERATE",
+          default="auto", choices=FORMATS, when=_MATRICES),
+    Field("structure.dof_map", "dof-map", "node and direction of every DOF, to address gaps and "
+          "loads by node: a .csv file (dof,node,direction rows), a CalculiX .dof file, or a list "
+          "of \"node.direction\" labels (\"12.x\", \"12.5\")",
+          default_text="from the files: job.dof beside a CalculiX .sti/.mas, the node/DOF entries "
+          "of ABAQUS files, dof_nodes/dof_directions of an .npz; else none",
+          rule="one entry per DOF", when=_MATRICES),
     Field("structure.length", "number", "beam length (the beam lies on z from 0)", unit="m",
           default=REQUIRED, minimum=0, minimum_inclusive=False, when=_BEAM),
     Field("structure.elements", "integer", "number of equal elements", default=REQUIRED,
@@ -384,12 +400,13 @@ SCHEMA: tuple[Field, ...] = (
           required_when=("kind", ("modal",))),
     # [[gaps]]
     Field("gaps[].dof", "dofs", "DOF(s) of the gap coordinate u = Σ coefficients[i]·x[dof[i]]",
-          required_when=_NOT_BEAM, rule="0 <= dof < number of DOFs; beam: or node or at"),
-    Field("gaps[].node", "node", "the beam node of the gap", rule="or dof or at", when=_ON_BEAM),
+          required_when=_ON_SDOF, rule="0 <= dof < number of DOFs; beam, matrices: or node"),
+    Field("gaps[].node", "node", "the node of the gap (beam: index or name; matrices: node "
+          "label of the DOF map)", rule="or dof (beam: or at)", when=_WITH_NODES),
     Field("gaps[].at", "number", "the beam node at this fraction of the length", minimum=0,
           maximum=1, rule="or dof or node; must fall on a node", when=_ON_BEAM),
     Field("gaps[].direction", "string", "the DOF at that node", default="x",
-          choices=_DIRECTIONS, when=_ON_BEAM),
+          choices=_DIRECTIONS, when=_WITH_NODES),
     Field("gaps[].coefficients", "numbers", "weights of the DOFs in u ([1, -1]: x[i] - x[j])",
           default_text="1 per DOF", rule="one per dof, not all zero"),
     Field("gaps[].clearance", "number", "distance to the wall(s)", unit="m", default=0.0,
@@ -465,11 +482,12 @@ SCHEMA: tuple[Field, ...] = (
           "frequency·t + phase); table F = scale·F(t) from a CSV file", default=REQUIRED,
           choices=("constant", "harmonic", "table")),
     Field("loads[].dof", "dofs", "DOF(s) the force acts on (the same force on each)",
-          required_when=_NOT_BEAM, rule="0 <= dof < number of DOFs; beam: or nodes"),
-    Field("loads[].nodes", "nodes", "the beam nodes the force acts on (the same force on each)",
-          rule="or dof", when=_ON_BEAM),
+          required_when=_ON_SDOF, rule="0 <= dof < number of DOFs; beam, matrices: or nodes"),
+    Field("loads[].nodes", "nodes", "the nodes the force acts on (the same force on each; "
+          "matrices: node labels of the DOF map, \"all\": every node with that direction)",
+          rule="or dof", when=_WITH_NODES),
     Field("loads[].direction", "string", "the DOF at those nodes", default="x",
-          choices=_DIRECTIONS, when=_ON_BEAM),
+          choices=_DIRECTIONS, when=_WITH_NODES),
     Field("loads[].amplitude", "number", "force amplitude", unit="N", default=REQUIRED,
           when=("kind", ("constant", "harmonic"))),
     Field("loads[].frequency", "number", "frequency f", unit="Hz", default=REQUIRED, minimum=0,
@@ -625,32 +643,9 @@ def _conv_number_or_list(value: Any, ck: _Checker) -> tuple[float, ...]:
 
 
 def _conv_matrix(value: Any, ck: _Checker) -> _Matrix:
-    if isinstance(value, str):
-        path = ck.file(value, (".npy", ".mtx"))
-        shown = repr(value)
-        try:
-            if path.suffix.lower() == ".npy":
-                raw: Any = np.load(path, allow_pickle=False)
-            else:
-                import scipy.io
-
-                rows, cols = scipy.io.mminfo(path)[:2]
-                if rows != cols:
-                    raise _Invalid(f"a square matrix; got shape ({rows}, {cols})", shown)
-                raw = scipy.io.mmread(path)
-                if hasattr(raw, "toarray"):
-                    raw = raw.toarray()
-        except _Invalid:
-            raise
-        except Exception as e:  # any failure to parse a user's file is a mistake in the file
-            detail = " ".join(str(e).split())[:80]
-            raise _Invalid(f"a readable {path.suffix} matrix file ({detail})", shown) from None
-        a = np.asarray(raw)
-        if a.dtype.kind not in "biuf":
-            raise _Invalid(f"a real matrix; got a {a.dtype} array", shown)
-        a = a.astype(float)
-        shown = f"{value!r} (shape {a.shape})"
-    elif isinstance(value, list):
+    if isinstance(value, str):  # read with the others (format, DOF map) by _build_structure
+        return _Matrix(ck.file(value, SUFFIXES), repr(value))
+    if isinstance(value, list):
         shown = _show(value)
         if not value or not all(isinstance(r, list) for r in value):
             raise _Invalid()
@@ -666,8 +661,20 @@ def _conv_matrix(value: Any, ck: _Checker) -> _Matrix:
         raise _Invalid(f"a square matrix; got shape {a.shape}", shown)
     if not np.all(np.isfinite(a)):
         raise _Invalid("finite values (no NaN or infinity)", shown)
-    a.setflags(write=False)
     return _Matrix(a, shown)
+
+
+def _conv_dof_map(value: Any, ck: _Checker) -> DofMap:
+    if isinstance(value, str):
+        source: Any = ck.file(value, (".csv", ".dof"))
+    elif isinstance(value, list) and value and all(isinstance(v, str) for v in value):
+        source = value
+    else:
+        raise _Invalid()
+    try:
+        return read_dof_map(source)
+    except _CAUGHT as e:
+        raise _Invalid(f"a valid DOF map ({_one_line(e)})", repr(value)[:60]) from None
 
 
 def _conv_csv(value: Any, ck: _Checker) -> _Table:
@@ -747,7 +754,9 @@ def _conv_table(value: Any, ck: _Checker) -> Any:  # handled by the walker
 
 @dataclass(frozen=True)
 class _Matrix:
-    array: NDArray[np.float64]
+    """An inline matrix (an array) or a matrix file (its path), and how errors show it."""
+
+    source: NDArray[np.float64] | Path
     shown: str
 
 
@@ -774,8 +783,14 @@ TYPES: dict[str, _Type] = {
     ),
     "matrix": _Type(
         "matrix or file",
-        "an n x n array of arrays of numbers, or the path of a .npy or .mtx file",
+        "an n x n array of arrays of numbers, or the path of a matrix file ("
+        + ", ".join(SUFFIXES) + ")",
         _conv_matrix,
+    ),
+    "dof-map": _Type(
+        "file path or list of strings",
+        'the path of a .csv or .dof file, or a non-empty list of "node.direction" labels',
+        _conv_dof_map,
     ),
     "csv": _Type("file path", "the path of a .csv file", _conv_csv),
     "table": _Type("table", "a table", _conv_table),
@@ -1041,39 +1056,49 @@ def _build_structure(ck: _Checker, s: Mapping[str, Any]) -> Structure | None:
         except _CAUGHT as e:
             ck.add("structure", _reprefix(e, {}, "structure"))
             return None
-    mass: _Matrix = s["mass"]
-    n = mass.array.shape[0]
-    arrays: dict[str, NDArray[np.float64]] = {}
-    for key in ("mass", "stiffness", "damping"):
-        if key not in s:
-            continue
-        m: _Matrix = s[key]
-        p = f"structure.{key}"
-        a = m.array
-        if a.shape != (n, n):
-            ck.invalid(p, None, f"shape ({n}, {n}), the shape of structure.mass", m.shown)
-            continue
-        with np.errstate(all="ignore"):
-            scale = max(float(np.abs(a).max()), np.finfo(float).tiny)
-            asym = float(np.abs(a - a.T).max())
-        if not asym <= 1e-9 * scale:
-            ck.invalid(p, None, f"a symmetric matrix (max |A - A^T| = {asym:.3e})", m.shown)
-            continue
-        arrays[key] = a
-    if "mass" in arrays:
-        try:
-            np.linalg.cholesky(arrays["mass"])
-        except np.linalg.LinAlgError:
-            ck.invalid(
-                "structure.mass",
-                None,
-                "a positive definite matrix (every DOF carries mass)",
-                mass.shown,
-            )
+    return _build_matrices(ck, s)
+
+
+def _build_matrices(ck: _Checker, s: Mapping[str, Any]) -> Structure | None:
+    """``kind = "matrices"``: read the matrices (inline or files, :func:`vibroimpact.fe.
+    matrices.read_matrix_files`), then condense the massless DOFs statically
+    (:mod:`vibroimpact.fe.condensation`). Keeps the full :class:`~vibroimpact.fe.FEStructure`
+    in ``ck.context["fe"]`` (DOF map, massless DOFs) and the condensation, if any."""
+    keys = [k for k in ("mass", "stiffness", "damping") if k in s]
+    got = read_matrix_files(
+        {k: s[k].source for k in keys},
+        format=s["format"],
+        dof_map=s.get("dof_map"),
+        shown={k: s[k].shown for k in keys},
+    )
+    for key, line in got.errors.items():
+        ck.add(f"structure.{key}", f"structure.{key}: {line}")
     if not ck.ok("structure"):
         return None
+    m = got.matrices
     try:
-        return Structure(arrays["mass"], arrays.get("stiffness"), arrays.get("damping"))
+        fe = FEStructure(m["mass"], m.get("stiffness", 0 * m["mass"]), m.get("damping"),
+                         got.dof_map)
+        massless = fe.massless_dofs
+        retained = np.setdiff1d(np.arange(fe.n_dof), massless)
+        if len(retained) <= DENSE_LIMIT:  # larger: to_structure says so
+            np.linalg.cholesky(fe.mass[retained][:, retained].toarray())
+    except np.linalg.LinAlgError:
+        ck.invalid(
+            "structure.mass", None, "a positive definite matrix on the DOFs with mass (a "
+            "massless DOF has a zero row)", s["mass"].shown,
+        )
+        return None
+    except _CAUGHT as e:
+        ck.add("structure", _reprefix(e, {}, "structure"))
+        return None
+    ck.context["fe"] = fe
+    try:
+        if massless:
+            cond = fe.condense_massless()
+            ck.context["condensation"] = cond
+            return cond.structure.to_structure()
+        return fe.to_structure()
     except _CAUGHT as e:
         ck.add("structure", _reprefix(e, {}, "structure"))
         return None
@@ -1084,7 +1109,9 @@ def _n_dof(structure: Mapping[str, Any]) -> int | None:
     if structure.get("kind") == "sdof":
         return 1
     mass = structure.get("mass")
-    return mass.array.shape[0] if isinstance(mass, _Matrix) else None
+    if isinstance(mass, _Matrix) and not isinstance(mass.source, Path):
+        return int(mass.source.shape[0])
+    return None
 
 
 def _check_dofs(ck: _Checker, p: str, dofs: Sequence[int], n: int | None) -> None:
@@ -1095,17 +1122,21 @@ def _check_dofs(ck: _Checker, p: str, dofs: Sequence[int], n: int | None) -> Non
         ck.invalid(p, bad[0], f"0 <= dof < {n} (the structure has {n} DOF{'s' * (n != 1)})")
 
 
-def _beam_dofs(
+_KIND_WORDS = {"beam": "a beam", "matrices": "matrices"}
+
+
+def _node_dofs(
     ck: _Checker, p: str, t: Mapping[str, Any], *, many: bool
 ) -> tuple[int, ...] | None:
-    """The DOF(s) of a gap (``dof``, or ``node``/``at`` and ``direction``) or a load (``dof``,
-    or ``nodes`` and ``direction``) on a beam; None after recording a mistake (or when the
-    beam has mistakes of its own)."""
-    keys = ("dof", "nodes") if many else ("dof", "node", "at")
+    """The DOF(s) of a gap (``dof``, or ``node`` (beam: or ``at``) and ``direction``) or a load
+    (``dof``, or ``nodes`` and ``direction``) on a beam or on matrices with a DOF map; None
+    after recording a mistake (or when the structure has mistakes of its own)."""
+    kind = ck.context.get("structure.kind")
+    keys = ("dof", "nodes") if many else ("dof", "node", "at")[: 3 if kind == "beam" else 2]
     given = [k for k in keys if k in t]
     words = " or ".join(keys)
     if not given:
-        ck.missing(f"{p}.{keys[0]}", f"exactly one of {words} for a beam")
+        ck.missing(f"{p}.{keys[0]}", f"exactly one of {words} for {_KIND_WORDS[kind]}")
         return None
     if len(given) > 1:
         q = f"{p}.{given[1]}"
@@ -1113,27 +1144,64 @@ def _beam_dofs(
         return None
     if given[0] == "dof":
         return tuple(t["dof"])
-    beam = ck.context.get("beam")
-    if beam is None:
+    q = f"{p}.{given[0]}"
+    owner = ck.context.get("beam") if kind == "beam" else ck.context.get("fe")
+    if owner is None:
+        return None
+    if kind == "matrices" and owner.dof_map is None:
+        ck.invalid(
+            q, ck.raw.get(q), "dof, or a DOF map to address DOFs by node: structure.dof_map, "
+            "or CalculiX/ABAQUS/.npz matrix files that carry one",
+        )
         return None
     try:
         if many:
             nodes = t["nodes"] if t["nodes"] == "all" else list(t["nodes"])
-            return tuple(beam.dofs(nodes, t["direction"]))
-        return (beam.dof(t.get("node"), at=t.get("at"), direction=t["direction"]),)
+            return tuple(owner.dofs(nodes, t["direction"]))
+        if kind == "beam":
+            return (owner.dof(t.get("node"), at=t.get("at"), direction=t["direction"]),)
+        return (owner.dof(t["node"], t["direction"]),)
     except _CAUGHT as e:
-        where = {k: f"{p}.{given[0]}" for k in ("node", "at", "nodes")}
+        where = {k: q for k in ("node", "at", "nodes")}
         line = _reprefix(e, {**where, "direction": f"{p}.direction"}, p)
         ck.add(line.split(":", 1)[0], line)
         return None
+
+
+def _on_mass(ck: _Checker, p: str, dofs: tuple[int, ...], what: str) -> tuple[int, ...] | None:
+    """``dofs`` (of the file's matrices) as DOFs of the condensed model; None after recording a
+    mistake if one is massless (``p``: the key that named it)."""
+    cond = ck.context.get("condensation")
+    if cond is None:
+        return dofs
+    massless = set(cond.condensed.tolist())
+    bad = [d for d in dofs if d in massless]
+    if bad:
+        ck.invalid(
+            p, ck.raw.get(p), f"a DOF that carries mass ({what} on {_dof_label(ck, bad[0])}, "
+            "which is massless and condensed out statically)",
+        )
+        return None
+    return tuple(cond.reduced_index(d) for d in dofs)
+
+
+def _dof_label(ck: _Checker, dof: int) -> str:
+    dm = ck.context["fe"].dof_map
+    at = "" if dm is None else f" (node {dm.nodes[dof]} direction {dm.directions[dof]!r})"
+    return f"DOF {dof}{at}"
+
+
+def _addressed_by(p: str, t: Mapping[str, Any]) -> str:
+    """The key of ``t`` that chose its DOFs (for error lines)."""
+    return next((f"{p}.{k}" for k in ("node", "nodes", "at") if k in t), f"{p}.dof")
 
 
 def _build_gap(ck: _Checker, i: int, g: Mapping[str, Any], n: int | None) -> Gap | None:
     gp = f"gaps[{i}]"
     if not ck.ok(gp):
         return None
-    on_beam = ck.context.get("structure.kind") == "beam"
-    dofs: tuple[int, ...] = (_beam_dofs(ck, gp, g, many=False) if on_beam else g.get("dof")) or ()
+    by_node = ck.context.get("structure.kind") in _WITH_NODES[1]
+    dofs: tuple[int, ...] = (_node_dofs(ck, gp, g, many=False) if by_node else g.get("dof")) or ()
     _check_dofs(ck, f"{gp}.dof", dofs, n)
     coefficients = g.get("coefficients")
     if coefficients is not None:
@@ -1147,6 +1215,8 @@ def _build_gap(ck: _Checker, i: int, g: Mapping[str, Any], n: int | None) -> Gap
             ck.invalid(
                 f"{gp}.coefficients", ck.raw.get(f"{gp}.coefficients"), "numbers not all zero"
             )
+    if ck.ok(gp) and dofs:
+        dofs = _on_mass(ck, _addressed_by(gp, g), dofs, "a gap") or ()
     law = _build_law(ck, f"{gp}.law", g["law"])
     if law is None or not ck.ok(gp) or not dofs:
         return None
@@ -1191,9 +1261,11 @@ def _build_load(ck: _Checker, i: int, ld: Mapping[str, Any], n: int | None) -> L
     lp = f"loads[{i}]"
     if not ck.ok(lp):
         return None
-    on_beam = ck.context.get("structure.kind") == "beam"
-    dofs: tuple[int, ...] = (_beam_dofs(ck, lp, ld, many=True) if on_beam else ld.get("dof")) or ()
+    by_node = ck.context.get("structure.kind") in _WITH_NODES[1]
+    dofs: tuple[int, ...] = (_node_dofs(ck, lp, ld, many=True) if by_node else ld.get("dof")) or ()
     _check_dofs(ck, f"{lp}.dof", dofs, n)
+    if ck.ok(lp) and dofs:
+        dofs = _on_mass(ck, _addressed_by(lp, ld), dofs, "a load") or ()
     if not ck.ok(lp) or not dofs:
         return None
     dof = dofs if len(dofs) > 1 else dofs[0]
@@ -1224,7 +1296,22 @@ def _build_initial(
         if n is not None and len(values) != n:
             what = "a number" if n == 1 else f"a list of {n} numbers (one per DOF)"
             ck.invalid(p, ck.raw.get(p), f"{what} in {unit}")
-        out[key] = np.asarray(values, dtype=float)
+            out[key] = None
+            continue
+        x = np.asarray(values, dtype=float)
+        cond = ck.context.get("condensation")
+        if cond is not None:  # a massless DOF's value follows from the others: give 0
+            moved = [int(d) for d in cond.condensed if x[d] != 0]
+            if moved:
+                d = moved[0]
+                ck.invalid(
+                    p, ck.raw.get(p), f"0 on the massless {_dof_label(ck, d)} (it is condensed "
+                    f"out statically, its value follows from the others), not {float(x[d])!r}",
+                )
+                out[key] = None
+                continue
+            x = x[cond.retained]
+        out[key] = x
     return out
 
 
@@ -1289,7 +1376,10 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
         ck.context["structure.kind"] = kind
     top = ck.table("", "", doc)
     structure = _build_structure(ck, top["structure"]) if "structure" in top else None
-    n = structure.n_dof if structure is not None else _n_dof(top.get("structure", {}))
+    if "fe" in ck.context:  # matrices: DOF indices in the file count the file's DOFs
+        n: int | None = ck.context["fe"].n_dof
+    else:
+        n = structure.n_dof if structure is not None else _n_dof(top.get("structure", {}))
     gaps = [_build_gap(ck, i, g, n) for i, g in enumerate(top.get("gaps", []))]
     loads = [_build_load(ck, i, ld, n) for i, ld in enumerate(top.get("loads", []))]
     initial = _build_initial(ck, top.get("initial", {}), n)
@@ -1304,6 +1394,8 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
     dofs = output.get("dofs")
     if dofs is not None:
         _check_dofs(ck, "output.dofs", dofs, n)
+        if ck.ok("output.dofs"):
+            dofs = _on_mass(ck, "output.dofs", tuple(dofs), "an output")
     if ck.errors:
         raise ModelFileError(ck.lines())
     assert structure is not None and method is not None and dt is not None and t_end is not None
@@ -1326,6 +1418,7 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
         dofs=None if dofs is None else list(dofs),
         path=path,
         beam=ck.context.get("beam"),
+        condensation=ck.context.get("condensation"),
     )
 
 
@@ -1350,6 +1443,12 @@ class ModelFile:
     #: The :class:`vibroimpact.fe.Beam` of a ``structure.kind = "beam"`` file (its DOF map and
     #: node positions), else None.
     beam: Any = None
+    #: The :class:`vibroimpact.fe.StaticCondensation` of a ``kind = "matrices"`` file with
+    #: massless DOFs, else None. The model (and its results) then has the DOFs with mass only:
+    #: its DOF ``k`` is the file's DOF ``condensation.retained[k]`` (gaps, loads, ``[initial]``
+    #: and ``output.dofs`` in the file count the file's DOFs); ``condensation.recover`` gives
+    #: the condensed DOFs' values.
+    condensation: Any = None
 
     def simulate(self, *, throw: bool = True) -> Result:
         """Run the model with the file's solver and output settings
@@ -1582,9 +1681,30 @@ def render_reference() -> str:
         "* On a beam (`structure.kind = \"beam\"`) each `[[gaps]]` gives exactly one of `dof`,",
         "  `node`, `at` and each `[[loads]]` one of `dof`, `nodes`; nodes are indices from 0",
         "  (`\"start\"`) to `elements` (`\"end\"`); `at` must fall on a node.",
+        "* On matrices (`structure.kind = \"matrices\"`) each `[[gaps]]` gives exactly one of",
+        "  `dof`, `node` and each `[[loads]]` one of `dof`, `nodes`; a node is a node label of the",
+        "  DOF map, which `structure.dof_map` gives or the matrix files carry (CalculiX `job.dof`,",
+        "  ABAQUS node/DOF entries, `.npz` `dof_nodes`/`dof_directions`); `.mtx` (Matrix Market)",
+        "  and `.npy` files carry none.",
         "* `[initial]` has one value per DOF; `solver.dt <= solver.t_end`.",
-        "* `structure.stiffness` and `structure.damping` have the shape of `structure.mass`;",
-        "  all three are symmetric and `structure.mass` is positive definite.",
+        "* `structure.stiffness` and `structure.damping` have the shape of `structure.mass`",
+        "  (with a DOF map: one row per DOF of it; CalculiX and ABAQUS files may omit trailing",
+        "  zero rows); all three are symmetric and `structure.mass` is positive definite on the",
+        "  DOFs that carry mass.",
+        "",
+        "## Massless DOFs",
+        "",
+        "A DOF whose row of `structure.mass` is zero (e.g. a rotation of a lumped-mass FE model)",
+        "is condensed out statically (Guyan): with `s` the massless and `m` the other DOFs,",
+        "`x_s = -K_ss⁻¹ K_sm x_m`, `K_r = K_mm - K_ms K_ss⁻¹ K_sm`, `M_r = M_mm`, `C_r = Tᵀ C T`",
+        "(`vibroimpact.fe.condensation`, sparse). This is exact when the damping on the massless",
+        "DOFs is zero, Rayleigh (`αM + βK`) or modal; any other damping acting on them is",
+        "neglected in their (static) equations, with a `CondensationWarning`. `K_ss` must be",
+        "positive definite (the massless DOFs held by stiffness). A gap, a load or an",
+        "`output.dofs` entry on a massless DOF is refused, and `[initial]` must be 0 there. DOF",
+        "indices in the file (`dof`, `output.dofs`, the `[initial]` lists) count the file's DOFs;",
+        "the model that runs, and its results, has the DOFs with mass only, in the same order",
+        "(`ModelFile.condensation.retained` maps them back).",
         "",
     ]
     out += _methods_section()
