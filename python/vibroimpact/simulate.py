@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import signal
 import sys
 import threading
@@ -117,6 +118,11 @@ PROGRESS_DELAY_S = 1.0
 
 log = logging.getLogger("vibroimpact.solver")
 
+#: Test hook (tests/test_interrupt.py): a signal name (``SIGTERM``) in this environment
+#: variable makes the process send itself that signal as soon as the core has finished,
+#: before the result is converted and written, so that a test can hit that moment exactly.
+SIGNAL_AFTER_RUN_ENV = "VIBROIMPACT_TEST_SIGNAL_AFTER_RUN"
+
 
 class ProgressBar:
     """A one-line progress bar on ``stream`` (default stderr) for a run of ``t_end`` s:
@@ -227,7 +233,7 @@ def _run_core(
             if rows is not None and on_rows is not None and failure is None:
                 try:
                     on_rows(rows)
-                except BaseException as e:  # noqa: BLE001 - re-raised once the run stopped
+                except BaseException as e:  # re-raised once the run has stopped
                     failure = e
                     _core.request_interrupt()
             if events:
@@ -245,6 +251,9 @@ def _run_core(
             progress.close()
     if failure is not None:
         raise failure
+    hook = os.environ.get(SIGNAL_AFTER_RUN_ENV)
+    if hook:
+        os.kill(os.getpid(), signal.Signals[hook])
     return raw, (received[0] if received else None)
 
 
