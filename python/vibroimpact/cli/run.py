@@ -150,7 +150,7 @@ def _stopped(e: SolverError, out: Path | None, args: argparse.Namespace) -> int:
         print(f"vibroimpact: wrote the results up to the failure (marked incomplete) to "
               f"{', '.join(str(p) for p in e.written)}", file=sys.stderr)
     if partial is not None:
-        if out is not None:
+        if out is not None and not e.written:
             try:
                 written = results_file.save(partial, out)
             except OSError as err:

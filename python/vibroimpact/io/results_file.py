@@ -716,7 +716,8 @@ def simulate_to_file(
     :func:`save` writes for the same run held in memory. A solver failure or a signal
     (``Ctrl-C``, SIGTERM: the run stops within 64 steps) leaves the rows up to then, marked
     incomplete (``complete = 0``), and raises the error (:class:`~vibroimpact.SolverError` or
-    :class:`~vibroimpact.Interrupted`) with ``written = [path]``. A signal after the run has
+    :class:`~vibroimpact.Interrupted`) with ``written = [path]`` (its ``partial`` result holds
+    the rows after the last block). A signal after the run has
     finished lets the file be completed first, then raises :class:`KeyboardInterrupt`. The
     impact table is kept in memory (one row per contact), as are the impulsive methods' rows.
 
