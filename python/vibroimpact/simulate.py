@@ -127,8 +127,9 @@ SIGNAL_AFTER_RUN_ENV = "VIBROIMPACT_TEST_SIGNAL_AFTER_RUN"
 class ProgressBar:
     """A one-line progress bar on ``stream`` (default stderr) for a run of ``t_end`` s:
     ``[##########..........]  50.0 %  t = 1.000e-02 of 2.000e-02 s  1.3 s``, drawn only once
-    the run has taken ``delay`` s of wall time, at most every 0.1 s, and only when ``stream``
-    is a terminal (or ``enabled=True``); :meth:`close` ends the line."""
+    the run has taken ``delay`` s of wall time (default :data:`PROGRESS_DELAY_S`), at most
+    every 0.1 s, and only when ``stream`` is a terminal (or ``enabled=True``); :meth:`close`
+    ends the line. ``clock`` (s) is for tests."""
 
     WIDTH = 30
 
@@ -147,11 +148,12 @@ class ProgressBar:
         self.shown = False
         self.last = -math.inf
 
-    def update(self, t: float) -> None:
-        """Show the simulated time ``t`` (s) reached."""
+    def update(self, t: float, *, final: bool = False) -> None:
+        """Show the simulated time ``t`` (s) reached (``final``: the run has ended; drawn
+        however soon after the previous update)."""
         now = self.clock()
         elapsed = now - self.started
-        if not self.enabled or elapsed < self.delay or now - self.last < 0.1:
+        if not self.enabled or elapsed < self.delay or (now - self.last < 0.1 and not final):
             return
         self.last = now
         fraction = min(max(t / self.t_end, 0.0), 1.0) if self.t_end > 0 else 1.0
@@ -239,7 +241,7 @@ def _run_core(
             if events:
                 _log_events(*run.take_events())
             if progress is not None:
-                progress.update(run.time())
+                progress.update(run.time(), final=finished)
             if finished:
                 break
         raw = run.finish()
