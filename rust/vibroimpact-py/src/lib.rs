@@ -17,7 +17,7 @@ use pyo3::types::PyDict;
 
 use vibroimpact_core::contact::{ContactGeometry, ContactLaw, Material};
 use vibroimpact_core::integrators;
-use vibroimpact_core::simulate::{RunOutput, Rows};
+use vibroimpact_core::simulate::{Rows, RunOutput};
 use vibroimpact_core::structure::LinearStructure;
 use vibroimpact_core::SimError;
 

@@ -15,9 +15,7 @@ use pyo3::exceptions::PyRuntimeError;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
-use vibroimpact_core::simulate::{
-    simulate_streamed, BalanceError, Event, RunOutput, Rows, Sink,
-};
+use vibroimpact_core::simulate::{simulate_streamed, BalanceError, Event, Rows, RunOutput, Sink};
 use vibroimpact_core::SimError;
 
 use crate::{convert, output_to_dict, rows_to_dict, to_py_err};
@@ -74,7 +72,7 @@ impl Sink for ChannelSink {
 
 enum Worker {
     Thread(JoinHandle<Result<RunOutput, SimError>>),
-    Done(Result<RunOutput, SimError>),
+    Done(Box<Result<RunOutput, SimError>>),
     Taken,
 }
 
@@ -136,7 +134,7 @@ pub(crate) fn start(
     let worker = if chunk_rows.is_none() && work <= INLINE_WORK {
         let out = py.detach(|| run(&mut sink));
         drop(sink);
-        Worker::Done(out)
+        Worker::Done(Box::new(out))
     } else {
         Worker::Thread(std::thread::spawn(move || run(&mut sink)))
     };
@@ -223,13 +221,8 @@ impl Running {
     /// `contact-start`, `contact-end`; `t`, `gap`, ...) and how many were dropped because
     /// the buffer was full.
     fn take_events<'py>(&mut self, py: Python<'py>) -> PyResult<(Bound<'py, PyList>, usize)> {
-        let events = std::mem::take(
-            &mut *self
-                .shared
-                .events
-                .lock()
-                .unwrap_or_else(|e| e.into_inner()),
-        );
+        let events =
+            std::mem::take(&mut *self.shared.events.lock().unwrap_or_else(|e| e.into_inner()));
         let dropped = self.shared.dropped_events.swap(0, Ordering::Relaxed);
         let list = PyList::empty(py);
         for e in events {
@@ -293,7 +286,7 @@ impl Running {
     fn finish<'py>(&mut self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
         while !self.wait(py, 3600.0) {}
         let out = match std::mem::replace(&mut self.worker, Worker::Taken) {
-            Worker::Done(out) => out,
+            Worker::Done(out) => *out,
             Worker::Thread(handle) => py
                 .detach(|| handle.join())
                 .map_err(|_| PyRuntimeError::new_err("the simulation thread panicked"))?,
