@@ -634,6 +634,10 @@ def load(path: str | os.PathLike[str]) -> xr.Dataset:
 # --------------------------------------------------------------------------------------------
 
 
+#: HDF5 chunk cache of each streamed variable, bytes.
+CHUNK_CACHE_BYTES = 1 << 20
+
+
 class _NetcdfStream:
     """Appends blocks of rows (``vibroimpact.result.time_columns``) to the
     :data:`~vibroimpact.result.TIME_VARIABLES` of a NetCDF-4 file with an unlimited ``time``
@@ -660,6 +664,10 @@ class _NetcdfStream:
                                        chunksizes=[sizes[d] for d in dims])
             v.units, v.long_name = units, desc
             self.vars[name] = v
+        for v in self.vars.values():
+            # appends touch each chunk once: a small cache (the library's default, 16-64 MiB
+            # per variable, would grow to hundreds of MiB over a long run)
+            v.set_var_chunk_cache(size=CHUNK_CACHE_BYTES)
 
     def append(self, raw: Mapping[str, Any]) -> None:
         """Append a block of rows in the core's layout (``on_rows`` of ``simulate``)."""
