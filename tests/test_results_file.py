@@ -338,3 +338,22 @@ def test_run_streams_with_window(tmp_path: Path, capsys: pytest.CaptureFixture[s
         err = capsys.readouterr().err
         assert flags[-2 if flags[0] == "--window" else -1] in err and len(err.splitlines()) == 1
     assert sorted(os.listdir(tmp_path)) == ["m.nc", "s.nc", "w.h5"]
+
+
+def test_run_streams_by_itself_above_the_size_threshold(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import importlib
+
+    run_module = importlib.import_module("vibroimpact.cli.run")
+    model = str(MODELS / "sdof_paper_ln.toml")
+    # (20,000 steps + 2) rows of 1 + 3 + 2 + 6 columns (time, x v a, gap, energy)
+    assert run_module._history_bytes(load_model(model)) == 8 * 20002 * 12
+    assert cli_main(["run", model, "-o", str(tmp_path / "m.nc"), "--json"]) == 0
+    assert "windows" not in json.loads(capsys.readouterr().out)  # held in memory
+    monkeypatch.setattr(run_module, "STREAM_ABOVE_BYTES", 8 * 20002 * 12 - 1)
+    assert cli_main(["run", model, "-o", str(tmp_path / "s.nc"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["windows"] >= 1  # streamed
+    _assert_same_file(rf.load(tmp_path / "s.nc"), rf.load(tmp_path / "m.nc"))
+    assert cli_main(["run", model, "-o", str(tmp_path / "c.csv"), "--json"]) == 0
+    assert "windows" not in json.loads(capsys.readouterr().out)  # CSV: from memory
