@@ -298,6 +298,20 @@ def test_a_streamed_run_holds_a_few_blocks_not_the_run(tmp_path: Path) -> None:
     assert len(r.impacts) == len(whole.impacts) and r.complete
 
 
+def test_a_failing_writer_stops_the_run_and_its_error_is_raised() -> None:
+    """If writing a block fails (a full disk), the core is asked to stop (within 64 steps, not
+    after the 1e9 steps of this run) and the writer's error is raised."""
+    from vibroimpact import _core
+
+    def full_disk(rows: dict[str, object]) -> None:
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(OSError, match="No space left"):
+        vi.simulate(cases.sdof_model("hertz"), 1000.0, 1e-6, every=1000, chunk_rows=10,
+                    on_rows=full_disk)
+    assert not _core.interrupt_requested()
+
+
 # ------------------------------------------------------------------------------------------
 # vibroimpact run
 # ------------------------------------------------------------------------------------------
