@@ -131,12 +131,14 @@ def test_simulate_in_a_worker_thread_runs_directly() -> None:
     assert np.array_equal(result.displacement, reference.displacement)
 
 
-@pytest.mark.parametrize(("sig", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
-def test_a_streamed_run_keeps_the_windows_done(tmp_path: Path, sig: int, code: int) -> None:
-    model = _long_model(tmp_path, every=1000)  # samples with the gap open in every window
+@pytest.mark.parametrize(("sig", "code", "flags"), [(signal.SIGINT, 130, ["--stream"]),
+                                                    (signal.SIGTERM, 143, ["--window", "200000"])])
+def test_a_streamed_run_keeps_the_rows_written(tmp_path: Path, sig: int, code: int,
+                                               flags: list[str]) -> None:
+    model = _long_model(tmp_path, every=1000)
     proc = subprocess.Popen(
         [sys.executable, "-m", "vibroimpact", "run", str(model), "-o", str(tmp_path / "w.nc"),
-         "--window", "200000", "--quiet"],
+         *flags, "--quiet"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )
     time.sleep(3.0)
@@ -146,5 +148,45 @@ def test_a_streamed_run_keeps_the_windows_done(tmp_path: Path, sig: int, code: i
     assert "Traceback" not in stderr and "marked incomplete" in stderr
     ds = results_file.load(tmp_path / "w.nc")
     assert int(ds.attrs["complete"]) == 0 and "interrupted at t = " in ds.attrs["message"]
-    assert 0 < float(ds.time[-1]) < 1000.0 and np.all(np.diff(ds.time.values) > 0)
+    t_stop = float(ds.time[-1])
+    assert 0.2 < t_stop < 1000.0 and np.all(np.diff(ds.time.values) > 0)
+    assert ds.attrs["steps"] == round(t_stop / 1e-6)
+    _no_temporary_files(tmp_path)
+    # the rows streamed before the signal are those of an uninterrupted run
+    ref = vi.simulate(cases.sdof_model("lankarani-nikravesh"), t_end=0.2, dt=1e-6, every=1000)
+    n = len(ref.time)
+    np.testing.assert_allclose(ds.time.values[:n], ref.time, rtol=1e-12)
+    np.testing.assert_allclose(ds.displacement.values[:n], ref.displacement, rtol=1e-9,
+                               atol=1e-15)
+    assert np.all(ds.impact_t_start.values <= t_stop)
+
+
+@pytest.mark.parametrize(("sig", "flags", "out"), [
+    (signal.SIGTERM, [], "r.nc"),
+    (signal.SIGINT, ["--stream"], "r.nc"),
+    (signal.SIGTERM, [], "r.csv"),
+])
+def test_a_signal_while_the_result_is_written_still_gives_the_complete_file(
+        tmp_path: Path, sig: int, flags: list[str], out: str) -> None:
+    """Issue 10: a signal that arrives after the core has finished, while the result is
+    converted and written, lets the complete file be written, leaves no temporary file and
+    exits with 128 + the signal. The test hook ``VIBROIMPACT_TEST_SIGNAL_AFTER_RUN`` makes the
+    process send itself the signal at exactly that moment."""
+    from vibroimpact.simulate import SIGNAL_AFTER_RUN_ENV
+
+    env = {**os.environ, SIGNAL_AFTER_RUN_ENV: signal.Signals(sig).name}
+    proc = subprocess.run(
+        [sys.executable, "-m", "vibroimpact", "run", str(PAPER), "-o", str(tmp_path / out),
+         *flags, "--quiet"],
+        capture_output=True, text=True, env=env, timeout=120,
+    )
+    assert proc.returncode == 128 + sig, proc.stderr
+    assert proc.stderr.splitlines() == [
+        f"vibroimpact: interrupted: {signal.Signals(sig).name} received after the run "
+        f"finished; the complete results were written to {tmp_path / out}"]
+    ds = results_file.load(tmp_path / out)
+    assert int(ds.attrs["complete"]) == 1 and ds.attrs["message"] == "completed"
+    reference = vi.simulate(cases.sdof_model("lankarani-nikravesh"), t_end=0.02, dt=1e-6)
+    assert np.array_equal(ds.time.values, reference.time)
+    assert ds.sizes["impact"] == len(reference.impacts) == 9
     _no_temporary_files(tmp_path)

@@ -1,6 +1,6 @@
 """Result files (issue 7): NetCDF-4/HDF5 and CSV round trips, MATLAB-safe contents, the
 model stored so that a file can be re-run, atomic writes under failures and signals, runs
-streamed to disk in windows, and ``vibroimpact run -o/--quiet/--verbose``."""
+streamed to disk, and ``vibroimpact run -o/--quiet/--verbose``."""
 
 from __future__ import annotations
 
@@ -229,46 +229,87 @@ def test_sigterm_mid_write_removes_the_temporary_file(tmp_path: Path) -> None:
 # ------------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("name", ["two_dof_matrices.toml", "table_load.toml"])
-def test_streamed_run_equals_one_long_run(tmp_path: Path, name: str) -> None:
-    mf = load_model(MODELS / name)
-    whole = mf.simulate()
-    path = tmp_path / "streamed.nc"
-    fractions: list[float] = []
-    summary = rf.simulate_to_file(mf.model, path, mf.t_end, mf.dt, mf.method, every=mf.every,
-                                  dofs=mf.dofs, window_steps=15_000, progress=fractions.append)
-    assert summary["windows"] >= 4 and fractions[-1] == 1.0
-    assert fractions == sorted(fractions)
-    ds = rf.load(path)
-    assert np.allclose(ds["time"].values, whole.time, rtol=0, atol=1e-12)
-    # a restarted window takes a(0) from equilibrium; the long run carries Newmark's a_n, whose
-    # rounding is ~eps·|x|/(β h²|a|) ≈ 1e-9 relative here: the two agree to about that, not to
-    # eps (a wrong restart state or load shift would differ at the 1e-3 level)
-    scale = np.abs(whole.displacement).max()
-    assert np.abs(ds["displacement"].values - whole.displacement).max() < 1e-7 * scale
-    vscale = np.abs(whole.velocity).max()
-    assert np.abs(ds["velocity"].values - whole.velocity).max() < 1e-7 * vscale
-    assert ds.sizes["impact"] == len(whole.impacts)
-    assert np.allclose(ds["impact_t_start"].values, whole.impacts.t_start, rtol=0, atol=1e-10)
-    assert np.allclose(ds["impact_v_in"].values, whole.impacts.v_in, rtol=1e-8)
-    work = whole.energy.external_work
-    assert np.allclose(ds["energy_external_work"].values, work, rtol=0,
-                       atol=1e-8 * max(1.0, np.abs(work).max()))
-    assert summary["max_abs_displacement"] == pytest.approx(list(whole.max_abs_displacement),
-                                                            rel=1e-9)
-    model, method = rf.model_from_dataset(ds)
-    assert model.n_dof == mf.model.n_dof and method == mf.method
-
-
-def test_streaming_cannot_cut_inside_a_persistent_contact(tmp_path: Path) -> None:
-    # a 1 kg mass pushed by 10 N onto a critically damped wall 1 mm away: it reaches the wall
-    # after 14 ms and stays pressed against it
+def _pressed_model() -> vi.Model:
+    """A 1 kg mass pushed by 10 N onto a critically damped wall 1 mm away: it reaches the wall
+    after 14 ms and stays pressed against it (a contact that lasts to the end)."""
     law = vi.contact.KelvinVoigt(stiffness=1e6, damping=2000.0)
-    model = vi.Model(vi.Structure.sdof(mass=1.0), gaps=[vi.Gap(dof=0, clearance=1e-3, law=law)],
-                     loads=[vi.ConstantLoad(dof=0, amplitude=10.0)])
-    with pytest.raises(ModelError, match=r"^window_steps: 5000 .*a gap stays closed"):
-        rf.simulate_to_file(model, tmp_path / "x.nc", 0.5, 1e-5, window_steps=5000)
-    assert list(tmp_path.iterdir()) == []
+    return vi.Model(vi.Structure.sdof(mass=1.0), gaps=[vi.Gap(dof=0, clearance=1e-3, law=law)],
+                    loads=[vi.ConstantLoad(dof=0, amplitude=10.0)])
+
+
+def _assert_same_file(streamed: xr.Dataset, whole: xr.Dataset) -> None:
+    """Same variables, values (bit for bit), dims, variable attributes and global attributes
+    (but the creation time and the wall time)."""
+    volatile = ("history", "wall_time_s")
+    a = streamed.assign_attrs({k: 0 for k in volatile})
+    b = whole.assign_attrs({k: 0 for k in volatile})
+    xr.testing.assert_identical(a, b)
+    assert set(streamed.attrs) == set(whole.attrs)
+
+
+@pytest.mark.parametrize("case", ["two_dof_matrices.toml", "table_load.toml", "pressed",
+                                  "adaptive"])
+def test_a_streamed_file_equals_the_in_memory_results_file(tmp_path: Path, case: str) -> None:
+    if case == "pressed":  # the contact still closed when the run ends
+        model, t_end, dt, method, every, dofs = _pressed_model(), 0.5, 1e-5, vi.Newmark(), 7, None
+    elif case == "adaptive":
+        model, t_end, dt, every, dofs = cases.sdof_model("lankarani-nikravesh"), 0.02, 1e-6, 3, None
+        method = vi.Newmark(adaptive=vi.Adaptive(rtol=1e-4, dt_max=1e-4))
+    else:
+        mf = load_model(MODELS / case)
+        model, t_end, dt, method, every, dofs = (mf.model, mf.t_end, mf.dt, mf.method, mf.every,
+                                                 mf.dofs)
+    whole = vi.simulate(model, t_end, dt, method, every=every, dofs=dofs)
+    rf.save(whole, tmp_path / "whole.nc")
+    fractions: list[float] = []
+    summary = rf.simulate_to_file(model, tmp_path / "streamed.nc", t_end, dt, method,
+                                  every=every, dofs=dofs, window_steps=50 * every,
+                                  progress=fractions.append)
+    n = len(whole.time)
+    # blocks of 50 rows (those ready at a poll are written together), then the rest with the
+    # impact table and the attributes
+    assert 3 <= summary["windows"] <= n // 50 + 1 and n >= 150
+    assert fractions == sorted(fractions) and fractions[-1] == 1.0
+    streamed = rf.load(tmp_path / "streamed.nc")
+    _assert_same_file(streamed, rf.load(tmp_path / "whole.nc"))
+    assert streamed.sizes["time"] == n
+    expected = {**whole.summary(), "wall_time_s": summary["wall_time_s"]}
+    assert {k: v for k, v in summary.items() if k not in ("windows", "steps_computed")} \
+        == expected
+    assert sorted(os.listdir(tmp_path)) == ["streamed.nc", "whole.nc"]
+    model2, method2 = rf.model_from_dataset(streamed)
+    assert model2.n_dof == model.n_dof and method2 == method
+
+
+def test_a_streamed_run_holds_a_few_blocks_not_the_run(tmp_path: Path) -> None:
+    """The rows reach the writer in blocks while the core runs and the result returned at the
+    end holds only those after the last block (the writer does not accumulate)."""
+    model = cases.sdof_model("lankarani-nikravesh")
+    blocks: list[int] = []
+    r = vi.simulate(model, 0.02, 1e-6, every=10, chunk_rows=300,
+                    on_rows=lambda rows: blocks.append(len(rows["time"])))
+    # whole blocks of 300 rows; those ready at a poll come together, at most three (two in
+    # the core's bounded channel and the one being waited for)
+    assert sum(blocks) == 1800 and all(b % 300 == 0 and b <= 900 for b in blocks)
+    assert len(r.time) == 2001 - 1800
+    whole = vi.simulate(model, 0.02, 1e-6, every=10)
+    assert np.array_equal(r.time, whole.time[1800:])
+    assert r.energy.balance_error == whole.energy.balance_error
+    assert len(r.impacts) == len(whole.impacts) and r.complete
+
+
+def test_a_failing_writer_stops_the_run_and_its_error_is_raised() -> None:
+    """If writing a block fails (a full disk), the core is asked to stop (within 64 steps, not
+    after the 1e9 steps of this run) and the writer's error is raised."""
+    from vibroimpact import _core
+
+    def full_disk(rows: dict[str, object]) -> None:
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(OSError, match="No space left"):
+        vi.simulate(cases.sdof_model("hertz"), 1000.0, 1e-6, every=1000, chunk_rows=10,
+                    on_rows=full_disk)
+    assert not _core.interrupt_requested()
 
 
 # ------------------------------------------------------------------------------------------
@@ -293,13 +334,40 @@ def test_run_writes_netcdf_quietly_and_logs_when_verbose(
 
 
 def test_run_streams_with_window(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    out = tmp_path / "r.h5"
     model = str(MODELS / "two_dof_matrices.toml")
-    assert cli_main(["run", model, "-o", str(out), "--window", "20000", "--json"]) == 0
+    assert cli_main(["run", model, "-o", str(tmp_path / "w.h5"), "--window", "20000",
+                     "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["windows"] >= 5
-    assert rf.load(out).sizes["time"] == 10001
-    assert cli_main(["run", model, "--window", "20000"]) == 2
-    err = capsys.readouterr().err
-    assert "--window" in err and len(err.splitlines()) == 1
-    assert sorted(os.listdir(tmp_path)) == ["r.h5"]
+    assert cli_main(["run", model, "-o", str(tmp_path / "s.nc"), "--stream", "--quiet"]) == 0
+    assert cli_main(["run", model, "-o", str(tmp_path / "m.nc"), "--quiet"]) == 0
+    capsys.readouterr()
+    streamed, whole = rf.load(tmp_path / "w.h5"), rf.load(tmp_path / "m.nc")
+    assert streamed.sizes["time"] == 10001
+    _assert_same_file(streamed, whole)
+    _assert_same_file(rf.load(tmp_path / "s.nc"), whole)
+    for flags in (["--window", "20000"], ["--stream"], ["-o", str(tmp_path / "x.csv"),
+                                                        "--stream"]):
+        assert cli_main(["run", model, *flags]) == 2
+        err = capsys.readouterr().err
+        assert flags[-2 if flags[0] == "--window" else -1] in err and len(err.splitlines()) == 1
+    assert sorted(os.listdir(tmp_path)) == ["m.nc", "s.nc", "w.h5"]
+
+
+def test_run_streams_by_itself_above_the_size_threshold(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    import importlib
+
+    run_module = importlib.import_module("vibroimpact.cli.run")
+    model = str(MODELS / "sdof_paper_ln.toml")
+    # (20,000 steps + 2) rows of 1 + 3 + 2 + 6 columns (time, x v a, gap, energy)
+    assert run_module._history_bytes(load_model(model)) == 8 * 20002 * 12
+    assert cli_main(["run", model, "-o", str(tmp_path / "m.nc"), "--json"]) == 0
+    assert "windows" not in json.loads(capsys.readouterr().out)  # held in memory
+    monkeypatch.setattr(run_module, "STREAM_ABOVE_BYTES", 8 * 20002 * 12 - 1)
+    assert cli_main(["run", model, "-o", str(tmp_path / "s.nc"), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["windows"] >= 1  # streamed
+    _assert_same_file(rf.load(tmp_path / "s.nc"), rf.load(tmp_path / "m.nc"))
+    assert cli_main(["run", model, "-o", str(tmp_path / "c.csv"), "--json"]) == 0
+    assert "windows" not in json.loads(capsys.readouterr().out)  # CSV: from memory

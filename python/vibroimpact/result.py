@@ -41,6 +41,32 @@ IMPACT_COLUMNS: dict[str, tuple[str, str]] = {
 }
 
 
+#: Energy-account terms (``energy_<term>`` variables), J.
+ENERGY_TERMS = ("kinetic", "strain", "contact_potential", "external_work",
+                "damping_dissipated", "contact_dissipated")
+
+#: The time-history variables of :meth:`Result.to_xarray` (and of a result file): name →
+#: (dims, units, description, key of the core's output: a column, or ``energy.<term>``).
+TIME_VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
+    "displacement": (("time", "dof"), "m", "displacement", "displacement"),
+    "velocity": (("time", "dof"), "m/s", "velocity", "velocity"),
+    "acceleration": (("time", "dof"), "m/s^2", "acceleration", "acceleration"),
+    "penetration": (("time", "gap"), "m", "gap penetration (<0: open)", "gap_penetration"),
+    "contact_force": (("time", "gap"), "N", "contact force", "gap_force"),
+    **{f"energy_{t}": (("time",), "J", t, f"energy.{t}") for t in ENERGY_TERMS},
+}
+
+
+def time_columns(raw: dict[str, Any]) -> dict[str, Array]:
+    """The :data:`TIME_VARIABLES` (and ``time``) of the core's output or of a block of rows
+    it streamed (``on_rows`` of :func:`vibroimpact.simulate`)."""
+    out = {"time": np.asarray(raw["time"])}
+    for name, (*_, key) in TIME_VARIABLES.items():
+        head, _, term = key.partition(".")
+        out[name] = np.asarray(raw[head][term] if term else raw[head])
+    return out
+
+
 def _json_number(x: float) -> float | None:
     return None if math.isnan(x) else float(x)
 
@@ -222,8 +248,7 @@ class Result:
         for g in range(self.gap_force.shape[1]):
             cols[f"gap{g} penetration [m]"] = self.gap_penetration[:, g]
             cols[f"gap{g} force [N]"] = self.gap_force[:, g]
-        for name in ("kinetic", "strain", "contact_potential", "external_work",
-                     "damping_dissipated", "contact_dissipated"):
+        for name in ENERGY_TERMS:
             cols[f"energy {name} [J]"] = getattr(self.energy, name)
         return pd.DataFrame(cols, index=pd.Index(self.time, name="time [s]"))
 
@@ -235,17 +260,14 @@ class Result:
         def var(dims: tuple[str, ...], data: Any, units: str, desc: str) -> xr.Variable:
             return xr.Variable(dims, data, attrs={"units": units, "long_name": desc})
 
-        td, tg = ("time", "dof"), ("time", "gap")
-        data = {
-            "displacement": var(td, self.displacement, "m", "displacement"),
-            "velocity": var(td, self.velocity, "m/s", "velocity"),
-            "acceleration": var(td, self.acceleration, "m/s^2", "acceleration"),
-            "penetration": var(tg, self.gap_penetration, "m", "gap penetration (<0: open)"),
-            "contact_force": var(tg, self.gap_force, "N", "contact force"),
+        columns = {
+            "displacement": self.displacement, "velocity": self.velocity,
+            "acceleration": self.acceleration, "penetration": self.gap_penetration,
+            "contact_force": self.gap_force,
+            **{f"energy_{t}": getattr(self.energy, t) for t in ENERGY_TERMS},
         }
-        for name in ("kinetic", "strain", "contact_potential", "external_work",
-                     "damping_dissipated", "contact_dissipated"):
-            data[f"energy_{name}"] = var(("time",), getattr(self.energy, name), "J", name)
+        data = {name: var(dims, columns[name], units, desc)
+                for name, (dims, units, desc, _) in TIME_VARIABLES.items()}
         imp = self.impacts
         for name, (units, desc) in IMPACT_COLUMNS.items():
             data[f"impact_{name}"] = var(("impact",), getattr(imp, name), units, desc)

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import logging
 import math
+import os
 import signal
+import sys
 import threading
+import time
 import warnings
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import IO, Any
 
 import numpy as np
 
@@ -23,7 +27,7 @@ from vibroimpact.integrators import Integrator, Newmark
 from vibroimpact.model import Model
 from vibroimpact.result import Result
 
-__all__ = ["contact_periods", "simulate"]
+__all__ = ["ProgressBar", "contact_periods", "simulate"]
 
 #: Fewer steps than this per estimated contact period draws a :class:`ContactResolutionWarning`.
 STEPS_PER_CONTACT_PERIOD = 10
@@ -107,33 +111,151 @@ def contact_resolution_messages(model: Model, dt: float) -> list[str]:
     return lines
 
 
-def _run_core(spec: dict[str, Any]) -> tuple[dict[str, Any], int | None]:
-    """``_core.simulate(spec)``, interruptible. The core runs on a Rust worker thread while
-    the calling thread waits with the GIL released and lets Python handle signals every 50 ms:
-    ``Ctrl-C`` (KeyboardInterrupt) and, on the main thread, SIGTERM (a temporary handler) ask
-    the core to stop (``_core.request_interrupt``); it stops within 64 steps and returns the
-    results up to then. Returns the raw output and the signal received, if any."""
+#: Seconds between two polls of a run in progress (signals, rows, events, progress).
+POLL_S = 0.05
+#: Wall time, s, after which a run shows its progress bar (``progress=True``).
+PROGRESS_DELAY_S = 1.0
+
+log = logging.getLogger("vibroimpact.solver")
+
+#: Test hook (tests/test_interrupt.py): a signal name (``SIGTERM``) in this environment
+#: variable makes the process send itself that signal as soon as the core has finished,
+#: before the result is converted and written, so that a test can hit that moment exactly.
+SIGNAL_AFTER_RUN_ENV = "VIBROIMPACT_TEST_SIGNAL_AFTER_RUN"
+
+
+class ProgressBar:
+    """A one-line progress bar on ``stream`` (default stderr) for a run of ``t_end`` s:
+    ``[##########..........]  50.0 %  t = 1.000e-02 of 2.000e-02 s  1.3 s``, drawn only once
+    the run has taken ``delay`` s of wall time (default :data:`PROGRESS_DELAY_S`), at most
+    every 0.1 s, and only when ``stream`` is a terminal (or ``enabled=True``); :meth:`close`
+    ends the line. ``clock`` (s) is for tests."""
+
+    WIDTH = 30
+
+    def __init__(self, t_end: float, *, stream: IO[str] | None = None,
+                 enabled: bool | None = None, delay: float | None = None,
+                 clock: Callable[[], float] = time.monotonic) -> None:
+        self.t_end = t_end
+        self.stream = sys.stderr if stream is None else stream
+        if enabled is None:
+            isatty = getattr(self.stream, "isatty", None)
+            enabled = bool(isatty and isatty())
+        self.enabled = enabled
+        self.delay = PROGRESS_DELAY_S if delay is None else delay
+        self.clock = clock
+        self.started = clock()
+        self.shown = False
+        self.last = -math.inf
+
+    def update(self, t: float, *, final: bool = False) -> None:
+        """Show the simulated time ``t`` (s) reached (``final``: the run has ended; drawn
+        however soon after the previous update)."""
+        now = self.clock()
+        elapsed = now - self.started
+        if not self.enabled or elapsed < self.delay or (now - self.last < 0.1 and not final):
+            return
+        self.last = now
+        fraction = min(max(t / self.t_end, 0.0), 1.0) if self.t_end > 0 else 1.0
+        filled = round(self.WIDTH * fraction)
+        bar = "#" * filled + "." * (self.WIDTH - filled)
+        self.stream.write(f"\r[{bar}] {100 * fraction:5.1f} %  t = {t:.3e} of "
+                          f"{self.t_end:.3e} s  {elapsed:.1f} s")
+        self.stream.flush()
+        self.shown = True
+
+    def close(self) -> None:
+        """End the bar's line (if it was drawn)."""
+        if self.shown:
+            self.stream.write("\n")
+            self.stream.flush()
+            self.shown = False
+
+
+def _log_events(events: list[dict[str, Any]], dropped: int) -> None:
+    """Log the core's solver events (``_core.Running.take_events``) at INFO."""
+    for e in events:
+        kind = e["kind"]
+        if kind == "step-cut":
+            log.info("solver: t = %.9e s: step cut: Newton did not converge in %d iterations "
+                     "(gap %d, penetration %.3e m) on a step of %.3e s; retrying as two of "
+                     "%.3e s", e["t"], e["iterations"], e["gap"], e["penetration"], e["dt"],
+                     e["dt"] / 2)
+        elif kind == "contact-start":
+            log.info("solver: t = %.9e s: gap %d closed (%s wall), approach speed %.4g m/s",
+                     e["t"], e["gap"], e["side"], e["speed"])
+        else:
+            log.info("solver: t = %.9e s: gap %d opened (%s wall), separation speed %.4g m/s, "
+                     "after %d steps in contact and %d Newton iterations (%.2f per step)",
+                     e["t"], e["gap"], e["side"], e["speed"], e["steps"], e["iterations"],
+                     e["iterations"] / max(e["steps"], 1))
+    if dropped:
+        log.info("solver: %d events not logged (more than 10000 between two polls)", dropped)
+
+
+def _run_core(
+    spec: dict[str, Any],
+    *,
+    on_rows: Callable[[dict[str, Any]], None] | None = None,
+    chunk_rows: int | None = None,
+    progress: ProgressBar | None = None,
+) -> tuple[dict[str, Any], int | None]:
+    """Run ``spec`` in the core and return its raw output and the signal received, if any.
+
+    The core runs on a Rust worker thread (``_core.start``); this thread polls it every
+    :data:`POLL_S` s with the GIL released in between: it hands each block of ``chunk_rows``
+    recorded rows to ``on_rows`` (in order; the output then holds only the rows after the last
+    block), logs the solver events (when ``vibroimpact.solver`` logs INFO) and updates
+    ``progress`` from the simulated time the core publishes. No Python runs inside the time
+    loop. On the main thread, ``Ctrl-C`` and SIGTERM are caught while the run lasts: they ask
+    the core to stop (``_core.request_interrupt``), which it does within 64 steps, returning
+    the results up to then. If ``on_rows`` raises, the run is stopped the same way and the
+    exception re-raised."""
     received: list[int] = []
 
-    def on_sigterm(signum: int, frame: Any) -> None:
+    def on_signal(signum: int, frame: Any) -> None:
         received.append(signum)
         _core.request_interrupt()
 
-    previous = None
+    previous: dict[int, Any] = {}
     if threading.current_thread() is threading.main_thread():
         try:
-            previous = signal.signal(signal.SIGTERM, on_sigterm)
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                previous[sig] = signal.signal(sig, on_signal)
         except (ValueError, OSError):  # pragma: no cover - no signals here
-            previous = None
+            pass
     _core.clear_interrupt()
+    events = log.isEnabledFor(logging.INFO)
+    failure: BaseException | None = None
     try:
-        raw = _core.simulate(spec)
+        run = _core.start(spec, chunk_rows, events)
+        while True:
+            finished = run.wait(POLL_S)
+            rows = run.take_rows()
+            if rows is not None and on_rows is not None and failure is None:
+                try:
+                    on_rows(rows)
+                except BaseException as e:  # re-raised once the run has stopped
+                    failure = e
+                    _core.request_interrupt()
+            if events:
+                _log_events(*run.take_events())
+            if progress is not None:
+                progress.update(run.time(), final=finished)
+            if finished:
+                break
+        raw = run.finish()
     finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for sig, old in previous.items():
+            signal.signal(sig, old)
         _core.clear_interrupt()
-    if raw.get("keyboard_interrupt"):
-        return raw, int(signal.SIGINT)
+        if progress is not None:
+            progress.close()
+    if failure is not None:
+        raise failure
+    hook = os.environ.get(SIGNAL_AFTER_RUN_ENV)
+    if hook:
+        os.kill(os.getpid(), signal.Signals[hook])
     return raw, (received[0] if received else None)
 
 
@@ -146,6 +268,9 @@ def simulate(
     every: int = 1,
     dofs: Sequence[int] | None = None,
     throw: bool = True,
+    progress: bool = False,
+    on_rows: Callable[[dict[str, Any]], None] | None = None,
+    chunk_rows: int | None = None,
 ) -> Result:
     """Integrate ``model`` from ``t = 0`` to ``t_end`` (s) with steps of ``dt`` (s).
 
@@ -159,8 +284,23 @@ def simulate(
       singular effective stiffness), raise :class:`~vibroimpact.SolverError` carrying the
       partial result; with ``throw=False`` return the partial result with ``complete = False``
       and ``message`` set instead.
+    - ``progress``: draw a :class:`ProgressBar` on stderr once the run has taken a second
+      (only when stderr is a terminal).
+    - ``on_rows``, ``chunk_rows``: stream the time histories: every ``chunk_rows`` recorded
+      rows, ``on_rows`` gets them as a dict of arrays (``time``, ``displacement``,
+      ``velocity``, ``acceleration``, ``gap_penetration``, ``gap_force``, ``energy``: a dict
+      of the energy terms), in order, while the run goes on, and the returned result holds
+      only the rows recorded after the last block (its impact table, peaks, statistics and
+      energy balance error are those of the whole run). Memory then holds at most three
+      blocks. :func:`vibroimpact.io.results_file.simulate_to_file` uses this to write long
+      runs to disk. The impulsive methods deliver all rows at the end.
 
-    ``Ctrl-C`` or SIGTERM during the run (on the main thread) stops it within ~1000 steps and
+    With ``logging.getLogger("vibroimpact.solver")`` at INFO (``vibroimpact run --verbose``)
+    the solver's events are logged as they happen: each step cut (time, gap, penetration,
+    Newton iterations; fixed steps), each contact's start and end (time, gap, wall, approach
+    and separation speeds, its steps and Newton iterations).
+
+    ``Ctrl-C`` or SIGTERM during the run (on the main thread) stops it within 64 steps and
     raises :class:`~vibroimpact.Interrupted` (a ``SolverError``, whatever ``throw`` says) with
     the results up to then in ``partial``. A step longer than a tenth of a gap's estimated
     contact period (:func:`contact_periods`) draws a :class:`~vibroimpact.ContactResolutionWarning`
@@ -205,7 +345,12 @@ def simulate(
     if method.adaptive is None:
         for line in contact_resolution_messages(model, float(dt)):
             warnings.warn(line, ContactResolutionWarning, stacklevel=2)
-    raw, signum = _run_core(spec)
+    if chunk_rows is not None or on_rows is not None:
+        require(isinstance(chunk_rows, int) and not isinstance(chunk_rows, bool)
+                and chunk_rows >= 1 and callable(on_rows), "chunk_rows", chunk_rows,
+                "an integer >= 1 together with a callable on_rows")
+    bar = ProgressBar(float(t_end)) if progress else None
+    raw, signum = _run_core(spec, on_rows=on_rows, chunk_rows=chunk_rows, progress=bar)
     result = Result.from_core(raw, model=model, method=method, t_end=float(t_end))
     if signum is not None or raw.get("error_kind") == "interrupted":
         signum = int(signal.SIGINT) if signum is None else signum

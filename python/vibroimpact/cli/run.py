@@ -1,8 +1,13 @@
-"""``vibroimpact run MODEL.toml [-o OUT.nc|OUT.h5|OUT.csv] [--json]``: run a model file.
+"""``vibroimpact run MODEL.toml [-o OUT.nc|OUT.h5|OUT.csv] [--stream] [--json]``: run a model
+file.
 
 The model file (``docs/model-file.md``) and ``-o`` are checked before anything runs; every
 mistake is reported as one line and the command exits with code 2. Results are written
-atomically: a failed or interrupted run never leaves a partial file behind.
+atomically: a failed or interrupted run never leaves a partial file behind. ``Ctrl-C`` or
+SIGTERM during the run stops it and writes the results up to then, marked incomplete; after
+the run (while the result is converted and written) it lets the complete file be written
+first (:func:`vibroimpact.io.results_file.hold_signals`). Either way the exit code is
+128 + the signal's number.
 """
 
 from __future__ import annotations
@@ -19,13 +24,8 @@ from typing import Any
 from vibroimpact.errors import ContactResolutionWarning, Interrupted, ModelError, SolverError
 from vibroimpact.io import results_file
 from vibroimpact.io.model_file import ModelFile, ModelFileError, load_model
-from vibroimpact.report import (
-    Progress,
-    add_verbosity_options,
-    configure_logging,
-    log_run,
-)
-from vibroimpact.simulate import contact_resolution_messages
+from vibroimpact.report import add_verbosity_options, configure_logging, log_run
+from vibroimpact.simulate import contact_resolution_messages, simulate
 
 __all__ = ["OUTPUT_SUFFIXES", "add_parser", "main"]
 
@@ -33,6 +33,11 @@ __all__ = ["OUTPUT_SUFFIXES", "add_parser", "main"]
 OUTPUT_SUFFIXES = results_file.SUFFIXES
 
 log = logging.getLogger("vibroimpact.run")
+
+#: ``--stream`` is implied when the time histories would take more than this, bytes.
+STREAM_ABOVE_BYTES = 2**30
+#: Steps per block handed to the writer when streaming (``--window``).
+STREAM_WINDOW_STEPS = 200_000
 
 _DESCRIPTION = """\
 Run a model file: a structure with clearances, its loads and the solver settings
@@ -46,12 +51,15 @@ examples:
   vibroimpact run model.toml -o results.nc    # NetCDF-4 (HDF5): xarray, MATLAB ncread
   vibroimpact run model.toml -o results.csv   # also results_impacts.csv, results_energy.csv,
                                               # results_meta.json
-  vibroimpact run long.toml -o long.nc --window 500000   # streamed to disk, with progress
+  vibroimpact run long.toml -o long.nc --stream    # rows written to disk as computed
+  vibroimpact run model.toml --verbose            # log step cuts and contacts as they happen
 
 exit codes: 0 done, 2 mistakes in the model file or the arguments (one line each),
 3 the solver failed, 130 interrupted by Ctrl-C, 143 by SIGTERM. After a failure or an
 interrupt, -o OUT holds the results up to then, marked incomplete (attribute complete = 0;
-"complete": 0 in OUT_meta.json)."""
+"complete": 0 in OUT_meta.json). A run longer than a second shows a progress bar on stderr
+(when stderr is a terminal; not with --quiet). -o OUT.nc/.h5 streams automatically when the
+time histories would take more than 1 GiB."""
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -74,12 +82,19 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "next to it)",
     )
     parser.add_argument(
+        "--stream",
+        action="store_true",
+        help="write the time histories to OUT (.nc/.h5) while the run goes on instead of "
+        "holding them in memory (automatic above 1 GiB of time histories); the file is the "
+        "same",
+    )
+    parser.add_argument(
         "--window",
         type=int,
         default=None,
         metavar="STEPS",
-        help="run in windows of about STEPS steps and stream each to OUT (.nc/.h5) as it is "
-        "computed, so memory holds one window; shows progress on a terminal",
+        help="with --stream (implied): hand the rows to the writer every STEPS steps "
+        f"(default {STREAM_WINDOW_STEPS})",
     )
     parser.add_argument(
         "--json",
@@ -135,7 +150,7 @@ def _stopped(e: SolverError, out: Path | None, args: argparse.Namespace) -> int:
         print(f"vibroimpact: wrote the results up to the failure (marked incomplete) to "
               f"{', '.join(str(p) for p in e.written)}", file=sys.stderr)
     if partial is not None:
-        if out is not None:
+        if out is not None and not e.written:
             try:
                 written = results_file.save(partial, out)
             except OSError as err:
@@ -153,6 +168,37 @@ def _stopped(e: SolverError, out: Path | None, args: argparse.Namespace) -> int:
     return 3
 
 
+def _history_bytes(mf: ModelFile) -> float:
+    """Size of the time histories a fixed-step run of ``mf`` records, bytes (adaptive: 0,
+    unknown in advance)."""
+    if mf.method.adaptive is not None:
+        return 0.0
+    rows = mf.t_end / mf.dt / mf.every + 2
+    n_dofs = mf.model.n_dof if mf.dofs is None else len(mf.dofs)
+    return 8.0 * rows * (1 + 3 * n_dofs + 2 * len(mf.model.gaps) + 6)
+
+
+def _run(mf: ModelFile, out: Path | None, stream: bool, args: argparse.Namespace
+         ) -> tuple[dict[str, Any], list[Path]]:
+    """Run ``mf`` (streamed to ``out`` or in memory, then written to ``out``): the summary
+    and the files written. Raises :class:`SolverError` if the run stopped early."""
+    if mf.method.adaptive is None:
+        for line in contact_resolution_messages(mf.model, mf.dt):
+            print(f"vibroimpact: warning: {line}", file=sys.stderr)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ContactResolutionWarning)  # printed above
+        if stream and out is not None:
+            summary = results_file.simulate_to_file(
+                mf.model, out, mf.t_end, mf.dt, mf.method, every=mf.every, dofs=mf.dofs,
+                window_steps=args.window or STREAM_WINDOW_STEPS, progress_bar=not args.quiet,
+            )
+            return summary, [out]
+        result = simulate(mf.model, mf.t_end, mf.dt, mf.method, every=mf.every, dofs=mf.dofs,
+                          progress=not args.quiet)
+    summary = result.summary()
+    return summary, (results_file.save(result, out) if out is not None else [])
+
+
 def main(args: argparse.Namespace) -> int:
     """Run ``args.model``; print a summary (``--json``: one JSON object); write ``-o``."""
     out, errors = _output_errors(args.output)
@@ -160,50 +206,41 @@ def main(args: argparse.Namespace) -> int:
         mf = load_model(args.model)
     except ModelFileError as e:
         raise ModelFileError(e.errors + errors) from None
-    if args.window is not None:
-        if out is None or out.suffix.lower() not in results_file.NETCDF_SUFFIXES:
-            errors.append(f"--window: {args.window!r} is given without -o OUT.nc or OUT.h5; "
-                          "expected -o with a NetCDF file to stream to")
-        elif args.window < 2:
-            errors.append(f"--window: {args.window!r} is not valid; expected an integer >= 2")
+    netcdf = out is not None and out.suffix.lower() in results_file.NETCDF_SUFFIXES
+    for flag, given in (("--stream", args.stream), ("--window", args.window is not None)):
+        if given and not netcdf:
+            value = "" if flag == "--stream" else f" {args.window!r}"
+            errors.append(f"{flag}:{value} is given without -o OUT.nc or OUT.h5; expected -o "
+                          "with a NetCDF file to stream to")
+    if args.window is not None and netcdf and args.window < 2:
+        errors.append(f"--window: {args.window!r} is not valid; expected an integer >= 2")
     if errors:
         raise ModelFileError(errors)
     configure_logging(args)
-    written: list[Path] = []
-    try:
-        if args.window is not None and out is not None:
-            progress = Progress(1, quiet=args.quiet)
-            try:
-                with progress.item(f"{mf.path.name} -> {out.name}") as update:
-                    summary = results_file.simulate_to_file(
-                        mf.model, out, mf.t_end, mf.dt, mf.method, every=mf.every,
-                        dofs=mf.dofs, window_steps=args.window, progress=update,
-                    )
-            except SolverError as e:
-                return _stopped(e, out, args)
-            written = [out]
-            log_run(log, summary)
-        else:
-            if mf.method.adaptive is None:
-                for line in contact_resolution_messages(mf.model, mf.dt):
-                    print(f"vibroimpact: warning: {line}", file=sys.stderr)
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore", ContactResolutionWarning)  # printed above
-                try:
-                    result = mf.simulate()
-                except SolverError as e:
-                    return _stopped(e, out, args)
-            summary = result.summary()
-            log_run(log, summary)
-            if out is not None:
-                written = results_file.save(result, out)
-    except OSError as e:
-        raise ModelError(f"-o: cannot write {str(e.filename or out)!r}: {e.strerror}") from None
-    if args.json:
-        json.dump(summary, sys.stdout)
-        sys.stdout.write("\n")
-    elif not args.quiet:
-        _print_summary(mf, summary)
-        if written:
-            print(f"  wrote {', '.join(str(p) for p in written)}")
+    stream = netcdf and (args.stream or args.window is not None
+                         or _history_bytes(mf) > STREAM_ABOVE_BYTES)
+    # a signal after the run (while the result is converted and written) is held until the
+    # file is complete; one during the run stops it (vibroimpact.simulate catches it)
+    with results_file.hold_signals() as held:
+        try:
+            summary, written = _run(mf, out, stream, args)
+        except SolverError as e:
+            return _stopped(e, out, args)
+        except OSError as e:
+            raise ModelError(f"-o: cannot write {str(e.filename or out)!r}: "
+                             f"{e.strerror}") from None
+        log_run(log, summary)
+        if args.json:
+            json.dump(summary, sys.stdout)
+            sys.stdout.write("\n")
+        elif not args.quiet:
+            _print_summary(mf, summary)
+            if written:
+                print(f"  wrote {', '.join(str(p) for p in written)}")
+    if held.signum is not None:
+        name = signal.Signals(held.signum).name
+        done = f"; the complete results were written to {out}" if written else ""
+        print(f"vibroimpact: interrupted: {name} received after the run finished{done}",
+              file=sys.stderr)
+        return 128 + held.signum
     return 0

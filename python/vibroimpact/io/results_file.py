@@ -15,12 +15,12 @@
   account and ``NAME_meta.json`` the attributes and the model.
 
 Every file is first written to a hidden temporary file in the target's folder and then moved
-into place with :func:`os.replace`, so a crash, ``Ctrl-C`` or ``SIGTERM`` leaves either the
-previous complete file or none, never a half-written one. ``Ctrl-C`` and ``SIGTERM`` take
-effect when the file being written is complete; the temporary files are then removed and
-:class:`KeyboardInterrupt` is raised. A streamed run (:func:`simulate_to_file`) stopped by a
-signal (after the current window; SIGTERM within a few steps) or by a solver failure writes
-the windows done, marked incomplete (``complete = 0``), and raises
+into place with :func:`os.replace`, so a crash leaves either the previous complete file or
+none, never a half-written one. ``Ctrl-C`` and ``SIGTERM`` during a write take effect once
+every file is complete and in place (:func:`hold_signals`); :class:`KeyboardInterrupt` is then
+raised. A long run can stream to disk (:func:`simulate_to_file`): the core hands its rows over
+in blocks that are appended to the temporary file while it runs; stopped by a signal or a
+solver failure, it leaves the rows up to then, marked incomplete (``complete = 0``), and raises
 :class:`~vibroimpact.Interrupted` or :class:`~vibroimpact.SolverError` (``written`` names the
 file). Only ``SIGKILL`` or a crash can leave a hidden ``.NAME.*.tmp`` file behind.
 
@@ -50,7 +50,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vibroimpact.errors import Interrupted, ModelError, SolverError
+from vibroimpact.errors import ModelError, SolverError
+from vibroimpact.result import ENERGY_TERMS
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -66,6 +67,7 @@ __all__ = [
     "SUFFIXES",
     "atomic_write",
     "csv_paths",
+    "hold_signals",
     "load",
     "model_from_dataset",
     "netcdf_engine",
@@ -82,9 +84,6 @@ SUFFIXES = (*NETCDF_SUFFIXES, ".csv")
 #: The files a ``.csv`` result consists of, by role: the name's suffix after the stem.
 CSV_TABLES = {"time_histories": ".csv", "impacts": "_impacts.csv", "energy": "_energy.csv",
               "metadata": "_meta.json"}
-#: The energy account's terms (``energy_<term>`` variables), J.
-ENERGY_TERMS = ("kinetic", "strain", "contact_potential", "external_work",
-                "damping_dissipated", "contact_dissipated")
 #: Time-history variables on ``(time, dof)`` and their CSV column prefix and unit.
 _DOF_VARIABLES = {"displacement": ("x", "m"), "velocity": ("v", "m/s"),
                   "acceleration": ("a", "m/s^2")}
@@ -271,7 +270,7 @@ def model_from_dataset(ds: xr.Dataset) -> tuple[Model, Integrator]:
 
 
 class _Interrupts:
-    """Signals received while a write was protected (see :func:`_deferred_interrupts`)."""
+    """Signals received while held (see :func:`hold_signals`)."""
 
     def __init__(self) -> None:
         self.signum: int | None = None
@@ -283,18 +282,23 @@ class _Interrupts:
             raise KeyboardInterrupt(f"signal {signum}")
 
 
+#: The hold in force on the main thread, if any (holds nest: the outermost one decides).
+_HELD: list[_Interrupts] = []
+
+
 @contextlib.contextmanager
-def _deferred_interrupts() -> Iterator[_Interrupts]:
-    """Inside the block, ``Ctrl-C`` (SIGINT) and ``SIGTERM`` are noted instead of acted on;
-    the block calls ``check()`` at safe points (between files, between windows), and any
-    signal still pending is raised as :class:`KeyboardInterrupt` on leaving. An exception
-    raised from a signal handler in the middle of a NetCDF/HDF5 call can leave the library's
-    locks taken (the process then hangs), so the write in progress is allowed to finish and its
-    temporary file is removed instead. A second signal interrupts at once."""
-    state = _Interrupts()
-    if threading.current_thread() is not threading.main_thread():
-        yield state
+def hold_signals() -> Iterator[_Interrupts]:
+    """Inside the block, ``Ctrl-C`` (SIGINT) and ``SIGTERM`` are noted in ``.signum`` instead
+    of acted on, so that a result being converted or written is completed (an exception raised
+    from a signal handler inside a NetCDF/HDF5 call can also leave the library's locks taken,
+    and the process then hangs). The caller acts on ``.signum`` after the block; a second
+    signal interrupts at once (:class:`KeyboardInterrupt`). Inside an outer hold (``vibroimpact
+    run`` holds from the end of the run to the end of the writing), the outer one is yielded;
+    a run started inside (:func:`vibroimpact.simulate`) catches the signals itself."""
+    if _HELD or threading.current_thread() is not threading.main_thread():
+        yield _HELD[0] if _HELD else _Interrupts()
         return
+    state = _Interrupts()
 
     def handler(signum: int, frame: Any) -> None:
         if state.signum is not None:
@@ -307,12 +311,13 @@ def _deferred_interrupts() -> Iterator[_Interrupts]:
             previous[sig] = signal.signal(sig, handler)
     except (ValueError, OSError):  # pragma: no cover - signals not available here
         pass
+    _HELD.append(state)
     try:
         yield state
     finally:
+        _HELD.pop()
         for sig, old in previous.items():
             signal.signal(sig, old)
-    state.check()
 
 
 def _temp_path(target: Path) -> Path:
@@ -327,31 +332,34 @@ def atomic_write(writers: Mapping[str | os.PathLike[str], Callable[[Path], None]
     The temporary files live in the targets' folders (so the final :func:`os.replace` is
     atomic), are flushed to disk first and get the permissions a new file would get. If any
     writer fails, or the process is interrupted (``Ctrl-C``, ``SIGTERM``), the temporary
-    files are removed and the targets are left as they were. Raises :class:`OSError` on
-    failure. Returns the targets.
+    files are removed and the targets are left as they were. ``Ctrl-C`` or ``SIGTERM``
+    during the writing lets every file be completed and moved into place first, then raises
+    :class:`KeyboardInterrupt` (inside :func:`hold_signals`, the holder acts instead). Raises
+    :class:`OSError` on failure. Returns the targets.
 
     **Example:** ``atomic_write({"a.txt": lambda p: p.write_text("hello")})``
     """
     umask = os.umask(0)
     os.umask(umask)
     temps: list[tuple[Path, Path]] = []
-    with _deferred_interrupts() as interrupts:
+    nested = bool(_HELD)
+    with hold_signals() as held:
         try:
             for target, write in writers.items():
                 target = Path(target)
                 tmp = _temp_path(target)
                 temps.append((tmp, target))
                 write(tmp)
-                interrupts.check()
                 os.chmod(tmp, 0o666 & ~umask)
                 with open(tmp, "rb") as fh:
                     os.fsync(fh.fileno())
-            interrupts.check()
             for tmp, target in temps:
                 os.replace(tmp, target)
         finally:
             for tmp, _ in temps:
                 tmp.unlink(missing_ok=True)
+    if not nested:
+        held.check()
     return [target for _, target in temps]
 
 
@@ -626,88 +634,67 @@ def load(path: str | os.PathLike[str]) -> xr.Dataset:
 # --------------------------------------------------------------------------------------------
 
 
-def _shifted_load(load: Any, t0: float) -> Any:
-    """The same load with time measured from ``t0``: ``F'(t) = F(t + t0)``."""
-    from vibroimpact.model import ConstantLoad, HarmonicLoad, TableLoad
-
-    if type(load) is ConstantLoad:
-        return load
-    if type(load) is HarmonicLoad:
-        phase = load.phase + 2.0 * math.pi * load.frequency * t0
-        return dataclasses.replace(load, phase=math.remainder(phase, 2.0 * math.pi))
-    if type(load) is TableLoad:
-        return dataclasses.replace(load, time=tuple(t - t0 for t in load.time))
-    raise ModelError(f"loads: {type(load).__name__} cannot be shifted in time; streaming "
-                     "supports ConstantLoad, HarmonicLoad and TableLoad")
+#: HDF5 chunk cache of each streamed variable, bytes.
+CHUNK_CACHE_BYTES = 1 << 20
 
 
 class _NetcdfStream:
-    """Appends time samples to a NetCDF-4 file with an unlimited ``time`` dimension."""
+    """Appends blocks of rows (``vibroimpact.result.time_columns``) to the
+    :data:`~vibroimpact.result.TIME_VARIABLES` of a NetCDF-4 file with an unlimited ``time``
+    dimension; :meth:`finish` adds everything else from the finished result's Dataset."""
 
-    def __init__(self, path: Path, dofs: Sequence[int], n_gaps: int) -> None:
+    def __init__(self, path: Path, n_dofs: int, n_gaps: int) -> None:
         import netCDF4
 
+        from vibroimpact.result import TIME_VARIABLES
+
+        self.path = path
         self.nc = netCDF4.Dataset(path, "w", format="NETCDF4")
         self.nc.createDimension("time", None)
-        self.nc.createDimension("dof", len(dofs))
+        self.nc.createDimension("dof", n_dofs)
         self.nc.createDimension("gap", n_gaps)
         self.n = 0
-        t = self.nc.createVariable("time", "f8", ("time",), chunksizes=(4096,))
-        t.units, t.long_name = "s", "time"
-        self.nc.createVariable("dof", "i8", ("dof",))[:] = np.asarray(dofs, dtype=np.int64)
-        self.nc.createVariable("gap", "i8", ("gap",))[:] = np.arange(n_gaps, dtype=np.int64)
-        self.vars = {"time": t}
-        for name, (_, unit) in _DOF_VARIABLES.items():
-            self._var(name, ("time", "dof"), unit, name)
-        self._var("penetration", ("time", "gap"), "m", "gap penetration (<0: open)")
-        self._var("contact_force", ("time", "gap"), "N", "contact force")
-        for term in ENERGY_TERMS:
-            self._var(f"energy_{term}", ("time",), "J", term)
-
-    def _var(self, name: str, dims: tuple[str, ...], units: str, desc: str) -> None:
-        # chunks of a few thousand samples: appends stay fast, reads of a window too
-        sizes = {"time": 4096, "dof": len(self.nc.dimensions["dof"]),
-                 "gap": len(self.nc.dimensions["gap"])}
-        chunks = [max(1, sizes[d]) for d in dims]
-        v = self.nc.createVariable(name, "f8", dims, chunksizes=chunks)
-        v.units, v.long_name = units, desc
-        self.vars[name] = v
-
-    def append(self, columns: Mapping[str, np.ndarray]) -> None:
-        m = len(columns["time"])
-        for name, values in columns.items():
-            self.vars[name][self.n:self.n + m, ...] = values
-        self.n += m
-
-    def finish(self, impacts: Mapping[str, np.ndarray], attrs: Mapping[str, Any],
-               extra: Mapping[str, tuple[tuple[str, ...], Any, dict[str, str]]]) -> None:
-        from vibroimpact.result import IMPACT_COLUMNS
-
-        n_imp = len(impacts["t_start"])
-        self.nc.createDimension("impact", n_imp)
-        for name, (units, desc) in IMPACT_COLUMNS.items():
-            values = np.asarray(impacts[name])
-            if name == "side":
-                width = max(8, max((len(s) for s in values), default=0))
-                self.nc.createDimension("string8", width)
-                v = self.nc.createVariable("impact_side", "S1", ("impact", "string8"))
-                v._Encoding = "utf-8"
-                import netCDF4
-
-                v[:] = netCDF4.stringtochar(values.astype(f"S{width}"))
-            else:
-                v = self.nc.createVariable(f"impact_{name}", values.dtype.str[1:], ("impact",))
-                v[:] = values
+        sizes = {"time": 4096, "dof": max(n_dofs, 1), "gap": max(n_gaps, 1)}
+        # chunks of a few thousand samples: appends stay fast, reads of a stretch too
+        self.vars = {"time": self.nc.createVariable("time", "f8", ("time",),
+                                                    chunksizes=(4096,))}
+        self.vars["time"].units = "s"
+        for name, (dims, units, desc, _) in TIME_VARIABLES.items():
+            v = self.nc.createVariable(name, "f8", dims,
+                                       chunksizes=[sizes[d] for d in dims])
             v.units, v.long_name = units, desc
-        for name, (dims, data, vattrs) in extra.items():
-            for dim, size in zip(dims, np.shape(data), strict=True):
-                if dim not in self.nc.dimensions:
-                    self.nc.createDimension(dim, size)
-            v = self.nc.createVariable(name, "f8", dims)
-            v[:] = data
-            v.setncatts(dict(vattrs))
-        self.nc.setncatts({k: (int(v) if isinstance(v, bool) else v) for k, v in attrs.items()})
-        self.close()
+            self.vars[name] = v
+        for v in self.vars.values():
+            # appends touch each chunk once: a small cache (the library's default, 16-64 MiB
+            # per variable, would grow to hundreds of MiB over a long run)
+            v.set_var_chunk_cache(size=CHUNK_CACHE_BYTES)
+
+    def append(self, raw: Mapping[str, Any]) -> None:
+        """Append a block of rows in the core's layout (``on_rows`` of ``simulate``)."""
+        from vibroimpact.result import time_columns
+
+        columns = time_columns(dict(raw))
+        m = len(columns["time"])
+        if m:
+            for name, values in columns.items():
+                self.vars[name][self.n:self.n + m, ...] = values
+            self.n += m
+
+    def finish(self, result: Result) -> None:
+        """Write ``result``'s remaining rows, then its every variable not on ``time`` (impact
+        table, model matrices, ``dof``/``gap``) and its attributes, exactly as :func:`save`
+        writes them; close the file."""
+        from vibroimpact.result import TIME_VARIABLES
+
+        self.append({"time": result.time, "displacement": result.displacement,
+                     "velocity": result.velocity, "acceleration": result.acceleration,
+                     "gap_penetration": result.gap_penetration, "gap_force": result.gap_force,
+                     "energy": {t: getattr(result.energy, t) for t in ENERGY_TERMS}})
+        self.nc.close()
+        rest = result.to_xarray().drop_vars(["time", *TIME_VARIABLES])
+        ready, encoding = _netcdf_ready(rest)
+        ready.to_netcdf(self.path, mode="a", engine="netcdf4", format="NETCDF4",
+                        encoding=encoding)
 
     def close(self) -> None:
         if self.nc.isopen():
@@ -725,169 +712,73 @@ def simulate_to_file(
     dofs: Sequence[int] | None = None,
     window_steps: int = 200_000,
     progress: Callable[[float], None] | None = None,
+    progress_bar: bool = False,
 ) -> dict[str, Any]:
-    """Run ``model`` from 0 to ``t_end`` in time windows of about ``window_steps`` steps and
-    append each window to the NetCDF-4 file ``path`` (``.nc``/``.h5``) as it is computed, so
-    that memory holds one window, not the whole run. The file appears (atomically) when the
-    run is complete, or, marked incomplete (``complete = 0``) with the windows done, when a
-    solver failure or a signal stops it (the error is then raised with ``written = [path]``).
-    Returns the summary of :meth:`vibroimpact.Result.summary` for the whole run plus
-    ``windows`` and ``steps_computed``.
+    """Run ``model`` from 0 to ``t_end`` and write its time histories to the NetCDF-4 file
+    ``path`` (``.nc``/``.h5``) while it runs, so that memory holds a few blocks of rows, not
+    the whole run (``vibroimpact run --stream``): the core hands over the recorded rows every
+    ``window_steps // every`` rows (a bounded channel of two blocks: if writing falls behind,
+    the core waits) and each block is appended to a temporary file (unlimited ``time``
+    dimension). When the run ends, the impact table, the model and the attributes are added,
+    and the file is moved into place atomically: it then holds exactly what
+    :func:`save` writes for the same run held in memory. A solver failure or a signal
+    (``Ctrl-C``, SIGTERM: the run stops within 64 steps) leaves the rows up to then, marked
+    incomplete (``complete = 0``), and raises the error (:class:`~vibroimpact.SolverError` or
+    :class:`~vibroimpact.Interrupted`) with ``written = [path]`` (its ``partial`` result holds
+    the rows after the last block). A signal after the run has
+    finished lets the file be completed first, then raises :class:`KeyboardInterrupt`. The
+    impact table is kept in memory (one row per contact), as are the impulsive methods' rows.
 
-    The compiled core cannot yet be handed a contact state or a start time, so a window is
-    continued from an instant at which **every gap is open** (the recorded sample closest to
-    the window's end with all penetrations < 0), with the model's loads shifted in time; the
-    part of the window after that instant is computed again in the next one. For one-step
-    schemes whose state is ``(x, v)`` with the acceleration in equilibrium (Newmark) this is
-    the same trajectory as one long run up to Newton's tolerance; schemes with extra state
-    (generalized-α's auxiliary acceleration, precise integration's multi-step history) are
-    restarted at each cut. A window in which no sample has every gap open (a persistent
-    contact) cannot be continued: :class:`~vibroimpact.ModelError` says so; use a longer
-    ``window_steps``.
-
-    ``progress(fraction)`` is called after each window.
+    Returns the summary of :meth:`vibroimpact.Result.summary` plus ``windows`` (the blocks
+    written) and ``steps_computed``. ``progress(fraction)`` is called after each block;
+    ``progress_bar`` draws :class:`vibroimpact.simulate.ProgressBar` on a terminal.
     """
-    from vibroimpact.integrators import Newmark
-    from vibroimpact.result import IMPACT_COLUMNS
     from vibroimpact.simulate import simulate
 
     path = Path(path)
     if _suffix(path) not in NETCDF_SUFFIXES:
         raise ModelError(f"path: {str(path)!r} is not valid; streaming writes .nc or .h5")
-    if not (isinstance(window_steps, int) and window_steps >= 2):
+    if not (isinstance(window_steps, int) and not isinstance(window_steps, bool)
+            and window_steps >= 2):
         raise ModelError(f"window_steps: {window_steps!r} is not valid; expected an integer >= 2")
-    method = Newmark() if method is None else method
-    n = model.n_dof
-    keep = list(range(n)) if dofs is None else [int(d) for d in dofs]
-    bad = [d for d in keep if not 0 <= d < n]
-    if bad:
-        raise ModelError(f"output.dofs: {bad[0]} is out of range; expected 0 <= dof < {n}")
-    if not (isinstance(t_end, (int, float)) and isinstance(dt, (int, float))
-            and 0 < dt <= t_end and math.isfinite(t_end)):
-        raise ModelError(f"solver.dt: {dt!r} is not valid; expected 0 < dt <= t_end = {t_end!r}")
-    n_steps = math.ceil(t_end / dt - 1e-9)
-    h = t_end / n_steps
-    window = max(every, (window_steps // every) * every)
-    n_gaps = len(model.gaps)
-    x, v = np.array(model.initial_displacement, dtype=float), np.array(
-        model.initial_velocity, dtype=float)
-    done, windows, computed = 0, 0, 0
-    offsets = dict.fromkeys(("external_work", "damping_dissipated", "contact_dissipated"), 0.0)
-    impacts: dict[str, list[Any]] = {k: [] for k in IMPACT_COLUMNS}
-    peak = np.zeros(len(keep))
-    newton = rejected = cuts = 0
-    wall = balance_error = 0.0
-    last: Result | None = None
-    # a solver failure or a signal: the windows done (and the failed one's partial result)
-    # are written, marked incomplete (complete = 0), then the error is raised
+    if not (isinstance(every, int) and every >= 1):
+        raise ModelError(f"output.every: {every!r} is not valid; expected an integer >= 1")
+    netcdf_engine()
+    n_dofs = model.n_dof if dofs is None else len(dofs)
+    blocks = 0
     failure: SolverError | None = None
     tmp = _temp_path(path)
     stream: _NetcdfStream | None = None
-    with _deferred_interrupts() as interrupts:
+    nested = bool(_HELD)
+    with hold_signals() as held:
         try:
-            stream = _NetcdfStream(tmp, keep, n_gaps)
-            while done < n_steps:
-                if interrupts.signum is not None and last is not None:
-                    signum, interrupts.signum = interrupts.signum, None
-                    name = signal.Signals(signum).name
-                    failure = Interrupted(f"interrupted at t = {done * h:.9e} s; the results "
-                                          f"up to then are kept ({name})", signum=signum)
-                    break
-                interrupts.check()
-                t0 = done * h
-                steps = min(window, n_steps - done)
-                shifted = dataclasses.replace(
-                    model, loads=tuple(_shifted_load(ld, t0) for ld in model.loads),
-                    initial_displacement=x, initial_velocity=v,
-                )
-                try:
-                    r = simulate(shifted, t_end=steps * h, dt=h, method=method, every=every,
-                                 throw=True)
-                except Interrupted as e:  # SIGTERM (Ctrl-C is deferred to the window's end)
-                    if e.partial is None:
-                        raise
-                    r = e.partial
-                    failure = Interrupted(
-                        f"interrupted at t = {t0 + float(r.time[-1]):.9e} s; the results up "
-                        f"to then are kept ({signal.Signals(e.signum).name})", signum=e.signum)
-                except SolverError as e:
-                    if e.partial is None:
-                        raise
-                    r = e.partial
-                    failure = SolverError(
-                        f"{e} (in the window from t = {t0:.9e} s: times are from its start; "
-                        f"the run stopped at t = {t0 + float(r.time[-1]):.9e} s)")
-                windows += 1
-                computed += r.stats.steps
-                if failure is not None or done + steps >= n_steps:
-                    k = len(r.time) - 1
-                else:
-                    open_all = np.all(r.gap_penetration < 0.0, axis=1) if n_gaps else None
-                    candidates = (np.arange(1, len(r.time) - 1) if open_all is None
-                                  else np.flatnonzero(open_all[1:-1]) + 1)
-                    if len(candidates) == 0:
-                        raise ModelError(
-                            f"window_steps: {window_steps} is not valid for this run; a gap "
-                            f"stays closed from t = {t0:.6g} s to {t0 + steps * h:.6g} s and "
-                            "the core cannot be restarted inside a contact; expected a "
-                            "window longer than the contact")
-                    k = int(candidates[-1])
-                t_cut = float(r.time[k])
-                first = 0 if done == 0 else 1
-                sl = slice(first, k + 1)
-                cols = {
-                    "time": r.time[sl] + t0,
-                    "displacement": r.displacement[sl][:, keep],
-                    "velocity": r.velocity[sl][:, keep],
-                    "acceleration": r.acceleration[sl][:, keep],
-                    "penetration": r.gap_penetration[sl],
-                    "contact_force": r.gap_force[sl],
-                }
-                for term in ENERGY_TERMS:
-                    values = np.asarray(getattr(r.energy, term))[sl]
-                    cols[f"energy_{term}"] = values + offsets.get(term, 0.0)
-                stream.append(cols)
-                for term in offsets:
-                    offsets[term] += float(np.asarray(getattr(r.energy, term))[k])
-                rows = np.flatnonzero(r.impacts.t_start < t_cut) if len(r.impacts) else []
-                for name in IMPACT_COLUMNS:
-                    values = np.asarray(getattr(r.impacts, name))[rows]
-                    if name in ("t_start", "t_end"):
-                        values = values + t0
-                    impacts[name].extend(values.tolist())
-                peak = np.maximum(peak, np.asarray(r.max_abs_displacement)[keep])
-                newton += r.stats.newton_iterations
-                rejected += r.stats.rejected_steps
-                cuts += r.stats.step_cuts
-                wall += r.stats.wall_time_s
-                balance_error = max(balance_error, r.energy.balance_error)
-                x, v = r.displacement[k].copy(), r.velocity[k].copy()
-                done += round(t_cut / h)
-                last = r
-                if progress is not None:
-                    progress(done / n_steps)
-                if failure is not None:
-                    break
-            assert last is not None
-            summary_result = dataclasses.replace(last, model=model, method=method,
-                                                 t_end=float(t_end))
-            attrs, extra = run_metadata(summary_result)
-            attrs.update(
-                complete=int(failure is None),
-                message="completed" if failure is None else str(failure), dt=h,
-                t_end=float(t_end), method=repr(method),
-                steps=n_steps if failure is None else done, newton_iterations=newton,
-                energy_balance_error=balance_error, rejected_steps=rejected, step_cuts=cuts,
-                wall_time_s=wall, windows=windows, steps_computed=computed,
-            )
-            imp = {k: np.asarray(vals, dtype=np.int64 if k == "gap" else
-                                 (str if k == "side" else float))
-                   for k, vals in impacts.items()}
-            stream.finish(imp, attrs, extra)
-            interrupts.check()
+            stream = _NetcdfStream(tmp, n_dofs, len(model.gaps))
+
+            def on_rows(rows: dict[str, Any]) -> None:
+                nonlocal blocks
+                assert stream is not None
+                stream.append(rows)
+                blocks += 1
+                if progress is not None and len(rows["time"]):
+                    progress(min(float(rows["time"][-1]) / t_end, 1.0))
+
+            try:
+                result = simulate(model, t_end, dt, method, every=every, dofs=dofs,
+                                  progress=progress_bar, on_rows=on_rows,
+                                  chunk_rows=max(1, window_steps // every))
+            except SolverError as e:  # Interrupted too
+                if e.partial is None:
+                    raise
+                result, failure = e.partial, e
+            stream.finish(result)
+            blocks += 1
+            if progress is not None and failure is None:
+                progress(1.0)
             umask = os.umask(0)
             os.umask(umask)
             os.chmod(tmp, 0o666 & ~umask)
+            with open(tmp, "rb") as fh:
+                os.fsync(fh.fileno())
             os.replace(tmp, path)
         finally:
             if stream is not None:
@@ -896,16 +787,6 @@ def simulate_to_file(
     if failure is not None:
         failure.written = [path]
         raise failure
-    records = [
-        {k: (impacts[k][i] if k in ("gap", "side") else
-             (None if not math.isfinite(impacts[k][i]) else impacts[k][i]))
-         for k in IMPACT_COLUMNS}
-        for i in range(len(impacts["t_start"]))
-    ]
-    return {
-        "complete": True, "message": "completed", "dofs": keep,
-        "max_abs_displacement": [float(p) for p in peak], "impacts": records,
-        "steps": n_steps, "rejected_steps": rejected, "step_cuts": cuts,
-        "newton_iterations": newton, "wall_time_s": wall, "energy_balance_error": balance_error,
-        "dt": h, "t_end": float(t_end), "windows": windows, "steps_computed": computed,
-    }
+    if not nested:
+        held.check()
+    return {**result.summary(), "windows": blocks, "steps_computed": result.stats.steps}

@@ -1,5 +1,7 @@
 //! The time loop: steps of a fixed size with automatic step cutting, the impact table, the
-//! energy account and decimated output into preallocated buffers (DESIGN.md §5–6).
+//! energy account and decimated output into preallocated buffers (DESIGN.md §5–6). A
+//! [`Sink`] (`simulate_streamed`) takes the recorded rows in blocks while the run goes on
+//! (long runs stream to disk), follows its progress and receives its solver [`Event`]s.
 
 use std::time::Instant;
 
@@ -91,18 +93,56 @@ impl EnergyHistory {
 
     /// Largest balance error relative to the largest energy that entered the system.
     pub fn relative_balance_error(&self) -> f64 {
-        let e0 = self.kinetic[0] + self.strain[0] + self.contact_potential[0];
-        let scale = (0..self.kinetic.len())
-            .map(|k| {
-                (self.kinetic[k] + self.strain[k] + self.contact_potential[k])
-                    .max(e0 + self.external_work[k].abs())
-            })
-            .fold(0.0, f64::max);
-        let worst = self.balance().iter().fold(0.0f64, |m, e| m.max(e.abs()));
-        if scale > 0.0 {
-            worst / scale
+        let mut b = BalanceError::default();
+        b.add(self);
+        b.value()
+    }
+
+    fn with_capacity(n: usize) -> Self {
+        let e = || Vec::with_capacity(n);
+        Self {
+            kinetic: e(),
+            strain: e(),
+            contact_potential: e(),
+            external_work: e(),
+            damping_dissipated: e(),
+            contact_dissipated: e(),
+        }
+    }
+}
+
+/// [`EnergyHistory::relative_balance_error`] accumulated over consecutive blocks of rows
+/// (a streamed run's [`Rows`], then the rows left in its [`RunOutput`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct BalanceError {
+    /// Mechanical energy of the first row, J.
+    e0: Option<f64>,
+    /// Largest energy that entered the system, J.
+    scale: f64,
+    /// Largest |E + D − E₀ − W_ext|, J.
+    worst: f64,
+}
+
+impl BalanceError {
+    /// Takes the rows of `e` (the rows that follow those added before).
+    pub fn add(&mut self, e: &EnergyHistory) {
+        for k in 0..e.kinetic.len() {
+            let total = e.kinetic[k] + e.strain[k] + e.contact_potential[k];
+            let e0 = *self.e0.get_or_insert(total);
+            self.scale = self.scale.max(total.max(e0 + e.external_work[k].abs()));
+            let balance =
+                total + e.damping_dissipated[k] + e.contact_dissipated[k] - e0 - e.external_work[k];
+            self.worst = self.worst.max(balance.abs());
+        }
+    }
+
+    /// The largest balance error relative to the largest energy that entered the system
+    /// (absolute, J, if none did).
+    pub fn value(&self) -> f64 {
+        if self.scale > 0.0 {
+            self.worst / self.scale
         } else {
-            worst
+            self.worst
         }
     }
 }
@@ -137,6 +177,87 @@ pub trait StepObserver {
     fn accepted(&mut self, sys: &System, s0: &State, s1: &State, h: f64);
 }
 
+/// Consecutive recorded rows: the time-history columns of [`RunOutput`] for a block of
+/// recorded instants (row-major, time first).
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Rows {
+    pub time: Vec<f64>,
+    pub displacement: Vec<f64>,
+    pub velocity: Vec<f64>,
+    pub acceleration: Vec<f64>,
+    pub gap_penetration: Vec<f64>,
+    pub gap_force: Vec<f64>,
+    pub energy: EnergyHistory,
+}
+
+impl Rows {
+    fn with_capacity(n_rec: usize, n_dofs: usize, n_gaps: usize) -> Self {
+        let per = |k: usize| Vec::with_capacity(n_rec * k);
+        Self {
+            time: per(1),
+            displacement: per(n_dofs),
+            velocity: per(n_dofs),
+            acceleration: per(n_dofs),
+            gap_penetration: per(n_gaps),
+            gap_force: per(n_gaps),
+            energy: EnergyHistory::with_capacity(n_rec),
+        }
+    }
+}
+
+/// A solver event reported to a [`Sink`] that asks for them (`vibroimpact run --verbose`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Event {
+    /// Newton did not converge on the step of length `dt` from `t` (after `iterations`
+    /// iterations, worst at `gap` with that penetration, m); it is retried as two halves.
+    StepCut {
+        t: f64,
+        dt: f64,
+        gap: usize,
+        penetration: f64,
+        iterations: usize,
+    },
+    /// The wall on `side` (+1 / −1) of `gap` closed in the step that ended at `t`, with the
+    /// approach speed `speed`, m/s.
+    ContactStart {
+        t: f64,
+        gap: usize,
+        side: f64,
+        speed: f64,
+    },
+    /// It opened again in the step that ended at `t`, after `steps` accepted steps in contact
+    /// that took `iterations` Newton iterations; `speed` is the separation speed, m/s.
+    ContactEnd {
+        t: f64,
+        gap: usize,
+        side: f64,
+        speed: f64,
+        steps: usize,
+        iterations: usize,
+    },
+}
+
+/// Watches a run from inside the time loop (compliant methods; the impulsive methods only
+/// deliver their rows at the end): takes the recorded rows in blocks, so that they need not
+/// be held until the end, follows the simulated time and receives [`Event`]s. Every method
+/// has a default that does nothing; the calls cost nothing measurable (rows: once per block;
+/// progress: every [`interrupt::CHECK_EVERY`] steps; events: only if asked for).
+pub trait Sink {
+    /// Hand the rows over every this many recorded rows (`None`: keep them all).
+    fn chunk_rows(&self) -> Option<usize> {
+        None
+    }
+    /// A block of `chunk_rows()` rows, in order.
+    fn rows(&mut self, _rows: Rows) {}
+    /// Whether [`Event`]s are wanted.
+    fn wants_events(&self) -> bool {
+        false
+    }
+    fn event(&mut self, _event: Event) {}
+    /// The simulated time reached, s.
+    fn progress(&mut self, _t: f64) {}
+}
+
 /// Runs `sys` from `x0, v0` at `t = 0`. Invalid settings are refused before the run; a
 /// failure during the run is returned in `RunOutput::error` with the results up to then.
 pub fn simulate(
@@ -157,6 +278,34 @@ pub fn simulate_observed(
     x0: DVector<f64>,
     v0: DVector<f64>,
     observer: Option<&mut dyn StepObserver>,
+) -> Result<RunOutput, SimError> {
+    run_watched(sys, method, settings, x0, v0, observer, None)
+}
+
+/// [`simulate`], with `sink` taking the recorded rows in blocks of `sink.chunk_rows()` as they
+/// are recorded (the returned [`RunOutput`] then holds only the rows recorded after the last
+/// block, at least the last one; the impact table, the peaks and the statistics are whole), following the simulated
+/// time and receiving the solver events. [`BalanceError`] gives the energy balance error over
+/// all the blocks. The impulsive methods hand everything over at the end.
+pub fn simulate_streamed(
+    sys: &System,
+    method: Method,
+    settings: &RunSettings,
+    x0: DVector<f64>,
+    v0: DVector<f64>,
+    sink: &mut dyn Sink,
+) -> Result<RunOutput, SimError> {
+    run_watched(sys, method, settings, x0, v0, None, Some(sink))
+}
+
+fn run_watched<'o>(
+    sys: &System,
+    method: Method,
+    settings: &RunSettings,
+    x0: DVector<f64>,
+    v0: DVector<f64>,
+    observer: Option<&'o mut dyn StepObserver>,
+    sink: Option<&'o mut dyn Sink>,
 ) -> Result<RunOutput, SimError> {
     let started = Instant::now();
     let RunSettings {
@@ -231,6 +380,9 @@ pub fn simulate_observed(
     };
     let mut run = Run::new(sys, x0, v0, record_dofs.clone(), n_rec)?;
     run.observer = observer;
+    if let Some(sink) = sink {
+        run.watch(sink);
+    }
     let stepper: Result<Box<dyn Stepper>, SimError> = (|| -> Result<Box<dyn Stepper>, SimError> {
         Ok(match method {
             Method::NewmarkFamily(scheme) => {
@@ -288,21 +440,25 @@ pub fn simulate_observed(
             error.or_else(|| run.check_energy(sys).err())
         }
     };
-    if error.is_some() && run.out.time.last() != Some(&run.cur.t) {
+    if error.is_some() && run.out.last_time != run.cur.t {
         run.out.record(sys, &run.cur, &run.account);
+    }
+    if let Some(sink) = run.out.sink.as_deref_mut() {
+        sink.progress(run.cur.t);
     }
     run.stats.wall_time_s = started.elapsed().as_secs_f64();
     let out = run.out;
+    let rows = out.rows;
     Ok(RunOutput {
-        time: out.time,
+        time: rows.time,
         record_dofs: record_dofs.clone(),
         max_abs_displacement: out.max_abs,
-        displacement: out.x,
-        velocity: out.v,
-        acceleration: out.a,
-        gap_penetration: out.penetration,
-        gap_force: out.force,
-        energy: out.energy,
+        displacement: rows.displacement,
+        velocity: rows.velocity,
+        acceleration: rows.acceleration,
+        gap_penetration: rows.gap_penetration,
+        gap_force: rows.gap_force,
+        energy: rows.energy,
         impacts: run.log.records,
         stats: run.stats,
         dt: h0,
@@ -315,7 +471,7 @@ pub(crate) struct Run<'o> {
     pub cur: State,
     pub trial: State,
     pub log: ImpactLog,
-    pub out: Recorder,
+    pub out: Recorder<'o>,
     pub account: Account,
     pub stats: Stats,
     pub observer: Option<&'o mut dyn StepObserver>,
@@ -325,9 +481,12 @@ pub(crate) struct Run<'o> {
     e0: f64,
     /// Largest energy that entered the system up to the last check, J.
     energy_in: f64,
+    /// Per wall while it is closed: accepted steps and Newton iterations (for
+    /// [`Event::ContactEnd`]; only when the sink wants events).
+    contact: Option<Vec<(usize, usize)>>,
 }
 
-impl Run<'_> {
+impl<'o> Run<'o> {
     pub(crate) fn new(
         sys: &System,
         x0: DVector<f64>,
@@ -353,7 +512,58 @@ impl Run<'_> {
             account,
             stats: Stats::default(),
             observer: None,
+            contact: None,
         })
+    }
+
+    /// Hands the rows recorded from now on, the progress and the events to `sink`.
+    pub(crate) fn watch(&mut self, sink: &'o mut dyn Sink) {
+        if sink.wants_events() {
+            self.contact = Some(vec![(0, 0); self.cur.walls.len()]);
+        }
+        self.out.chunk = sink.chunk_rows().map(|n| n.max(1));
+        self.out.sink = Some(sink);
+    }
+
+    /// Reports the walls that close or open in the accepted step from `cur` to `trial`.
+    fn contact_events(&mut self, sys: &System, iterations: usize) {
+        let (Some(contact), Some(sink)) = (self.contact.as_mut(), self.out.sink.as_deref_mut())
+        else {
+            return;
+        };
+        let t = self.trial.t;
+        for (((wall, w0), w1), c) in sys
+            .walls
+            .iter()
+            .zip(&self.cur.walls)
+            .zip(&self.trial.walls)
+            .zip(contact.iter_mut())
+        {
+            match (w0.closed(), w1.closed()) {
+                (false, true) => {
+                    *c = (1, iterations);
+                    sink.event(Event::ContactStart {
+                        t,
+                        gap: wall.gap,
+                        side: wall.sign,
+                        speed: w1.impact_speed,
+                    });
+                }
+                (true, true) => *c = (c.0 + 1, c.1 + iterations),
+                (true, false) => {
+                    sink.event(Event::ContactEnd {
+                        t,
+                        gap: wall.gap,
+                        side: wall.sign,
+                        speed: -w1.rate,
+                        steps: c.0 + 1,
+                        iterations: c.1 + iterations,
+                    });
+                    *c = (0, 0);
+                }
+                (false, false) => {}
+            }
+        }
     }
 
     /// Makes the trial state of a successful attempt of length `h` the current one: energy
@@ -380,6 +590,7 @@ impl Run<'_> {
         }
         self.log
             .commit(&sys.walls, &self.cur.walls, &trial.walls, self.cur.t, h);
+        self.contact_events(sys, iterations);
         if let Some(observer) = self.observer.as_deref_mut() {
             observer.accepted(sys, &self.cur, &self.trial, h);
         }
@@ -388,6 +599,9 @@ impl Run<'_> {
         self.since_check += 1;
         if self.since_check >= interrupt::CHECK_EVERY {
             self.since_check = 0;
+            if let Some(sink) = self.out.sink.as_deref_mut() {
+                sink.progress(self.cur.t);
+            }
             if interrupt::requested() {
                 return Err(SimError::Interrupted { t: self.cur.t });
             }
@@ -441,6 +655,17 @@ impl Run<'_> {
                         self.stats.newton_iterations += failure.iterations;
                         if level < max_cuts {
                             self.stats.step_cuts += 1;
+                            if let (Some(sink), Some(_)) =
+                                (self.out.sink.as_deref_mut(), &self.contact)
+                            {
+                                sink.event(Event::StepCut {
+                                    t: self.cur.t,
+                                    dt: h,
+                                    gap: failure.gap,
+                                    penetration: failure.penetration,
+                                    iterations: failure.iterations,
+                                });
+                            }
                             pending.push(level + 1);
                             pending.push(level + 1);
                         } else {
@@ -511,54 +736,48 @@ fn busiest_gap(sys: &System, s: &State) -> Option<usize> {
         .map(|(wall, _)| wall.gap)
 }
 
-/// Decimated output buffers.
-pub(crate) struct Recorder {
+/// Decimated output buffers, handed to the sink (if any) every `chunk` rows.
+pub(crate) struct Recorder<'o> {
     dofs: Vec<usize>,
-    time: Vec<f64>,
-    x: Vec<f64>,
-    v: Vec<f64>,
-    a: Vec<f64>,
-    penetration: Vec<f64>,
-    force: Vec<f64>,
-    energy: EnergyHistory,
+    rows: Rows,
     max_abs: Vec<f64>,
+    /// Time of the last recorded row (NaN before the first), s.
+    last_time: f64,
+    chunk: Option<usize>,
+    sink: Option<&'o mut dyn Sink>,
 }
 
-impl Recorder {
+impl Recorder<'_> {
     fn new(sys: &System, dofs: Vec<usize>, n_rec: usize) -> Self {
-        let nd = dofs.len();
-        let ng = sys.gaps.len();
-        let max_abs = vec![0.0; nd];
-        let e = || Vec::with_capacity(n_rec);
         Self {
+            rows: Rows::with_capacity(n_rec, dofs.len(), sys.gaps.len()),
+            max_abs: vec![0.0; dofs.len()],
             dofs,
-            time: e(),
-            x: Vec::with_capacity(n_rec * nd),
-            v: Vec::with_capacity(n_rec * nd),
-            a: Vec::with_capacity(n_rec * nd),
-            penetration: Vec::with_capacity(n_rec * ng),
-            force: Vec::with_capacity(n_rec * ng),
-            energy: EnergyHistory {
-                kinetic: e(),
-                strain: e(),
-                contact_potential: e(),
-                external_work: e(),
-                damping_dissipated: e(),
-                contact_dissipated: e(),
-            },
-            max_abs,
+            last_time: f64::NAN,
+            chunk: None,
+            sink: None,
         }
     }
 
     pub fn record(&mut self, sys: &System, s: &State, account: &Account) {
-        self.time.push(s.t);
+        // a full block goes before the next row is added, so the last row always stays for
+        // the RunOutput
+        if let (Some(n), Some(sink)) = (self.chunk, self.sink.as_deref_mut()) {
+            if self.rows.time.len() >= n {
+                let fresh = Rows::with_capacity(n, self.dofs.len(), sys.gaps.len());
+                sink.rows(std::mem::replace(&mut self.rows, fresh));
+            }
+        }
+        let rows = &mut self.rows;
+        rows.time.push(s.t);
+        self.last_time = s.t;
         for (m, &d) in self.max_abs.iter_mut().zip(&self.dofs) {
             *m = m.max(s.x[d].abs());
         }
         for &d in &self.dofs {
-            self.x.push(s.x[d]);
-            self.v.push(s.v[d]);
-            self.a.push(s.a[d]);
+            rows.displacement.push(s.x[d]);
+            rows.velocity.push(s.v[d]);
+            rows.acceleration.push(s.a[d]);
         }
         // Walls of one gap are adjacent: one column per gap (deepest wall, summed force).
         let mut potential = 0.0;
@@ -571,17 +790,219 @@ impl Recorder {
                 force += other.force;
                 potential += other.potential;
             }
-            self.penetration.push(pen);
-            self.force.push(force);
+            rows.gap_penetration.push(pen);
+            rows.gap_force.push(force);
         }
         let kinetic = sys.sparse.mass.quadratic_form(&s.v);
         let strain = sys.sparse.stiffness.quadratic_form(&s.x);
-        let e = &mut self.energy;
+        let e = &mut rows.energy;
         e.kinetic.push(kinetic);
         e.strain.push(strain);
         e.contact_potential.push(potential);
         e.external_work.push(account.external_work);
         e.damping_dissipated.push(account.damping_dissipated);
         e.contact_dissipated.push(account.contact_dissipated);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{DMatrix, DVector};
+
+    use super::*;
+    use crate::contact::{LankaraniNikravesh, Law};
+    use crate::gap::{Gap, Side};
+    use crate::structure::LinearStructure;
+
+    /// The paper's SDOF case: 1 kg on 4 kN/m, 3 mm clearances both sides, 8 m/s at t = 0.
+    fn sdof() -> System {
+        let s = LinearStructure::new(
+            DMatrix::from_element(1, 1, 1.0),
+            DMatrix::from_element(1, 1, 0.0),
+            DMatrix::from_element(1, 1, 4.0e3),
+        )
+        .unwrap();
+        let law = Law::LankaraniNikravesh(LankaraniNikravesh::new(1.5e11, 1.5, 0.5).unwrap());
+        let gap = Gap {
+            dofs: vec![0],
+            coefficients: vec![1.0],
+            clearance: 0.003,
+            side: Side::Both,
+            law,
+        };
+        System::new(s, vec![gap], vec![]).unwrap()
+    }
+
+    #[derive(Default)]
+    struct Collect {
+        chunk: Option<usize>,
+        events: bool,
+        blocks: Vec<Rows>,
+        seen: Vec<Event>,
+        progress: Vec<f64>,
+    }
+
+    impl Sink for Collect {
+        fn chunk_rows(&self) -> Option<usize> {
+            self.chunk
+        }
+        fn rows(&mut self, rows: Rows) {
+            self.blocks.push(rows);
+        }
+        fn wants_events(&self) -> bool {
+            self.events
+        }
+        fn event(&mut self, event: Event) {
+            self.seen.push(event);
+        }
+        fn progress(&mut self, t: f64) {
+            self.progress.push(t);
+        }
+    }
+
+    fn settings(dt: f64, adaptive: Option<Adaptive>, max_iterations: usize) -> RunSettings {
+        RunSettings {
+            t_end: 0.02,
+            dt,
+            every: 3,
+            record_dofs: vec![0],
+            newton: NewtonSettings {
+                max_iterations,
+                ..NewtonSettings::default()
+            },
+            adaptive,
+        }
+    }
+
+    #[test]
+    fn streamed_blocks_are_the_whole_run() {
+        let sys = sdof();
+        let method = Method::NewmarkFamily(NewmarkFamily::average_acceleration());
+        let adaptive = Adaptive {
+            rtol: 1e-4,
+            atol: 1e-9,
+            dt_min: 1e-9,
+            dt_max: 1e-4,
+        };
+        // 6668 rows at fixed steps: blocks of 40 and 28 left; blocks of 1667, a divisor: the
+        // last block stays in the output (it is handed over only when a next row comes)
+        let fixed = settings(1e-6, None, 25);
+        for (s, chunk) in [
+            (fixed.clone(), 40),
+            (fixed, 1667),
+            (settings(1e-6, Some(adaptive), 25), 40),
+        ] {
+            let (x0, v0) = (DVector::zeros(1), DVector::from_element(1, 8.0));
+            let whole = simulate(&sys, method, &s, x0.clone(), v0.clone()).unwrap();
+            let mut sink = Collect {
+                chunk: Some(chunk),
+                ..Collect::default()
+            };
+            let rest = simulate_streamed(&sys, method, &s, x0, v0, &mut sink).unwrap();
+            assert!(
+                sink.blocks.len() >= 3 && (1..=chunk).contains(&rest.time.len()),
+                "{} blocks, {} rows left, {} rows",
+                sink.blocks.len(),
+                rest.time.len(),
+                whole.time.len()
+            );
+            let mut all = sink.blocks.clone();
+            all.push(Rows {
+                time: rest.time.clone(),
+                displacement: rest.displacement.clone(),
+                velocity: rest.velocity.clone(),
+                acceleration: rest.acceleration.clone(),
+                gap_penetration: rest.gap_penetration.clone(),
+                gap_force: rest.gap_force.clone(),
+                energy: rest.energy.clone(),
+            });
+            let cat = |f: &dyn Fn(&Rows) -> &Vec<f64>| -> Vec<f64> {
+                all.iter().flat_map(|r| f(r).iter().copied()).collect()
+            };
+            assert!(all[..all.len() - 1].iter().all(|r| r.time.len() == chunk));
+            if chunk == 1667 {
+                assert_eq!((whole.time.len(), rest.time.len()), (6668, 1667));
+            }
+            assert_eq!(cat(&|r| &r.time), whole.time);
+            assert_eq!(cat(&|r| &r.displacement), whole.displacement);
+            assert_eq!(cat(&|r| &r.acceleration), whole.acceleration);
+            assert_eq!(cat(&|r| &r.gap_force), whole.gap_force);
+            assert_eq!(
+                cat(&|r| &r.energy.external_work),
+                whole.energy.external_work
+            );
+            let mut balance = BalanceError::default();
+            for r in &all {
+                balance.add(&r.energy);
+            }
+            assert_eq!(balance.value(), whole.energy.relative_balance_error());
+            assert_eq!(rest.impacts, whole.impacts);
+            assert_eq!(rest.max_abs_displacement, whole.max_abs_displacement);
+            // progress: increasing, every 64 steps, ending at t_end
+            assert!(sink.progress.windows(2).all(|w| w[0] <= w[1]));
+            assert!(sink.progress.len() >= whole.stats.steps / interrupt::CHECK_EVERY);
+            assert!((sink.progress.last().unwrap() - 0.02).abs() < 1e-12);
+            assert!(sink.seen.is_empty(), "events were not asked for");
+        }
+    }
+
+    #[test]
+    fn events_name_the_step_cuts_and_each_contact() {
+        let sys = sdof();
+        let method = Method::NewmarkFamily(NewmarkFamily::average_acceleration());
+        // three Newton iterations are too few for some contact steps of 20 µs: cuts
+        let s = settings(2e-5, None, 3);
+        let mut sink = Collect {
+            events: true,
+            ..Collect::default()
+        };
+        let (x0, v0) = (DVector::zeros(1), DVector::from_element(1, 8.0));
+        let out = simulate_streamed(&sys, method, &s, x0, v0, &mut sink).unwrap();
+        assert!(out.error.is_none() && out.stats.step_cuts > 0);
+        let cuts: Vec<_> = sink
+            .seen
+            .iter()
+            .filter_map(|e| match *e {
+                Event::StepCut {
+                    t, gap, iterations, ..
+                } => Some((t, gap, iterations)),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(cuts.len(), out.stats.step_cuts);
+        assert!(cuts.iter().all(|&(_, gap, it)| gap == 0 && it == 3));
+        let starts: Vec<_> = sink
+            .seen
+            .iter()
+            .filter_map(|e| match *e {
+                Event::ContactStart { t, speed, side, .. } => Some((t, speed, side)),
+                _ => None,
+            })
+            .collect();
+        let ends: Vec<_> = sink
+            .seen
+            .iter()
+            .filter_map(|e| match *e {
+                Event::ContactEnd {
+                    t,
+                    steps,
+                    iterations,
+                    ..
+                } => Some((t, steps, iterations)),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(starts.len(), out.impacts.len());
+        assert!(out.impacts.len() >= 4);
+        for (start, record) in starts.iter().zip(&out.impacts) {
+            // the event comes with the step that closed the gap: within one step of the
+            // interpolated closing instant, with the impact table's approach speed
+            assert!(start.0 >= record.t_start && start.0 - record.t_start <= 2e-5 + 1e-12);
+            assert!((start.1 - record.v_in).abs() <= 1e-9 * record.v_in && start.2 == record.side);
+        }
+        for (end, record) in ends.iter().zip(&out.impacts) {
+            assert!(end.0 >= record.t_end && end.0 - record.t_end <= 2e-5 + 1e-12);
+            assert!(end.1 >= 2 && end.2 >= end.1, "{end:?}");
+        }
     }
 }

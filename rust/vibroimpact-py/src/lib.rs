@@ -2,6 +2,7 @@
 //! Python package into core types, runs with the GIL released, and returns numpy arrays.
 
 mod convert;
+mod running;
 mod sweep;
 
 #[global_allocator]
@@ -16,7 +17,7 @@ use pyo3::types::PyDict;
 
 use vibroimpact_core::contact::{ContactGeometry, ContactLaw, Material};
 use vibroimpact_core::integrators;
-use vibroimpact_core::simulate::{simulate as run, RunOutput};
+use vibroimpact_core::simulate::{Rows, RunOutput};
 use vibroimpact_core::structure::LinearStructure;
 use vibroimpact_core::SimError;
 
@@ -38,74 +39,6 @@ pub(crate) fn to_py_err(e: SimError) -> PyErr {
         SimError::InvalidModel(msg) => ModelError::new_err(msg),
         other => SolverError::new_err(other.to_string()),
     }
-}
-
-/// Steps × DOFs² × gaps below which a run is short enough to go without a worker thread.
-const INLINE_WORK: f64 = 1e5;
-
-/// Runs one model spec (a dict built by `vibroimpact._spec`) and returns a dict of arrays.
-///
-/// The run goes on a worker thread while this one, with the GIL released, waits for it and
-/// every 50 ms lets Python run its signal handlers (`check_signals`): a `KeyboardInterrupt`
-/// (Ctrl-C) or a handler calling `request_interrupt` (SIGTERM, set up by `vibroimpact.simulate`)
-/// makes the core stop at its next poll and return the results up to then. The dict's
-/// `keyboard_interrupt` is then True (the exception itself is consumed).
-///
-/// A short run (under [`INLINE_WORK`], about 10 ms) skips the thread (its ~50 µs would be most
-/// of the cost): it runs on this thread, and a Ctrl-C during it is noted when it returns.
-#[pyfunction]
-fn simulate<'py>(py: Python<'py>, spec: &Bound<'py, PyDict>) -> PyResult<Bound<'py, PyDict>> {
-    let job = convert::job_from_spec(spec)?;
-    let steps = if job.settings.adaptive.is_some() {
-        f64::INFINITY
-    } else {
-        job.settings.t_end / job.settings.dt
-    };
-    let n = job.system.n_dof() as f64;
-    let work = steps * n.max(1.0).powi(2) * (job.system.gaps.len().max(1) as f64);
-    if work <= INLINE_WORK {
-        let out = py.detach(|| run(&job.system, job.method, &job.settings, job.x0, job.v0));
-        let keyboard_interrupt = py.check_signals().is_err();
-        let d = output_to_dict(py, out.map_err(to_py_err)?)?;
-        d.set_item("keyboard_interrupt", keyboard_interrupt)?;
-        return Ok(d);
-    }
-    let (out, keyboard_interrupt) = py.detach(|| {
-        let (tx, rx) = std::sync::mpsc::channel();
-        let convert::Job {
-            system,
-            method,
-            settings,
-            x0,
-            v0,
-        } = job;
-        let system = &system;
-        let settings = &settings;
-        std::thread::scope(|scope| {
-            scope.spawn(move || {
-                // the receiver outlives the scope's threads
-                let _ = tx.send(run(system, method, settings, x0, v0));
-            });
-            let mut keyboard_interrupt = false;
-            loop {
-                match rx.recv_timeout(std::time::Duration::from_millis(50)) {
-                    Ok(out) => return (out, keyboard_interrupt),
-                    Err(std::sync::mpsc::RecvTimeoutError::Timeout) => {
-                        if Python::attach(|py| py.check_signals()).is_err() {
-                            keyboard_interrupt = true;
-                            vibroimpact_core::interrupt::request();
-                        }
-                    }
-                    Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => {
-                        panic!("the simulation thread ended without a result")
-                    }
-                }
-            }
-        })
-    });
-    let d = output_to_dict(py, out.map_err(to_py_err)?)?;
-    d.set_item("keyboard_interrupt", keyboard_interrupt)?;
-    Ok(d)
 }
 
 /// Asks the runs in progress (`simulate`, `sweep`) to stop at their next poll (every ~1000
@@ -375,30 +308,25 @@ fn precise_matrices<'py>(
     Ok(out)
 }
 
-fn output_to_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>> {
-    let d = PyDict::new(py);
-    let nt = out.time.len();
-    let nd = out.record_dofs.len();
-    let ng = out.gap_penetration.len().checked_div(nt).unwrap_or(0);
+/// The time-history columns of `rows` (`n_dofs` recorded DOFs, `n_gaps` gaps) into `d`.
+pub(crate) fn rows_to_dict(
+    d: &Bound<'_, PyDict>,
+    rows: Rows,
+    n_dofs: usize,
+    n_gaps: usize,
+) -> PyResult<()> {
+    let py = d.py();
+    let nt = rows.time.len();
     let mat = |v: Vec<f64>, cols: usize| -> PyResult<Bound<'_, PyArray2<f64>>> {
         PyArray1::from_vec(py, v).reshape([nt, cols])
     };
-    d.set_item("time", PyArray1::from_vec(py, out.time))?;
-    d.set_item(
-        "dofs",
-        PyArray1::from_vec(py, out.record_dofs.iter().map(|&x| x as i64).collect()),
-    )?;
-    d.set_item("displacement", mat(out.displacement, nd)?)?;
-    d.set_item("velocity", mat(out.velocity, nd)?)?;
-    d.set_item("acceleration", mat(out.acceleration, nd)?)?;
-    d.set_item("gap_penetration", mat(out.gap_penetration, ng)?)?;
-    d.set_item("gap_force", mat(out.gap_force, ng)?)?;
-    d.set_item(
-        "max_abs_displacement",
-        PyArray1::from_vec(py, out.max_abs_displacement),
-    )?;
-    let balance = out.energy.relative_balance_error();
-    let e = out.energy;
+    d.set_item("time", PyArray1::from_vec(py, rows.time))?;
+    d.set_item("displacement", mat(rows.displacement, n_dofs)?)?;
+    d.set_item("velocity", mat(rows.velocity, n_dofs)?)?;
+    d.set_item("acceleration", mat(rows.acceleration, n_dofs)?)?;
+    d.set_item("gap_penetration", mat(rows.gap_penetration, n_gaps)?)?;
+    d.set_item("gap_force", mat(rows.gap_force, n_gaps)?)?;
+    let e = rows.energy;
     let energy = PyDict::new(py);
     energy.set_item("kinetic", PyArray1::from_vec(py, e.kinetic))?;
     energy.set_item("strain", PyArray1::from_vec(py, e.strain))?;
@@ -415,7 +343,29 @@ fn output_to_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>>
         "contact_dissipated",
         PyArray1::from_vec(py, e.contact_dissipated),
     )?;
-    d.set_item("energy", energy)?;
+    d.set_item("energy", energy)
+}
+
+/// A finished run as the dict `vibroimpact.Result.from_core` reads: `rows` are its time
+/// histories (those not handed out in blocks) with `n_gaps` gap columns, `balance` the energy balance error of the
+/// whole run.
+pub(crate) fn output_to_dict<'py>(
+    py: Python<'py>,
+    out: RunOutput,
+    rows: Rows,
+    n_gaps: usize,
+    balance: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    rows_to_dict(&d, rows, out.record_dofs.len(), n_gaps)?;
+    d.set_item(
+        "dofs",
+        PyArray1::from_vec(py, out.record_dofs.iter().map(|&x| x as i64).collect()),
+    )?;
+    d.set_item(
+        "max_abs_displacement",
+        PyArray1::from_vec(py, out.max_abs_displacement),
+    )?;
     let imp = PyDict::new(py);
     let col = |f: &dyn Fn(&vibroimpact_core::gap::ImpactRecord) -> f64| {
         PyArray1::from_vec(py, out.impacts.iter().map(f).collect())
@@ -469,7 +419,8 @@ fn output_to_dict(py: Python<'_>, out: RunOutput) -> PyResult<Bound<'_, PyDict>>
 
 #[pymodule]
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(running::start, m)?)?;
+    m.add_class::<running::Running>()?;
     m.add_function(wrap_pyfunction!(expm, m)?)?;
     m.add_function(wrap_pyfunction!(request_interrupt, m)?)?;
     m.add_function(wrap_pyfunction!(clear_interrupt, m)?)?;

@@ -1,0 +1,143 @@
+"""Issue 7, item 4: the progress bar of a run longer than a second (not with ``--quiet`` or
+when stderr is not a terminal) and ``--verbose`` logging of the solver's events as they
+happen (step cuts, contacts with their Newton iterations)."""
+
+from __future__ import annotations
+
+import importlib
+import io
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+import vibroimpact as vi
+from vibroimpact import cases
+from vibroimpact.cli import main as cli_main
+from vibroimpact.simulate import ProgressBar
+
+# the module (``vibroimpact.simulate`` is also the function the package exports)
+simulate_module = importlib.import_module("vibroimpact.simulate")
+PAPER = Path(__file__).parents[1] / "examples" / "models" / "sdof_paper_ln.toml"
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+class _Clock:
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def __call__(self) -> float:
+        return self.now
+
+
+def test_the_bar_appears_after_the_delay_and_is_throttled() -> None:
+    term, clock = _Terminal(), _Clock()
+    bar = ProgressBar(0.02, stream=term, clock=clock)
+    clock.now = 0.9
+    bar.update(0.005)
+    assert term.getvalue() == ""  # a run shorter than a second shows nothing
+    clock.now = 1.2
+    bar.update(0.01)
+    assert term.getvalue() == ("\r[###############...............]  50.0 %  t = 1.000e-02 of "
+                               "2.000e-02 s  1.2 s")
+    clock.now = 1.25
+    bar.update(0.015)  # within 0.1 s of the last drawing
+    assert term.getvalue().count("\r") == 1
+    bar.update(0.02, final=True)  # the end is always drawn
+    bar.close()
+    last = term.getvalue().split("\r")[-1]
+    assert last.startswith("[" + "#" * 30 + "] 100.0 %") and last.endswith("\n")
+
+
+def test_no_bar_on_a_stream_that_is_not_a_terminal() -> None:
+    plain, clock = io.StringIO(), _Clock()
+    bar = ProgressBar(1.0, stream=plain, clock=clock)
+    clock.now = 5.0
+    bar.update(0.5, final=True)
+    bar.close()
+    assert plain.getvalue() == "" and not bar.enabled
+
+
+def test_the_cli_draws_the_bar_on_a_terminal_unless_quiet(
+        monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]) -> None:
+    monkeypatch.setattr(simulate_module, "PROGRESS_DELAY_S", 0.0)  # every run is "long"
+    # stderr not a terminal (pytest captures it): no bar
+    assert cli_main(["run", str(PAPER)]) == 0
+    assert "%" not in capsys.readouterr().err
+    term = _Terminal()
+    monkeypatch.setattr("sys.stderr", term)
+    assert cli_main(["run", str(PAPER), "--quiet"]) == 0
+    assert term.getvalue() == ""
+    assert cli_main(["run", str(PAPER)]) == 0
+    drawn = term.getvalue()
+    assert drawn.startswith("\r[") and drawn.endswith("] 100.0 %  t = 2.000e-02 of "
+                                                      f"2.000e-02 s  {drawn[-6:-3]} s\n")
+
+
+def _step_cut_model(tmp_path: Path) -> Path:
+    """The paper's SDOF case at dt = 50 µs with 3 Newton iterations: some contact steps are
+    cut (tests/test_robustness.py shows the cut run matches a fine one)."""
+    text = PAPER.read_text().replace("dt = 1e-6 ", "dt = 5e-5 ")
+    text = text.replace('method = "newmark"', 'method = "newmark"\nmax_iterations = 3')
+    path = tmp_path / "cuts.toml"
+    path.write_text(text)
+    return path
+
+
+def test_verbose_logs_step_cuts_and_contacts_with_time_and_gap(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    model = _step_cut_model(tmp_path)
+    assert cli_main(["run", str(model), "--verbose", "--json"]) == 0
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)
+    log = captured.err.splitlines()
+    number = r"([-+0-9.e]+)"
+    cuts = [re.fullmatch(rf"vibroimpact: solver: t = {number} s: step cut: Newton did not "
+                         rf"converge in 3 iterations \(gap 0, penetration {number} m\) on a "
+                         rf"step of 5\.000e-05 s; retrying as two of 2\.500e-05 s", line)
+            for line in log if "step cut:" in line]
+    assert summary["step_cuts"] > 0 and len(cuts) == summary["step_cuts"]
+    assert all(m is not None and float(m[2]) > 0 for m in cuts)
+    closed = [re.fullmatch(rf"vibroimpact: solver: t = {number} s: gap 0 closed \((positive|"
+                           rf"negative) wall\), approach speed {number} m/s", line)
+              for line in log if " closed (" in line]
+    opened = [re.fullmatch(rf"vibroimpact: solver: t = {number} s: gap 0 opened \((positive|"
+                           rf"negative) wall\), separation speed {number} m/s, after (\d+) "
+                           rf"steps in contact and (\d+) Newton iterations \([0-9.]+ per step\)",
+                           line)
+              for line in log if " opened (" in line]
+    impacts = summary["impacts"]
+    assert len(closed) == len(opened) == len(impacts) == 9
+    assert all(m is not None for m in closed + opened)
+    for start, end, row in zip(closed, opened, impacts, strict=True):
+        # logged with the step that closed (opened) the gap: within one step of the located
+        # instant of the impact table, with its speeds and wall
+        assert 0 <= float(start[1]) - row["t_start"] <= 5e-5 * (1 + 1e-9)
+        assert 0 <= float(end[1]) - row["t_end"] <= 5e-5 * (1 + 1e-9)
+        assert start[2] == end[2] == row["side"]
+        assert float(start[3]) == pytest.approx(row["v_in"], rel=1e-3)
+        # the speed at the end of the opening step (the table's is at the located instant)
+        assert float(end[3]) == pytest.approx(row["v_out"], rel=1e-2)
+        assert int(end[5]) >= int(end[4]) >= 2
+    # the post-run summary lines are still there
+    assert sum(line.startswith("vibroimpact: contact: gap 0") for line in log) == 9
+
+
+def test_without_verbose_no_events_are_collected(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli_main(["run", str(PAPER)]) == 0
+    assert "solver: t =" not in capsys.readouterr().err
+
+
+def test_api_progress_flag_and_events_logger(caplog: pytest.LogCaptureFixture) -> None:
+    model = cases.sdof_model("lankarani-nikravesh")
+    with caplog.at_level("INFO", logger="vibroimpact.solver"):
+        r = vi.simulate(model, t_end=0.02, dt=1e-6, progress=True)
+    closing = [rec for rec in caplog.records if " closed (" in rec.getMessage()]
+    assert len(closing) == len(r.impacts) == 9
+    times = np.array([rec.args[0] for rec in closing])
+    assert np.all((times >= r.impacts.t_start) & (times - r.impacts.t_start <= 1e-6 * 1.001))
