@@ -13,7 +13,7 @@ use nalgebra::DMatrix;
 use super::newton::{GapNewton, GapProblem, NewtonSettings, RateMap};
 use super::{StepFailure, Stepper, ANY_LEVEL};
 use crate::error::{invalid, SimError};
-use crate::linalg::{axpy, inverse_permutation, BandedCholesky, StackedRows};
+use crate::linalg::{axpy, inverse_permutation, BandedCholesky, DenseMatVec, StackedRows};
 use crate::system::{State, System};
 
 /// Parameters of a Newmark-family scheme.
@@ -92,14 +92,14 @@ struct StepOperator {
     w: Vec<f64>,
 }
 
-/// How the linear predictor `Δx_lin` is formed.
+/// How the linear predictor `Δx_lin` is formed, from Newmark's predictors (see
+/// [`BandedRhs`]): `Δx_lin = d̃ + K̃⁻¹ (F₁ + c_f F₀ − R)`.
 enum Predictor {
-    /// Small or dense models: `Pₓ`, `P_v`, `P_a` (row-major n×n) and the load shapes
-    /// `L_l = K̃⁻¹ b_l`: three dense mat-vecs, no solve.
+    /// Small or dense models: `K̃⁻¹` applied once per step size to the operators of `R`
+    /// (`K`, and `C`, `M` where the scheme needs them; row-major n×n) and to the load
+    /// vectors (`L_l = K̃⁻¹ b_l`): one to three dense mat-vecs, no solve.
     Dense {
-        p_x: Vec<f64>,
-        p_v: Vec<f64>,
-        p_a: Vec<f64>,
+        operators: Vec<Vec<f64>>,
         loads: Vec<Vec<f64>>,
     },
     /// Large sparse models (beams, imported FE matrices): the right-hand side `R` from
@@ -113,7 +113,7 @@ enum Predictor {
     },
 }
 
-/// The banded predictor's right-hand side in terms of Newmark's predictors (Hughes 1987,
+/// The predictor's right-hand side in terms of Newmark's predictors (Hughes 1987,
 /// *The Finite Element Method*, §9.1) `x̃ = x₀ + d̃`, `d̃ = h v₀ + h²(½ − β) a₀`,
 /// `ṽ = v₀ + (1 − γ) h a₀`: with `x₁ = x̃ + e`, `v₁ = ṽ + a₁ e`, `a₁ = a₀ e` (Newmark's
 /// coefficients) the α-form becomes `K̃ e = F₁ + c_f F₀ − R` and `Δx = d̃ + e`, so Newmark-β
@@ -132,8 +132,27 @@ enum BandedRhs {
 /// Models with fewer DOFs always use the dense predictor.
 const BANDED_MIN_DOFS: usize = 24;
 
+/// Which predictor a stepper builds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum PredictorChoice {
+    /// The one with the smaller estimated cost per step.
+    Cheapest,
+    /// Always dense (tests).
+    #[cfg(test)]
+    Dense,
+    /// Banded whenever the effective stiffness is positive definite (tests).
+    #[cfg(test)]
+    Banded,
+}
+
 impl StepOperator {
-    fn new(sys: &System, scheme: &NewmarkFamily, h: f64) -> Result<Self, SimError> {
+    fn new(
+        sys: &System,
+        scheme: &NewmarkFamily,
+        h: f64,
+        choice: PredictorChoice,
+        dense_lanes: usize,
+    ) -> Result<Self, SimError> {
         let NewmarkFamily {
             beta,
             gamma,
@@ -153,14 +172,34 @@ impl StepOperator {
         let (m, c, k) = (&st.mass, &st.damping, &st.stiffness);
         let n = sys.n_dof();
         let singular = SimError::SingularTangent { t: 0.0, dt: h };
-        // A banded factor when the reordered band is narrow enough to beat 3 n² per step.
-        let banded = (n >= BANDED_MIN_DOFS)
+        // The operators of the right-hand side R (see BandedRhs): K, C, M.
+        let alpha_form = alpha_m != 0.0 || alpha_f != 0.0;
+        let uses = [true, alpha_form || sys.has_damping, alpha_form];
+        let try_banded = match choice {
+            PredictorChoice::Cheapest => n >= BANDED_MIN_DOFS,
+            #[cfg(test)]
+            PredictorChoice::Dense => false,
+            #[cfg(test)]
+            PredictorChoice::Banded => true,
+        };
+        let banded = try_banded
             .then(|| {
                 let sp = &sys.sparse;
                 let (perm, bw) =
                     BandedCholesky::ordering(n, &[&sp.mass, &sp.damping, &sp.stiffness]);
-                let cost = sp.mass.nnz() + sp.damping.nnz() + sp.stiffness.nnz() + 2 * n * (bw + 1);
-                if cost * 2 > 3 * n * n {
+                // Rough cycles per step: the dense predictor streams n² values per operator,
+                // `dense_lanes` per instruction; the banded one multiplies the sparse rows and
+                // substitutes forward and back, each row waiting on the previous (~8 cycles).
+                let nnz = [&sp.stiffness, &sp.damping, &sp.mass]
+                    .iter()
+                    .zip(uses)
+                    .filter(|(_, used)| *used)
+                    .map(|(a, _)| a.nnz())
+                    .sum::<usize>();
+                let operators = uses.iter().filter(|used| **used).count();
+                let dense_cost = operators * n * n / (2 * dense_lanes);
+                let banded_cost = nnz + 16 * n * (1 + bw / 4);
+                if choice == PredictorChoice::Cheapest && banded_cost >= dense_cost {
                     return None;
                 }
                 let terms = [
@@ -186,7 +225,7 @@ impl StepOperator {
                 };
                 let sp = &sys.sparse;
                 let order = factor.permutation();
-                let rhs = if alpha_m != 0.0 || alpha_f != 0.0 {
+                let rhs = if alpha_form {
                     let inertia = alpha_m / (1.0 - alpha_f);
                     BandedRhs::Alpha(StackedRows::new(
                         [
@@ -229,14 +268,13 @@ impl StepOperator {
                     }
                     Ok(sol.transpose().as_slice().to_vec()) // row-major
                 };
-                // The right-hand side's operators divided by 1 − α_f: −K, and those of the
-                // old velocity and acceleration from the Newmark relations.
-                let scale = -1.0 / (1.0 - alpha_f);
-                let (m_v, c_v) = (-(1.0 - alpha_m) * a[2], alpha_f - (1.0 - alpha_f) * a[4]);
-                let (m_a, c_a) = (alpha_m - (1.0 - alpha_m) * a[3], -(1.0 - alpha_f) * a[5]);
-                let p_x = solve(k * scale)?;
-                let p_v = solve((m * m_v + c * c_v) * scale)?;
-                let p_a = solve((m * m_a + c * c_a) * scale)?;
+                let mut operators = vec![solve(k.clone())?];
+                if uses[1] {
+                    operators.push(solve(c.clone())?);
+                }
+                if uses[2] {
+                    operators.push(solve(m * (alpha_m / (1.0 - alpha_f)))?);
+                }
                 let mut loads = Vec::with_capacity(sys.loads.len());
                 for l in &sys.loads {
                     let mut col = DMatrix::zeros(n, 1);
@@ -245,15 +283,7 @@ impl StepOperator {
                     }
                     loads.push(solve(col)?);
                 }
-                (
-                    Predictor::Dense {
-                        p_x,
-                        p_v,
-                        p_a,
-                        loads,
-                    },
-                    Box::new(solve),
-                )
+                (Predictor::Dense { operators, loads }, Box::new(solve))
             }
         };
         let mut gaps = Vec::with_capacity(sys.gaps.len());
@@ -284,8 +314,11 @@ pub struct NewmarkStepper {
     dx: Vec<f64>,
     /// Work vector of the banded solve (zero padding on both sides).
     padded: Vec<f64>,
-    /// `[x̃, ṽ, a₀]` per DOF, the banded predictor's input.
-    tilde: Vec<[f64; 3]>,
+    /// `x̃ + c_f x₀` and `ṽ + c_f v₀`, the inputs of the predictor's right-hand side.
+    tilde: [Vec<f64>; 2],
+    /// `y −= A x` for the dense predictor (SIMD where the CPU has it).
+    mat_vec: DenseMatVec,
+    choice: PredictorChoice,
     du_lin: Vec<f64>,
     rate_lin: Vec<f64>,
     gap_newton: GapNewton,
@@ -307,7 +340,9 @@ impl NewmarkStepper {
             one_off: None,
             dx: vec![0.0; n],
             padded: Vec::new(),
-            tilde: vec![[0.0; 3]; n],
+            tilde: [vec![0.0; n], vec![0.0; n]],
+            mat_vec: DenseMatVec::fastest(),
+            choice: PredictorChoice::Cheapest,
             du_lin: vec![0.0; ng],
             rate_lin: vec![0.0; ng],
             gap_newton: GapNewton::new(ng),
@@ -317,8 +352,12 @@ impl NewmarkStepper {
     /// Builds the operator of the largest step now, so that a singular tangent is reported
     /// before the run starts.
     pub fn prepare(&mut self, sys: &System, h: f64) -> Result<(), SimError> {
-        self.operators[0] = Some(StepOperator::new(sys, &self.scheme, h)?);
+        self.operators[0] = Some(self.operator(sys, h)?);
         Ok(())
+    }
+
+    fn operator(&self, sys: &System, h: f64) -> Result<StepOperator, SimError> {
+        StepOperator::new(sys, &self.scheme, h, self.choice, self.mat_vec.lanes)
     }
 }
 
@@ -334,13 +373,13 @@ impl Stepper for NewmarkStepper {
         let singular = |_| StepFailure::singular_tangent();
         let op = if level == ANY_LEVEL {
             if self.one_off.as_ref().is_none_or(|(size, _)| *size != h) {
-                let op = StepOperator::new(sys, &self.scheme, h).map_err(singular)?;
+                let op = self.operator(sys, h).map_err(singular)?;
                 self.one_off = Some((h, op));
             }
             &self.one_off.as_ref().expect("built above").1
         } else {
             if self.operators[level].is_none() {
-                let op = StepOperator::new(sys, &self.scheme, h).map_err(singular)?;
+                let op = self.operator(sys, h).map_err(singular)?;
                 self.operators[level] = Some(op);
             }
             self.operators[level].as_ref().expect("built above")
@@ -361,26 +400,26 @@ impl Stepper for NewmarkStepper {
         for (g, load) in s1.load.iter_mut().zip(&sys.loads) {
             *g = load.value(s1.t);
         }
+        // d̃ in dx, and the vectors `R`'s operators multiply: x̃ + c_f x₀, ṽ + c_f v₀, a₀
+        let (x_old, v_old, a_old) = (&s0.x[..n], &s0.v[..n], &s0.a[..n]);
+        let (d_a, v_a) = (h * h * (0.5 - beta), (1.0 - gamma) * h);
+        let [xt, vt] = &mut self.tilde;
+        let (d, xt, vt) = (&mut self.dx[..n], &mut xt[..n], &mut vt[..n]);
+        for i in 0..n {
+            d[i] = h * v_old[i] + d_a * a_old[i];
+            xt[i] = x_old[i] + d[i] + c_f * x_old[i];
+            vt[i] = v_old[i] + v_a * a_old[i] + c_f * v_old[i];
+        }
+        let inputs: [&[f64]; 3] = [xt, vt, a_old];
         match &op.predictor {
-            Predictor::Dense {
-                p_x,
-                p_v,
-                p_a,
-                loads,
-            } => {
-                for i in 0..n {
-                    let row = i * n..(i + 1) * n;
-                    let (px, pv, pa) = (&p_x[row.clone()], &p_v[row.clone()], &p_a[row]);
-                    let mut acc = 0.0;
-                    for j in 0..n {
-                        acc += px[j] * s0.x[j] + pv[j] * s0.v[j] + pa[j] * s0.a[j];
-                    }
-                    self.dx[i] = acc;
+            Predictor::Dense { operators, loads } => {
+                for (operator, input) in operators.iter().zip(inputs) {
+                    (self.mat_vec.sub)(operator, input, d);
                 }
                 for (l, col) in loads.iter().enumerate() {
                     let coef = s1.load[l] + c_f * s0.load[l];
                     if coef != 0.0 {
-                        axpy(coef, col, &mut self.dx);
+                        axpy(coef, col, d);
                     }
                 }
             }
@@ -394,26 +433,10 @@ impl Stepper for NewmarkStepper {
                 let bw = (z.len() - n) / 2;
                 let body = &mut z[bw..bw + n];
                 body.fill(0.0);
-                // d̃ in dx, and the predictors the right-hand side multiplies
-                let (x0, v0, a0) = (&s0.x[..n], &s0.v[..n], &s0.a[..n]);
-                let (d_a, v_a) = (h * h * (0.5 - beta), (1.0 - gamma) * h);
-                let (d, w) = (&mut self.dx[..n], &mut self.tilde[..n]);
-                for i in 0..n {
-                    d[i] = h * v0[i] + d_a * a0[i];
-                    w[i] = [x0[i] + d[i], v0[i] + v_a * a0[i], a0[i]];
-                }
                 match rhs {
-                    BandedRhs::Stiffness(rows) => rows.add_to(|j| [-w[j][0]], body),
-                    BandedRhs::StiffnessDamping(rows) => {
-                        rows.add_to(|j| [-w[j][0], -w[j][1]], body)
-                    }
-                    BandedRhs::Alpha(rows) => rows.add_to(
-                        |j| {
-                            let [xt, vt, a] = w[j];
-                            [-(xt + c_f * x0[j]), -(vt + c_f * v0[j]), -a]
-                        },
-                        body,
-                    ),
+                    BandedRhs::Stiffness(rows) => rows.add_to(|j| [-xt[j]], body),
+                    BandedRhs::StiffnessDamping(rows) => rows.add_to(|j| [-xt[j], -vt[j]], body),
+                    BandedRhs::Alpha(rows) => rows.add_to(|j| [-xt[j], -vt[j], -a_old[j]], body),
                 }
                 for (l, rows) in load_rows.iter().enumerate() {
                     let value = s1.load[l] + c_f * s0.load[l];
@@ -423,7 +446,7 @@ impl Stepper for NewmarkStepper {
                 }
                 factor.solve_padded(z);
                 for (new, &old) in factor.permutation().iter().enumerate() {
-                    self.dx[old] += z[bw + new];
+                    d[old] += z[bw + new];
                 }
             }
         }
@@ -468,5 +491,113 @@ impl Stepper for NewmarkStepper {
         }
         s1.finish_gaps(sys, &self.gap_newton.u);
         Ok(iterations)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{DMatrix, DVector};
+
+    use super::*;
+    use crate::contact::{Hertz, Law};
+    use crate::gap::{Gap, Side};
+    use crate::structure::{LinearStructure, Load, LoadHistory};
+
+    /// A damped 30-DOF chain in scrambled DOF order with two gaps (one relative) and a
+    /// harmonic load.
+    fn chain() -> System {
+        let n = 30;
+        let order: Vec<usize> = (0..n).map(|i| (i * 7) % n).collect();
+        let (mut m, mut k) = (DMatrix::zeros(n, n), DMatrix::zeros(n, n));
+        for i in 0..n {
+            m[(order[i], order[i])] = 1.0 + 0.02 * i as f64;
+            k[(order[i], order[i])] += 1e5;
+            if i + 1 < n {
+                let (p, q) = (order[i], order[i + 1]);
+                k[(p, p)] += 2e5;
+                k[(q, q)] += 2e5;
+                k[(p, q)] -= 2e5;
+                k[(q, p)] -= 2e5;
+            }
+        }
+        let c = &m * 3.0 + &k * 1e-5;
+        let s = LinearStructure::new(m, c, k).unwrap();
+        let law = || Law::Hertz(Hertz::new(1e9, 1.5).unwrap());
+        let gaps = vec![
+            Gap {
+                dofs: vec![order[5]],
+                coefficients: vec![1.0],
+                clearance: 1e-4,
+                side: Side::Both,
+                law: law(),
+            },
+            Gap {
+                dofs: vec![order[20], order[21]],
+                coefficients: vec![1.0, -1.0],
+                clearance: 2e-5,
+                side: Side::Both,
+                law: law(),
+            },
+        ];
+        let load = Load {
+            dofs: vec![order[0], order[29]],
+            amplitude: 50.0,
+            history: LoadHistory::Harmonic {
+                frequency: 40.0,
+                phase: 0.3,
+            },
+        };
+        System::new(s, gaps, vec![load]).unwrap()
+    }
+
+    fn run(sys: &System, scheme: NewmarkFamily, choice: PredictorChoice) -> (State, usize) {
+        let n = sys.n_dof();
+        let mut stepper = NewmarkStepper::new(sys, scheme, NewtonSettings::default()).unwrap();
+        stepper.choice = choice;
+        let v0 = DVector::from_fn(n, |i, _| 0.05 * (i as f64).sin());
+        let mut cur = State::initial(sys, DVector::zeros(n), v0, 0.0).unwrap();
+        let mut next = cur.clone();
+        let (h, mut contacts) = (2e-6, 0);
+        for _ in 0..5000 {
+            stepper.attempt(sys, &cur, 0, h, &mut next).unwrap();
+            stepper.accept(sys, &next);
+            std::mem::swap(&mut cur, &mut next);
+            contacts += cur.phi.iter().filter(|p| **p != 0.0).count();
+        }
+        (cur, contacts)
+    }
+
+    /// The dense and the banded predictors (each scheme's right-hand side: K; K and C; K, C
+    /// and M) take the same steps, contacts included.
+    #[test]
+    fn dense_and_banded_predictors_agree() {
+        let sys = chain();
+        for scheme in [
+            NewmarkFamily::average_acceleration(),
+            NewmarkFamily {
+                beta: 0.3025,
+                gamma: 0.6,
+                alpha_m: 0.0,
+                alpha_f: 0.1,
+            },
+            NewmarkFamily {
+                beta: 0.3086,
+                gamma: 0.6111,
+                alpha_m: 0.3333,
+                alpha_f: 0.4444,
+            },
+        ] {
+            let (dense, contacts) = run(&sys, scheme, PredictorChoice::Dense);
+            let (banded, _) = run(&sys, scheme, PredictorChoice::Banded);
+            assert!(contacts > 100, "{contacts} contact steps");
+            let scale = dense.x.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            for (a, b) in dense.x.iter().zip(&banded.x) {
+                assert!((a - b).abs() < 1e-9 * scale, "{scheme:?}: {a} vs {b}");
+            }
+            let vscale = dense.v.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            for (a, b) in dense.v.iter().zip(&banded.v) {
+                assert!((a - b).abs() < 1e-8 * vscale, "{scheme:?}: {a} vs {b}");
+            }
+        }
     }
 }
