@@ -218,6 +218,8 @@ impl StepControl {
         let mut level = self.first_level;
         // Events closer than this to a step's ends are not landed on separately.
         let event_tol = (self.step(self.levels) * 1e-3).max(1e-15 * self.t_end);
+        // A wall this close (in time) to closing is touching (landings stop short of it).
+        let touch_tol = 4.0 * event_tol.max(1e-9 * self.dt_max);
         let mut accepted = 0usize;
         let mut landing: Option<f64> = None;
         // Acceleration and length of the previous accepted step, for the velocity error.
@@ -261,10 +263,10 @@ impl StepControl {
             let near = event_tol.max(1e-9 * h);
             let inside = |t: f64, h: f64| t > near && h - t > near;
             // Land on the earliest closing, opening or grazing contact inside the step.
-            if let Some(theta) = earliest_event(walls, &run.cur, &run.trial, h, false) {
-                if inside(theta * h, h) {
+            if let Some(t) = next_crossing(walls, &run.cur, &run.trial, h, near) {
+                if inside(t, h) {
                     reject(&mut run.stats, 1, iterations);
-                    landing = Some(theta * h);
+                    landing = Some(t);
                     continue;
                 }
             }
@@ -279,7 +281,7 @@ impl StepControl {
                     .walls
                     .iter()
                     .zip(&run.trial.walls)
-                    .any(|(w0, w1)| touching(w0, event_tol) && w1.closed() && w1.rate < 0.0);
+                    .any(|(w0, w1)| touching(w0, touch_tol) && w1.closed() && w1.rate < 0.0);
             let unresolved =
                 in_contact && (past_peak || unresolved_contact(&run.cur, &run.trial, h));
             let extrapolate = in_contact && h <= h_extrapolate;
@@ -299,7 +301,7 @@ impl StepControl {
             }
             // The deepest point of a contact inside an acceptable step: land on it, unless
             // it is within 1 % of the step's ends (the peak is then off by (h/100)² δ̈ / 2).
-            if let Some(theta) = earliest_event(walls, &run.cur, &run.trial, h, true) {
+            if let Some(theta) = next_peak(&run.cur, &run.trial, h) {
                 if (PEAK_MARGIN..1.0 - PEAK_MARGIN).contains(&theta) {
                     reject(&mut run.stats, 1, iterations);
                     landing = Some(theta * h);
@@ -351,11 +353,12 @@ impl StepControl {
                 let event = [(&run.cur, &mid, 0.0), (&mid, &fine, half)]
                     .into_iter()
                     .filter_map(|(a, b, offset)| {
-                        let crossing = earliest_event(walls, a, b, half, false)
-                            .filter(|&theta| inside(theta * half, half));
-                        let peak = earliest_event(walls, a, b, half, true)
-                            .filter(|&theta| (PEAK_MARGIN..1.0 - PEAK_MARGIN).contains(&theta));
-                        crossing.or(peak).map(|theta| offset + theta * half)
+                        let crossing =
+                            next_crossing(walls, a, b, half, near).filter(|&t| inside(t, half));
+                        let peak = next_peak(a, b, half)
+                            .filter(|theta| (PEAK_MARGIN..1.0 - PEAK_MARGIN).contains(theta))
+                            .map(|theta| theta * half);
+                        crossing.or(peak).map(|t| offset + t)
                     })
                     .find(|&t| inside(t, h));
                 if let Some(h_event) = event {
@@ -391,7 +394,7 @@ impl StepControl {
                 .walls
                 .iter()
                 .zip(&run.trial.walls)
-                .any(|(w0, w1)| !w0.closed() && touching(w1, event_tol));
+                .any(|(w0, w1)| !w0.closed() && touching(w1, touch_tol));
             if let Err(e) = run.accept(sys, stepper, h, iterations) {
                 return Some(e);
             }
@@ -548,55 +551,64 @@ fn unresolved_contact(s0: &State, s1: &State, h: f64) -> bool {
         if !(w0.closed() || w1.closed()) {
             return false;
         }
-        let seg = HermiteSegment {
-            y0: w0.penetration,
-            dy0: w0.rate,
-            y1: w1.penetration,
-            dy1: w1.rate,
-            h,
-        };
         let ends = w0.penetration.max(w1.penetration).max(0.0);
-        matches!(seg.interior_peak(), Some((_, peak)) if peak > 2.0 * ends)
+        matches!(segment(w0, w1, h).interior_peak(), Some((_, peak)) if peak > 2.0 * ends)
     })
 }
 
-/// Fraction of the step at which the first wall opens, closes, touches and leaves again
-/// (a grazing contact that both step ends miss), or with `peaks` reaches its deepest
-/// penetration, from each wall's Hermite interpolant.
-fn earliest_event(walls: &[Wall], s0: &State, s1: &State, h: f64, peaks: bool) -> Option<f64> {
+/// Time into the step to land on for the first wall that closes, opens, or touches and leaves
+/// again (a grazing contact that both step ends miss), from each wall's Hermite interpolant.
+/// A step landing on a closing stops `short` before it, so that it ends open: a law whose force
+/// jumps at first touch (Kelvin–Voigt's `c δ̇`) has no Newmark solution exactly at the wall.
+fn next_crossing(walls: &[Wall], s0: &State, s1: &State, h: f64, short: f64) -> Option<f64> {
     let mut first: Option<f64> = None;
     for (wall, (w0, w1)) in walls.iter().zip(s0.walls.iter().zip(&s1.walls)) {
-        let seg = HermiteSegment {
-            y0: w0.penetration,
-            dy0: w0.rate,
-            y1: w1.penetration,
-            dy1: w1.rate,
-            h,
-        };
-        let theta = match (w0.closed(), w1.closed()) {
+        let seg = segment(w0, w1, h);
+        let t = match (w0.closed(), w1.closed()) {
             (false, true) => {
                 // Up to the closing the motion is free of this wall: the start state's Taylor
                 // polynomial follows it (exactly for a free mass) where the interpolant to an
                 // end state that the contact force has already thrown back does not.
                 let accel = wall.sign * s0.u_accel[wall.gap];
                 let free = first_root(w0.penetration, w0.rate, 0.5 * accel, h);
-                Some(free.map_or(seg.crossing(), |tau| (tau / h).min(seg.crossing())))
+                Some(free.map_or(seg.crossing(), |tau| (tau / h).min(seg.crossing())) * h - short)
             }
-            (true, false) => Some(seg.crossing()),
-            // the deepest point of the contact, so that the peak is a step's end
-            (true, true) if peaks => seg.interior_peak().map(|(s_peak, _)| s_peak),
+            (true, false) => Some(seg.crossing() * h),
             (true, true) => None,
             // Open at both ends but moving in then out: does the interpolant touch the wall?
             (false, false) => match seg.interior_peak() {
-                Some((s_peak, peak)) if peak > 0.0 => Some(seg.crossing_between(0.0, s_peak)),
+                Some((s_peak, peak)) if peak > 0.0 => {
+                    Some(seg.crossing_between(0.0, s_peak) * h - short)
+                }
                 _ => None,
             },
         };
-        if let Some(t) = theta {
+        if let Some(t) = t {
             first = Some(first.map_or(t, |f: f64| f.min(t)));
         }
     }
     first
+}
+
+/// Fraction of the step at which the first closed wall reaches its deepest penetration.
+fn next_peak(s0: &State, s1: &State, h: f64) -> Option<f64> {
+    s0.walls
+        .iter()
+        .zip(&s1.walls)
+        .filter(|(w0, w1)| w0.closed() && w1.closed())
+        .filter_map(|(w0, w1)| segment(w0, w1, h).interior_peak().map(|(s, _)| s))
+        .min_by(f64::total_cmp)
+}
+
+/// A wall's penetration over a step of length `h`.
+fn segment(w0: &WallState, w1: &WallState, h: f64) -> HermiteSegment {
+    HermiteSegment {
+        y0: w0.penetration,
+        dy0: w0.rate,
+        y1: w1.penetration,
+        dy1: w1.rate,
+        h,
+    }
 }
 
 /// Smallest `τ ∈ (0, h]` with `c + b τ + a τ² = 0`, if any.
