@@ -227,7 +227,10 @@ impl StepControl {
         let mut h_prev: Option<f64> = None;
         // Last step accepted in contact: the first step of the next contact.
         let mut h_contact: Option<f64> = None;
-        let mut after_closing = false;
+        // Per wall: closed (or touching) by the last accepted step.
+        let mut just_closed = vec![false; sys.walls.len()];
+        // Per wall: closed and not yet past the first peak of the contact.
+        let mut peak_pending = vec![false; sys.walls.len()];
         let mut v_max: Vec<f64> = run.cur.v.iter().map(|v| v.abs()).collect();
         let mut mid = run.cur.clone();
         let mut fine = run.cur.clone();
@@ -275,13 +278,10 @@ impl StepControl {
             let above_min = h > self.step(self.levels) * (1.0 + 1e-12);
             // A contact that the step resolves badly: past its peak in the step after the
             // closing, or (short, grazing) peaking inside the step far above both ends.
-            let past_peak = after_closing
-                && run
-                    .cur
-                    .walls
-                    .iter()
-                    .zip(&run.trial.walls)
-                    .any(|(w0, w1)| touching(w0, touch_tol) && w1.closed() && w1.rate < 0.0);
+            let past_peak = just_closed
+                .iter()
+                .zip(&run.trial.walls)
+                .any(|(&closed_now, w1)| closed_now && w1.closed() && w1.rate < 0.0);
             let unresolved =
                 in_contact && (past_peak || unresolved_contact(&run.cur, &run.trial, h));
             let extrapolate = in_contact && h <= h_extrapolate;
@@ -301,7 +301,7 @@ impl StepControl {
             }
             // The deepest point of a contact inside an acceptable step: land on it, unless
             // it is within 1 % of the step's ends (the peak is then off by (h/100)² δ̈ / 2).
-            if let Some(theta) = next_peak(&run.cur, &run.trial, h) {
+            if let Some(theta) = next_peak(&run.cur, &run.trial, h, &peak_pending) {
                 if (PEAK_MARGIN..1.0 - PEAK_MARGIN).contains(&theta) {
                     reject(&mut run.stats, 1, iterations);
                     landing = Some(theta * h);
@@ -355,7 +355,7 @@ impl StepControl {
                     .filter_map(|(a, b, offset)| {
                         let crossing =
                             next_crossing(walls, a, b, half, near).filter(|&t| inside(t, half));
-                        let peak = next_peak(a, b, half)
+                        let peak = next_peak(a, b, half, &peak_pending)
                             .filter(|theta| (PEAK_MARGIN..1.0 - PEAK_MARGIN).contains(theta))
                             .map(|theta| theta * half);
                         crossing.or(peak).map(|t| offset + t)
@@ -389,12 +389,17 @@ impl StepControl {
                     Some(h)
                 };
             }
-            let closing = run
-                .cur
-                .walls
-                .iter()
+            for (j, (w0, w1)) in run.cur.walls.iter().zip(&run.trial.walls).enumerate() {
+                just_closed[j] = !w0.closed() && touching(w1, touch_tol);
+            }
+            let closing = just_closed.contains(&true);
+            for ((pending, &closed_now), w1) in peak_pending
+                .iter_mut()
+                .zip(&just_closed)
                 .zip(&run.trial.walls)
-                .any(|(w0, w1)| !w0.closed() && touching(w1, touch_tol));
+            {
+                *pending = closed_now || (*pending && w1.closed() && w1.rate > 0.0);
+            }
             if let Err(e) = run.accept(sys, stepper, h, iterations) {
                 return Some(e);
             }
@@ -409,18 +414,17 @@ impl StepControl {
             if in_contact && !landed {
                 h_contact = Some(h);
             }
-            let max_grow = if solves > 1 { 4.0 } else { 10.0 };
+            // at most 4× per step, 10× when the step was exact (free flight of a free mass)
             let grow = if err > 0.0 {
-                (0.9 * err.powf(-1.0 / 3.0)).clamp(0.2, max_grow)
+                (0.9 * err.powf(-1.0 / 3.0)).clamp(0.2, 4.0)
             } else {
-                max_grow
+                10.0
             };
             let mut next = h * grow;
             // A wall closed by this step: the contact starts with the last contact's step.
             if let (true, Some(hc)) = (closing, h_contact) {
                 next = next.min(hc);
             }
-            after_closing = closing;
             level = self.level_for(next);
         }
         if accepted % every != 0 {
@@ -590,13 +594,15 @@ fn next_crossing(walls: &[Wall], s0: &State, s1: &State, h: f64, short: f64) -> 
     first
 }
 
-/// Fraction of the step at which the first closed wall reaches its deepest penetration.
-fn next_peak(s0: &State, s1: &State, h: f64) -> Option<f64> {
+/// Fraction of the step at which a closed wall reaches the first peak of its penetration
+/// since it closed (`pending`; later peaks, of a contact that chatters, are not landed on).
+fn next_peak(s0: &State, s1: &State, h: f64, pending: &[bool]) -> Option<f64> {
     s0.walls
         .iter()
         .zip(&s1.walls)
-        .filter(|(w0, w1)| w0.closed() && w1.closed())
-        .filter_map(|(w0, w1)| segment(w0, w1, h).interior_peak().map(|(s, _)| s))
+        .zip(pending)
+        .filter(|((w0, w1), &p)| p && w0.closed() && w1.closed())
+        .filter_map(|((w0, w1), _)| segment(w0, w1, h).interior_peak().map(|(s, _)| s))
         .min_by(f64::total_cmp)
 }
 
