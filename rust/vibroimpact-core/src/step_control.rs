@@ -1,11 +1,14 @@
 //! Adaptive stepping for the Newmark family (DESIGN.md §4): a local error estimate, step
-//! growth in free flight and reduction in contact, and every gap's closing and opening
-//! located inside the step and landed on, so that no contact is stepped over and `v_imp`,
-//! `t_start`, `t_end` and `v_out` come from a step that ends at the event.
+//! growth in free flight and reduction in contact, and every gap's closing and opening (and
+//! the first peak of each contact) located inside the step and landed on, so that no contact
+//! is stepped over and `v_imp`, `t_start`, `t_end`, `v_out` and the peak come from a step that
+//! ends at the event. In contact, average acceleration doubles its steps and keeps their
+//! Richardson extrapolation (fourth order): on the paper's SDOF case that reaches fixed
+//! `dt = 1 µs` accuracy with about 15× fewer Newmark steps (`tests/test_adaptive.py`).
 //!
 //! Step sizes are `dt_max / 2^(k/4)` (quarter octaves, so the factorised operators are cached
-//! per `k`, never built per step), except for the steps that land on an event or on `t_end`, whose operator is
-//! built for that one size.
+//! per `k`, never built per step), except for the steps that land on an event or on `t_end`,
+//! whose operator is built for that one size.
 
 use nalgebra::DMatrix;
 
