@@ -543,7 +543,7 @@ fn extrapolation_limit(sys: &System) -> f64 {
 }
 
 /// DOFs up to which [`extrapolation_limit`] computes the structure's eigenvalues.
-const MAX_EIGEN_DOFS: usize = 400;
+const MAX_EIGEN_DOFS: usize = 200;
 
 /// A wall closed, or open but closing within `tol` seconds.
 fn touching(w: &WallState, tol: f64) -> bool {
@@ -636,4 +636,49 @@ fn first_root(c: f64, b: f64, a: f64, h: f64) -> Option<f64> {
         .into_iter()
         .filter(|t| *t > 0.0 && *t <= h)
         .min_by(f64::total_cmp)
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{DMatrix, DVector};
+
+    use super::*;
+    use crate::structure::LinearStructure;
+
+    #[test]
+    fn first_root_of_the_free_flight_polynomial() {
+        // constant speed: 1 m to go at 1 m/s
+        assert_eq!(first_root(-1.0, 1.0, 0.0, 2.0), Some(1.0));
+        // from rest under 2 m/s² (a = ½·2): t² = 1
+        assert!((first_root(-1.0, 0.0, 1.0, 2.0).unwrap() - 1.0).abs() < 1e-15);
+        // the earlier of two roots: −3 + 4τ − τ² = −(τ − 1)(τ − 3)
+        assert!((first_root(-3.0, 4.0, -1.0, 5.0).unwrap() - 1.0).abs() < 1e-15);
+        // beyond the step, and turning back before the wall
+        assert_eq!(first_root(-1.0, 1.0, 0.0, 0.5), None);
+        assert_eq!(first_root(-1.0, 1.0, -1.0, 10.0), None);
+    }
+
+    fn two_masses(c: f64, k: f64) -> System {
+        let coupling = |v: f64| DMatrix::from_row_slice(2, 2, &[v, -v, -v, v]);
+        let s = LinearStructure::new(
+            DMatrix::from_diagonal(&DVector::from_vec(vec![100.0, 10.0])),
+            coupling(c),
+            coupling(k),
+        )
+        .unwrap();
+        System::new(s, vec![], vec![]).unwrap()
+    }
+
+    #[test]
+    fn extrapolation_limit_resolves_the_stiffest_mode() {
+        // two masses on a spring: ω² = k (1/m₁ + 1/m₂); the damper's rate c (1/m₁ + 1/m₂)
+        let limit = extrapolation_limit(&two_masses(50.0, 1e6));
+        let omega = (1e6f64 * (0.01 + 0.1)).sqrt();
+        assert!((limit * omega / 0.2 - 1.0).abs() < 1e-12, "{limit}");
+        // an overdamped coupling: the damping rate decides
+        let limit = extrapolation_limit(&two_masses(1e5, 1e6));
+        assert!((limit * 1e5 * 0.11 / 0.2 - 1.0).abs() < 1e-12, "{limit}");
+        // free masses: any step
+        assert_eq!(extrapolation_limit(&two_masses(0.0, 0.0)), f64::INFINITY);
+    }
 }
