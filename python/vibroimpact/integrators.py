@@ -66,12 +66,27 @@ class NewtonOptions:
 
 @dataclass(frozen=True)
 class Adaptive:
-    """Adaptive stepping (Newmark family): the Zienkiewicz–Xie local error estimate
-    ``(β − 1/6) h² |a₁ − a₀|`` is kept below ``atol + rtol·|x|`` (m) per DOF; steps grow in free
-    flight and shrink in contact, and every gap's closing and opening instant is located inside
-    the step and landed on, so that no contact is stepped over and ``v_imp`` is exact.
-    Step sizes are ``dt_max / 2^k`` (operators cached per size) between ``dt_min`` and
-    ``dt_max`` (s; defaults ``t_end / 50`` and ``dt / 1e4``, with ``dt`` the first step)."""
+    """Adaptive stepping (Newmark family). Free flight: one Newmark step at a time, its local
+    error estimated by Zienkiewicz–Xie ``(β − 1/6) h² |a₁ − a₀|`` (displacement) and
+    ``h³ |a''| / 12`` (velocity, ``a''`` from the last two steps), kept below
+    ``atol + rtol·|x|`` (m) per DOF. While a wall is closed, average acceleration (γ = 1/2,
+    β = 1/4) doubles the step: each step is taken once and as two halves, ``(fine − coarse)/3``
+    is the error (displacement against ``atol + rtol·|x|``, velocity against
+    ``atol/dt_max + rtol·v_max``, ``v_max`` the DOF's largest speed so far) and the Richardson
+    extrapolation ``fine + (fine − coarse)/3`` is kept — fourth order, as the rule is symmetric
+    (Hairer, Nørsett & Wanner, *Solving ODEs I*, §II.4) — provided the step resolves the
+    structure's stiffest mode (``ω_max h ≤ 0.2``: extrapolation amplifies an unresolved mode by
+    up to 5/3 per step); otherwise, and for HHT / generalized-α, the single-step estimate.
+    Every gap's closing (from the start state's Taylor polynomial, just short of the wall) and
+    opening, a grazing touch, and the first peak of each contact are located inside the step
+    and landed on, so that no contact is stepped over and ``v_imp``, ``t_start``, ``t_end``,
+    ``v_out`` and the peak come from step ends. Step sizes are ``dt_max / 2^(k/4)`` (operators
+    cached per size) between ``dt_min`` and ``dt_max`` (s; defaults ``t_end / 50`` and
+    ``dt / 1e4``, with ``dt`` the first step). ``stats.steps`` counts every Newmark step solved
+    (three per doubled step), ``rejected_steps`` every attempt discarded (error, an event inside
+    it, Newton). On the paper's SDOF case ``rtol = 1e-5`` is as accurate as fixed ``dt = 1 µs``
+    on the peak, every impact time and ``v_out`` with about 15× fewer steps, and ``rtol = 2e-7``
+    reaches 2e-11 m / 6e-10 s (``tests/test_adaptive.py``, ``vibroimpact bench``)."""
 
     rtol: float = 1e-6
     atol: float = 1e-10

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from vibroimpact.bench import integrator_table, sdof_benchmark
+from vibroimpact.bench import adaptive_benchmark, integrator_table, sdof_benchmark
 
 TARGET_S = 1e-3
 PAPER_MATLAB_S = 1.3
@@ -69,6 +69,13 @@ def main(args: argparse.Namespace) -> int:
         print(f"{r['label']:32s} {r['median_s'] * 1e3:8.3f} ms {r['ratio_to_newmark']:10.2f}x "
               f"{paper:>15s} {paper_ratio:>12s}")
     print("targets: generalized-alpha <= 1.3x Newmark, precise <= 3x Newmark (paper: 19x)")
+    print()
+    a = adaptive_benchmark(repeats=repeats)
+    print(f"Adaptive Newmark with located events (rtol {a['tolerance']['rtol']:g}): "
+          f"{a['median_s'] * 1e3:.3f} ms, {a['steps']} steps + {a['rejected_steps']} discarded; "
+          f"peak error {a['peak_error_m']:.1e} m, impact times {a['impact_time_error_s']:.1e} s "
+          f"(target: {a['target_peak_m']:g} m / {a['target_time_s']:g} s in "
+          f"{a['target_s'] * 1e3:g} ms)")
     points = args.sweep_points if args.sweep_points is not None else (40 if args.quick else 400)
     if points > 0:
         from vibroimpact.bench import sweep_benchmark
