@@ -99,7 +99,7 @@ def test_verbose_logs_step_cuts_and_contacts_with_time_and_gap(
     number = r"([-+0-9.e]+)"
     cuts = [re.fullmatch(rf"vibroimpact: solver: t = {number} s: step cut: Newton did not "
                          rf"converge in 3 iterations \(gap 0, penetration {number} m\) on a "
-                         rf"step of 5\.000e-05 s; retrying as two of 2\.500e-05 s", line)
+                         rf"step of 5\.000e-05 s; retrying with shorter steps", line)
             for line in log if "step cut:" in line]
     assert summary["step_cuts"] > 0 and len(cuts) == summary["step_cuts"]
     assert all(m is not None and float(m[2]) > 0 for m in cuts)
@@ -141,3 +141,18 @@ def test_api_progress_flag_and_events_logger(caplog: pytest.LogCaptureFixture) -
     assert len(closing) == len(r.impacts) == 9
     times = np.array([rec.args[0] for rec in closing])
     assert np.all((times >= r.impacts.t_start) & (times - r.impacts.t_start <= 1e-6 * 1.001))
+
+
+def test_verbose_logs_the_step_cuts_of_adaptive_runs(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Adaptive stepping reports its Newton step cuts too, one line per counted cut."""
+    text = _step_cut_model(tmp_path).read_text().replace(
+        "max_iterations = 3", "max_iterations = 2\nadaptive = true\nrtol = 1e-4")
+    model = tmp_path / "adaptive_cuts.toml"
+    model.write_text(text)
+    assert cli_main(["run", str(model), "--verbose", "--json"]) == 0
+    captured = capsys.readouterr()
+    summary = json.loads(captured.out)
+    cuts = [line for line in captured.err.splitlines() if "step cut:" in line]
+    assert summary["step_cuts"] > 0 and len(cuts) == summary["step_cuts"]
+    assert all("converge in 2 iterations (gap 0" in line for line in cuts)

@@ -178,9 +178,8 @@ def _log_events(events: list[dict[str, Any]], dropped: int) -> None:
         kind = e["kind"]
         if kind == "step-cut":
             log.info("solver: t = %.9e s: step cut: Newton did not converge in %d iterations "
-                     "(gap %d, penetration %.3e m) on a step of %.3e s; retrying as two of "
-                     "%.3e s", e["t"], e["iterations"], e["gap"], e["penetration"], e["dt"],
-                     e["dt"] / 2)
+                     "(gap %d, penetration %.3e m) on a step of %.3e s; retrying with shorter "
+                     "steps", e["t"], e["iterations"], e["gap"], e["penetration"], e["dt"])
         elif kind == "contact-start":
             log.info("solver: t = %.9e s: gap %d closed (%s wall), approach speed %.4g m/s",
                      e["t"], e["gap"], e["side"], e["speed"])

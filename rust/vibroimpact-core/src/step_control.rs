@@ -14,7 +14,7 @@ use nalgebra::DMatrix;
 
 use crate::error::{invalid, SimError};
 use crate::gap::{Wall, WallState};
-use crate::integrators::{Stepper, ANY_LEVEL};
+use crate::integrators::{StepFailure, Stepper, ANY_LEVEL};
 use crate::interpolation::HermiteSegment;
 use crate::simulate::{Method, Run, Stats};
 use crate::system::{State, System};
@@ -182,15 +182,9 @@ impl StepControl {
             run_stats.newton_iterations += failure.iterations;
             if h > self.step(self.levels) * (1.0 + 1e-12) {
                 run_stats.step_cuts += 1;
-                Retry::Level((self.level_for(h) + 1).min(self.levels))
+                Retry::Level((self.level_for(h) + 1).min(self.levels), failure)
             } else {
-                Retry::Failed(SimError::NewtonFailed {
-                    t: from.t,
-                    gap: failure.gap,
-                    penetration: failure.penetration,
-                    iterations: failure.iterations,
-                    dt: h,
-                })
+                Retry::Failed(failure.into_error(from.t, h))
             }
         })
     }
@@ -258,7 +252,8 @@ impl StepControl {
                 &mut run.trial,
             ) {
                 Ok(it) => it,
-                Err(Retry::Level(l)) => {
+                Err(Retry::Level(l, failure)) => {
+                    run.step_cut(&failure, run.cur.t, h);
                     level = l;
                     continue;
                 }
@@ -344,7 +339,8 @@ impl StepControl {
                     });
                 match halves {
                     Ok(it) => iterations += it,
-                    Err(Retry::Level(l)) => {
+                    Err(Retry::Level(l, failure)) => {
+                        run.step_cut(&failure, run.cur.t, half);
                         reject(&mut run.stats, 1, iterations);
                         level = l;
                         continue;
@@ -453,7 +449,8 @@ fn reject(stats: &mut Stats, solves: usize, iterations: usize) {
 
 /// Why an attempt is not used: retry at this level, or the run stops with this error.
 enum Retry {
-    Level(usize),
+    /// Retry at this level; the failure that asked for it.
+    Level(usize, StepFailure),
     Failed(SimError),
 }
 
