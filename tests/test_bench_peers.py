@@ -50,24 +50,33 @@ def test_missing_peer_gives_a_not_available_row() -> None:
 
     rows = table.peer_rows("paper-sdof", "Peer", "no such module (pip install it)",
                            [("Newmark", "dt 1e-06 s", never)], {"impacts": [], "peak": 1.0}, 5,
-                           "")
+                           "", never)
     assert len(rows) == 1 and rows[0]["time_s"] is None
     assert rows[0]["note"] == "not available: no such module (pip install it)"
 
 
 def test_median_counts_a_long_first_run_and_skips_a_short_warm_up(monkeypatch) -> None:
     """Medians of ``repeats`` runs: a warm-up shorter than LONG_RUN_S is not counted, a
-    longer one is the first of the runs (no extra run)."""
-    clock = iter([0.0, 0.1, 1.0, 1.2, 2.0, 2.3])  # warm-up 0.1 s, then runs of 0.2 and 0.3 s
+    longer one is the first of the runs (no extra run); our Newmark (``base``) is timed once
+    beside each counted run."""
+    calls: list[str] = []
+    f, b = (lambda: calls.append("f")), (lambda: calls.append("b"))
+    # warm-up 0.1 s; then base 0.05, run 0.2, base 0.07, run 0.3
+    clock = iter([0.0, 0.1, 1.0, 1.05, 2.0, 2.2, 3.0, 3.07, 4.0, 4.3])
     monkeypatch.setattr(table.time, "perf_counter", lambda: next(clock))
-    calls = []
-    secs, _ = table._timed(lambda: calls.append(1), 2)
-    assert len(calls) == 3 and math.isclose(secs, 0.25)
-    clock = iter([0.0, 5.0, 10.0, 17.0, 20.0, 26.0])  # runs of 5, 7, 6 s
+    secs, _, base = table._timed(f, 2, b)
+    assert calls == ["f", "b", "f", "b", "f"]
+    assert math.isclose(secs, 0.25) and math.isclose(base, 0.06)
+    # a first run of 5 s counts: runs 5, 7, 6 s; base 0.1, 0.3, 0.2 s
+    clock = iter([0.0, 5.0, 10.0, 10.1, 11.0, 11.3, 12.0, 19.0, 20.0, 20.2, 21.0, 27.0])
     monkeypatch.setattr(table.time, "perf_counter", lambda: next(clock))
     calls.clear()
-    secs, _ = table._timed(lambda: calls.append(1), 3)
-    assert len(calls) == 3 and secs == 6.0
+    secs, _, base = table._timed(f, 3, b)
+    assert calls == ["f", "b", "b", "f", "b", "f"]
+    assert secs == 6.0 and math.isclose(base, 0.2)
+    clock = iter([0.0, 0.5])  # one run, nothing beside it
+    monkeypatch.setattr(table.time, "perf_counter", lambda: next(clock))
+    assert table._timed(f, 1)[0::2] == (0.5, None)
 
 
 def test_matching_tolerance_is_the_loosest_within_our_errors() -> None:

@@ -152,19 +152,20 @@ def beam_rows(b: BeamProblem, quick: bool, repeats: int, ours_repeats: int,
     """The beam's rows: ours, SciPy on the full beam, OpenSeesPy and Exudyn on the same model,
     all against :func:`reference`."""
     from vibroimpact.peers import exudyn_peer, opensees_peer
-    from vibroimpact.peers.table import ours_rows, peer_rows, scipy_rows
+    from vibroimpact.peers.table import newmark_run, ours_rows, peer_rows, scipy_rows
 
     key = b.key
     log(f"{key}: reference (SciPy DOP853 rtol 1e-10, full beam)")
     ref = reference(b)
     model = b.model()
+    newmark = newmark_run(model, b.t_end, b.dt)
     log(f"{key}: vibroimpact")
     rows = ours_rows(key, model, b.t_end, b.dt, BEAM_ADAPTIVE, ref, ours_repeats,
                      model.gaps[1].dofs[0])
     log(f"{key}: SciPy solve_ivp (full beam)")
     mats = _matrices(b)
     rows += scipy_rows(key, lambda m, r: scipy_beam(b, m, r, mats), ref, repeats, rows[0],
-                       quick, BEAM_RTOLS,
+                       newmark, quick, BEAM_RTOLS,
                        "one call (the Hertz force is C1), events only to locate crossings; "
                        "analytic Jacobian for Radau/LSODA")
     setting = f"dt {b.dt:g} s"
@@ -174,7 +175,7 @@ def beam_rows(b: BeamProblem, quick: bool, repeats: int, ours_repeats: int,
         [(label, setting, lambda k=k: opensees_peer.run_beam(b, k))
          for k, label in (("newmark", "Newmark"), ("hht", "HHT"))], ref, repeats,
         "ElasticTimoshenkoBeam -cMass (the same model: same frequencies) + Hertzdamp (xi 0 = "
-        "Hertz, the same law) zeroLength sliders; no event location")
+        "Hertz, the same law) zeroLength sliders; no event location", newmark)
     log(f"{key}: Exudyn (ObjectGenericODE2 with our matrices)")
     rows += peer_rows(
         key, "Exudyn", exudyn_peer.available(),
@@ -183,7 +184,7 @@ def beam_rows(b: BeamProblem, quick: bool, repeats: int, ours_repeats: int,
         ref, repeats,
         "ObjectGenericODE2 with our M, K (the same model; Exudyn's own beam elements are a "
         "different discretisation) + ObjectContactCoordinate Hertz sliders (the same law), "
-        "load by LoadCoordinate Python user functions; no event location")
+        "load by LoadCoordinate Python user functions; no event location", newmark)
     for r in rows:
         r["reference"] = (f"SciPy DOP853 rtol 1e-10 on the full beam (42 DOFs), one call, "
                           f"events at every gap crossing: middle-slider peak "

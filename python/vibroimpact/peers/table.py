@@ -47,20 +47,27 @@ ADAPTIVE = {"rtol": 1e-8, "atol": 1e-12}
 LONG_RUN_S = 1.0
 
 
-def _timed(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:
-    """Median wall time of ``repeats`` calls and the last result. A first warm-up call is not
-    counted unless it took :data:`LONG_RUN_S` or more; ``repeats <= 1``: one call, no warm-up."""
+def _once(fn: Callable[[], Any]) -> tuple[float, Any]:
     t0 = time.perf_counter()
     out = fn()
-    first = time.perf_counter() - t0
-    if repeats <= 1:
-        return first, out
-    times = [first] if first >= LONG_RUN_S else []
-    while len(times) < repeats:
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times), out
+    return time.perf_counter() - t0, out
+
+
+def _timed(fn: Callable[[], Any], repeats: int, base: Callable[[], Any] | None = None
+           ) -> tuple[float, Any, float | None]:
+    """Median wall time of ``repeats`` calls, the last result, and, with ``base`` (our
+    Newmark's run), the median of one ``base`` call timed beside each counted call: the two
+    medians are then measured under the same machine load. A first warm-up call is not
+    counted unless it took :data:`LONG_RUN_S` or more; ``repeats <= 1``: one call."""
+    first, out = _once(fn)
+    runs = [first] if first >= LONG_RUN_S or repeats <= 1 else []
+    base_runs = [_once(base)[0]] if base is not None and runs else []
+    while len(runs) < repeats:
+        if base is not None:
+            base_runs.append(_once(base)[0])
+        t, out = _once(fn)
+        runs.append(t)
+    return statistics.median(runs), out, statistics.median(base_runs) if base_runs else None
 
 
 def _row(problem: str, tool: str, method: str, setting: str, **kw: Any) -> dict[str, Any]:
@@ -83,14 +90,26 @@ def _ours_impacts(result: Any) -> list[list[Any]]:
     return sorted(rows, key=lambda r: r[0])
 
 
-def _measured(problem: str, tool: str, method: str, setting: str, secs: float, repeats: int,
-              out: dict[str, Any], ref: dict[str, Any], *notes: str, **kw: Any
-              ) -> dict[str, Any]:
-    """A timed row: ``out`` (``peak``, ``impacts``) against the reference ``ref``."""
+def _measured(problem: str, tool: str, method: str, setting: str,
+              timing: tuple[float, Any, float | None], repeats: int, ref: dict[str, Any],
+              *notes: str, **kw: Any) -> dict[str, Any]:
+    """A timed row from ``_timed``'s ``(seconds, out, our Newmark's seconds beside it)``:
+    ``out`` (``peak``, ``impacts``) against the reference ``ref``; the ratio is to our Newmark
+    timed beside it (set by :func:`run` for our Newmark itself)."""
+    secs, out, base_s = timing
     pe, te, cnote = scipy_peer.errors(out, ref)
     return _row(problem, tool, method, setting, time_s=secs, repeats=repeats, peak_error=pe,
                 impact_time_error_s=te, contacts=len(out["impacts"]),
+                ratio=None if base_s is None else secs / base_s, newmark_beside_s=base_s,
                 note="; ".join(x for x in (cnote, *notes) if x), **kw)
+
+
+def newmark_run(model: Any, t_end: float, dt: float) -> Callable[[], Any]:
+    """Our fixed-step Newmark on ``model``: the base of every ratio."""
+    from vibroimpact.integrators import Newmark
+    from vibroimpact.simulate import simulate
+
+    return lambda: simulate(model, t_end=t_end, dt=dt, method=Newmark())
 
 
 def ours_rows(key: str, model: Any, t_end: float, dt: float, adaptive: dict[str, float],
@@ -100,30 +119,32 @@ def ours_rows(key: str, model: Any, t_end: float, dt: float, adaptive: dict[str,
     from vibroimpact.integrators import Adaptive, GeneralizedAlpha, Newmark, PreciseIntegration
     from vibroimpact.simulate import simulate
 
+    base = newmark_run(model, t_end, dt)
     methods = [
-        ("Newmark", f"dt {dt:g} s", Newmark()),
         ("generalized-α ρ∞ 0.8", f"dt {dt:g} s", GeneralizedAlpha(rho_inf=0.8)),
         ("precise (Adams)", f"dt {dt:g} s", PreciseIntegration()),
         ("Newmark adaptive", f"rtol {adaptive['rtol']:g}, atol {adaptive['atol']:g} m",
          Newmark(adaptive=Adaptive(**adaptive))),
     ]
     rows = []
-    for name, setting, method in methods:
-        secs, res = _timed(lambda m=method: simulate(model, t_end=t_end, dt=dt, method=m),
-                           repeats)
+    for name, setting, fn, beside in [("Newmark", f"dt {dt:g} s", base, None)] + [
+            (n, st, lambda m=m: simulate(model, t_end=t_end, dt=dt, method=m), base)
+            for n, st, m in methods]:
+        secs, res, base_s = _timed(fn, repeats, beside)
         out = {"peak": float(res.max_abs_displacement[peak_dof]),
                "impacts": _ours_impacts(res)}
-        rows.append(_measured(key, "vibroimpact", name, setting, secs, repeats, out, ref,
-                              f"{res.stats.steps} steps"))
+        rows.append(_measured(key, "vibroimpact", name, setting, (secs, out, base_s), repeats,
+                              ref, f"{res.stats.steps} steps"))
     return rows
 
 
 def scipy_rows(key: str, run: Callable[[str, float], dict[str, Any]], ref: dict[str, Any],
-               repeats: int, base: dict[str, Any], quick: bool, rtols: tuple[float, ...],
-               how: str) -> list[dict[str, Any]]:
+               repeats: int, base: dict[str, Any], newmark: Callable[[], Any], quick: bool,
+               rtols: tuple[float, ...], how: str) -> list[dict[str, Any]]:
     """Radau, LSODA and DOP853 (``run(method, rtol)``), each at the loosest of ``rtols`` whose
-    errors are at most our Newmark's (``base``), or at rtol 1e-6 with ``quick``; with the run
-    one decade looser beside it (a bracket: there the peer is less accurate than ours)."""
+    errors are at most our Newmark's (``base``, its row; ``newmark``, its run, timed beside),
+    or at rtol 1e-6 with ``quick``; with the run one decade looser beside it (a bracket: there
+    the peer is less accurate than ours)."""
     rows = []
     for method in scipy_peer.METHODS:
         if quick:
@@ -136,7 +157,7 @@ def scipy_rows(key: str, run: Callable[[str, float], dict[str, Any]], ref: dict[
             why = ("loosest rtol with errors <= our Newmark's" if found
                    else "tightest rtol tried; still less accurate than our Newmark")
         try:
-            secs, out = _timed(lambda m=method, r=rtol: run(m, r), repeats)
+            timing = _timed(lambda m=method, r=rtol: run(m, r), repeats, newmark)
         except Exception as e:  # a SciPy failure is reported, not raised
             rows.append(_unavailable(key, "SciPy", method, f"rtol {rtol:g}", f"failed: {e}"))
             continue
@@ -145,22 +166,25 @@ def scipy_rows(key: str, run: Callable[[str, float], dict[str, Any]], ref: dict[
         i = rtols.index(rtol) if rtol in rtols else 0
         if not quick and found and i > 0:
             r2 = rtols[i - 1]
-            secs2, out2 = _timed(lambda m=method, r=r2: run(m, r), repeats)
+            secs2, out2, base2 = _timed(lambda m=method, r=r2: run(m, r), repeats, newmark)
             pe2, te2, note2 = scipy_peer.errors(out2, ref)
+            ratio2 = secs2 / base2 if base2 else math.nan
             extra = {"looser": {"rtol": r2, "time_s": secs2, "peak_error": pe2,
-                                "impact_time_error_s": te2, "ratio": secs2 / base["time_s"]}}
-            looser = (f"at rtol {r2:g}: {_fmt_time(secs2)} = {secs2 / base['time_s']:.3g}x, "
+                                "impact_time_error_s": te2, "ratio": ratio2}}
+            looser = (f"at rtol {r2:g}: {_fmt_time(secs2)} = {ratio2:.3g}x, "
                       f"errors {pe2:.1e} / {_fmt_err(te2, 's')}{' ' + note2 if note2 else ''}")
-        rows.append(_measured(key, "SciPy", method, f"rtol {rtol:g}", secs, repeats, out, ref,
-                              why, how, f"{out['steps']} steps", looser, **extra))
+        rows.append(_measured(key, "SciPy", method, f"rtol {rtol:g}", timing, repeats, ref,
+                              why, how, f"{timing[1]['steps']} steps", looser, **extra))
     return rows
 
 
 def peer_rows(key: str, tool: str, reason: str | None,
               runs: list[tuple[str, str, Callable[[], dict[str, Any]]]], ref: dict[str, Any],
-              repeats: int, note: str) -> list[dict[str, Any]]:
-    """One row per ``(label, setting, run)`` of a peer; ``reason``: why it is not available
-    (None if it is). The peer's C-level output is silenced while it runs."""
+              repeats: int, note: str, newmark: Callable[[], Any] | None
+              ) -> list[dict[str, Any]]:
+    """One row per ``(label, setting, run)`` of a peer, with our Newmark (``newmark``) timed
+    beside it; ``reason``: why it is not available (None if it is). The peer's C-level output
+    is silenced while it runs."""
     rows = []
     for label, setting, fn in runs:
         if reason:
@@ -168,12 +192,12 @@ def peer_rows(key: str, tool: str, reason: str | None,
             continue
         try:
             with _quiet_fds():
-                secs, out = _timed(fn, repeats)
+                timing = _timed(fn, repeats, newmark)
         except Exception as e:
             rows.append(_unavailable(key, tool, label, setting,
                                      f"failed: {type(e).__name__}: {e}"))
             continue
-        rows.append(_measured(key, tool, label, setting, secs, repeats, out, ref, note))
+        rows.append(_measured(key, tool, label, setting, timing, repeats, ref, note))
     return rows
 
 
@@ -207,10 +231,12 @@ def _sdof_rows(p: SdofProblem, quick: bool, repeats: int, ours_repeats: int,
     log(f"{p.key}: converged reference (SciPy DOP853, rtol 1e-12)")
     ref = converged(p)
     log(f"{p.key}: vibroimpact")
-    rows = ours_rows(p.key, p.model(), p.t_end, p.dt, ADAPTIVE, ref, ours_repeats, 0)
+    model = p.model()
+    newmark = newmark_run(model, p.t_end, p.dt)
+    rows = ours_rows(p.key, model, p.t_end, p.dt, ADAPTIVE, ref, ours_repeats, 0)
     log(f"{p.key}: SciPy solve_ivp")
     rows += scipy_rows(p.key, lambda m, r: scipy_peer.run_sdof(p, m, r), ref, repeats, rows[0],
-                       quick, scipy_peer.RTOLS, "")
+                       newmark, quick, scipy_peer.RTOLS, "")
     setting = f"dt {p.dt:g} s"
     log(f"{p.key}: OpenSeesPy")
     rows += peer_rows(
@@ -218,7 +244,7 @@ def _sdof_rows(p: SdofProblem, quick: bool, repeats: int, ours_repeats: int,
         [(label, setting, lambda k=k: opensees_peer.run_sdof(p, k))
          for k, label in (("newmark", "Newmark"), ("hht", "HHT"))], ref, repeats,
         "Hertzdamp zeroLength (the same law, but its v_imp is the speed at the step where "
-        "contact is detected); no event location")
+        "contact is detected); no event location", newmark)
     log(f"{p.key}: Exudyn")
     rows += peer_rows(
         p.key, "Exudyn", exudyn_peer.available(),
@@ -226,7 +252,8 @@ def _sdof_rows(p: SdofProblem, quick: bool, repeats: int, ours_repeats: int,
          for k, label in (("newmark", "Newmark"), ("generalized-alpha", "generalized-α ρ∞ 0.8"))],
         ref, repeats,
         "ObjectContactCoordinate impactModel 1 (its Hunt-Crossley form with e chosen = LN); "
-        "no event location" + ("; load by Python user function" if p.force_amplitude else ""))
+        "no event location" + ("; load by Python user function" if p.force_amplitude else ""),
+        newmark)
     for r in rows:
         r["reference"] = (f"SciPy DOP853 rtol 1e-12, piecewise with events: peak "
                           f"{ref['peak'] * 1e3:.6f} mm, {len(ref['impacts'])} contacts; vs rtol "
@@ -252,10 +279,7 @@ def run(quick: bool = False, repeats: int | None = None,
             prows = beam_rows(p, quick, repeats, ours_repeats, log)
         else:
             prows = _sdof_rows(p, quick, repeats, ours_repeats, log)
-        base = prows[0]["time_s"]
-        for r in prows:
-            if r["time_s"] is not None:
-                r["ratio"] = r["time_s"] / base
+        prows[0]["ratio"] = 1.0  # our Newmark: the others are timed beside it
         rows += prows
     return rows
 
@@ -439,9 +463,9 @@ def format_readme(rows: list[dict[str, Any]], info: dict[str, str], quick: bool)
            "",
            f"Measured {info['date']} on {info['cpu']} ({info['cores']} cores, load average "
            f"{info['load average (1/5/15 min) when written']}). Peer wall time ÷ our Newmark's "
-           "on the same problem (medians of at least 5 runs; SciPy `solve_ivp` with contact "
-           "events at the loosest tolerance whose errors are at most our Newmark's; OpenSeesPy "
-           "and Exudyn at our dt). Errors, notes and the machine: "
+           "on the same problem, timed beside it (medians of at least 5 runs; SciPy "
+           "`solve_ivp` with contact events at the loosest tolerance whose errors are at most "
+           "our Newmark's; OpenSeesPy and Exudyn at our dt). Errors, notes and the machine: "
            "[benchmarks/results.md](benchmarks/results.md)."
            + (f" {QUICK}." if quick else ""), "",
            "| problem | our Newmark | " + " | ".join(h for h, _ in _README_COLUMNS) + " |",
@@ -488,8 +512,10 @@ NOTES = [
     f"`--quick`: 1), after one warm-up run that is not counted unless it took "
     f"{LONG_RUN_S:g} s or more (then it is the first of the runs: one-off costs are "
     "negligible beside it and the median absorbs them); model build included, every step "
-    "kept, in this process. 'vs our Newmark' is the row's time over our fixed-step Newmark's "
-    "on the same problem.",
+    "kept, in this process. 'vs our Newmark': the row's median over the median of our "
+    "fixed-step Newmark on the same problem, run once beside each of the row's runs (so that "
+    "both medians see the same load on a shared machine); our Newmark's own row is its median "
+    "of its runs in a block.",
     "* Accuracy: against ONE converged reference per problem, the same for every tool: peak "
     "|x| relative error (the SDOF mass; the beam's middle slider), and the largest error of "
     "any contact's start or end time (each reference contact matched with the contact that "
