@@ -32,9 +32,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="instead: the side-by-side table against SciPy solve_ivp, OpenSeesPy and "
                    "Exudyn (pip install '.[peers]'; a missing peer gives a 'not available' row)")
     p.add_argument("--peer-repeats", type=int, default=5, metavar="N",
-                   help="with --peers: timed runs per peer (median; default 5, 1 with --quick)")
+                   help="with --peers: timed runs per peer (median; default and minimum 5; 1 "
+                   "with --quick)")
     p.add_argument("--write", metavar="FILE.md", default=None,
                    help="with --peers: also write the table and the machine to FILE.md")
+    p.add_argument("--readme", metavar="README.md", default=None,
+                   help="with --peers: also replace the generated peer table (between "
+                   "<!-- bench-peers:start --> and <!-- bench-peers:end -->) in README.md")
     p.set_defaults(handler=main)
 
 
@@ -42,8 +46,11 @@ def main(args: argparse.Namespace) -> int:
     if getattr(args, "peers", False):
         from vibroimpact.peers.table import cli_main
 
+        if not args.quick and args.peer_repeats < 5:
+            raise SystemExit(f"--peer-repeats: expected at least 5 (medians of at least 5 runs), "
+                             f"got {args.peer_repeats}")
         return cli_main(quick=args.quick, repeats=None if args.quick else args.peer_repeats,
-                        write=args.write, as_json=args.json)
+                        write=args.write, as_json=args.json, readme=args.readme)
     repeats = 3 if args.quick else max(1, args.repeats)
     rows = sdof_benchmark(repeats=repeats, peer_repeats=1 if args.quick else 5)
     if args.json:
