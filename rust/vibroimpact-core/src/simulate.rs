@@ -52,12 +52,15 @@ pub struct RunSettings {
 /// Solver statistics.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Stats {
-    /// Accepted steps (including the sub-steps of cut steps).
+    /// Fixed steps: accepted steps (including the sub-steps of cut steps). Adaptive steps:
+    /// every step solved for a kept result — in contact, average acceleration's step doubling
+    /// counts the whole step and both halves (`crate::step_control`).
     pub steps: usize,
     pub newton_iterations: usize,
-    /// Step attempts that failed (Newton did not converge).
+    /// Step attempts discarded: Newton did not converge, and (adaptive) steps rejected by the
+    /// error estimate or retried to land on an event.
     pub rejected_steps: usize,
-    /// Failed steps that were halved and retried.
+    /// Newton failures retried with shorter steps (halved, or the next adaptive level).
     pub step_cuts: usize,
     pub wall_time_s: f64,
 }
