@@ -68,7 +68,8 @@ pub(crate) fn run(
     let st = &sys.structure;
     let nw = rig.n_walls();
     check_initial(sys, &rig, &x0)?;
-    let a_hat = &st.mass + &st.damping * (h * th) + &st.stiffness * (h * h * th * th);
+    let d = &rig.dense;
+    let a_hat = &d.mass + &d.damping * (h * th) + &d.stiffness * (h * h * th * th);
     let a_inv = a_hat
         .lu()
         .try_inverse()
@@ -95,9 +96,10 @@ pub(crate) fn run(
                 rhs[d] += val;
             }
         }
-        rhs.gemv(-1.0, &st.damping, &v, 1.0);
-        rhs.gemv(-1.0, &st.stiffness, &x, 1.0);
-        rhs.gemv(-h * th, &st.stiffness, &v, 1.0);
+        st.damping.mul_add(-1.0, v.as_slice(), rhs.as_mut_slice());
+        st.stiffness.mul_add(-1.0, x.as_slice(), rhs.as_mut_slice());
+        st.stiffness
+            .mul_add(-h * th, v.as_slice(), rhs.as_mut_slice());
         let mut v1 = &v + &a_inv * (rhs * h);
         let x_pred = &x + &v * (0.5 * h);
         let active: Vec<usize> = (0..nw)
