@@ -9,44 +9,104 @@ import subprocess
 import sys
 from pathlib import Path
 
-from vibroimpact.peers import table
-from vibroimpact.peers.problems import paper_sdof
+import pytest
+from vibroimpact.peers import scipy_peer, table
 from vibroimpact.peers.reference import impact_time_error
 
 
 def test_bench_peers_quick_completes(tmp_path: Path) -> None:
     out = tmp_path / "results.md"
+    readme = tmp_path / "README.md"
+    readme.write_text(f"# x\n{table.README_START}\nold\n{table.README_END}\n", encoding="utf-8")
     p = subprocess.run(
         [sys.executable, "-m", "vibroimpact", "bench", "--peers", "--quick", "--json",
-         "--write", str(out)],
+         "--write", str(out), "--readme", str(readme)],
         capture_output=True, text=True, timeout=600,
     )
     assert p.returncode == 0, p.stderr[-2000:]
     # OpenSees prints "Process 0 Terminating" at exit: the JSON is the first line
     data = json.loads(p.stdout.strip().splitlines()[0])
     rows = data["rows"]
-    assert {r["problem"] for r in rows} >= {"paper-sdof", "forced-sdof"}
+    assert {r["problem"] for r in rows} == {"paper-sdof", "forced-sdof", "hollow-shaft"}
     for r in rows:
         has_number = isinstance(r["time_s"], float) and math.isfinite(r["time_s"])
-        assert has_number or r["note"].startswith("not available: "), r
+        assert has_number or r["note"].startswith(("not available: ", "cannot express: ")), r
+        if has_number:  # every problem has contacts within the quick run, so both errors exist
+            assert r["repeats"] >= 1
+            assert math.isfinite(r["peak_error"]) and math.isfinite(r["impact_time_error_s"]), r
     ours = [r for r in rows if r["tool"] == "vibroimpact" and r["problem"] == "paper-sdof"]
     assert ours[0]["method"] == "Newmark"
     assert all(r["peak_error"] is not None and r["peak_error"] < 1e-4 for r in ours)
     text = out.read_text(encoding="utf-8")
     assert "## Machine" in text and "| cpu |" in text and "## Results" in text
+    assert "ONE run per peer" in text  # --quick says what it changed
+    block = readme.read_text(encoding="utf-8")
+    assert "| hollow-shaft |" in block and "old" not in block
 
 
 def test_missing_peer_gives_a_not_available_row() -> None:
-    class Missing:
-        @staticmethod
-        def available() -> str:
-            return "no such module (pip install it)"
+    def never() -> dict:
+        raise AssertionError("a missing peer must not run")
 
-    p = paper_sdof()
-    rows = table._fixed_step_peer(p, {"impacts": [], "peak": 1.0}, 1, "Peer", Missing,
-                                  [("newmark", "Newmark")], "")
+    rows = table.peer_rows("paper-sdof", "Peer", "no such module (pip install it)",
+                           [("Newmark", "dt 1e-06 s", never)], {"impacts": [], "peak": 1.0}, 5,
+                           "", never)
     assert len(rows) == 1 and rows[0]["time_s"] is None
     assert rows[0]["note"] == "not available: no such module (pip install it)"
+
+
+def test_median_counts_a_long_first_run_and_skips_a_short_warm_up(monkeypatch) -> None:
+    """Medians of ``repeats`` runs: a warm-up shorter than LONG_RUN_S is not counted, a
+    longer one is the first of the runs (no extra run); our Newmark (``base``) is timed once
+    beside each counted run."""
+    calls: list[str] = []
+    f, b = (lambda: calls.append("f")), (lambda: calls.append("b"))
+    # warm-up 0.1 s; then base 0.05, run 0.2, base 0.07, run 0.3
+    clock = iter([0.0, 0.1, 1.0, 1.05, 2.0, 2.2, 3.0, 3.07, 4.0, 4.3])
+    monkeypatch.setattr(table.time, "perf_counter", lambda: next(clock))
+    secs, _, base = table._timed(f, 2, b)
+    assert calls == ["f", "b", "f", "b", "f"]
+    assert math.isclose(secs, 0.25) and math.isclose(base, 0.06)
+    # a first run of 5 s counts: runs 5, 7, 6 s; base 0.1, 0.3, 0.2 s
+    clock = iter([0.0, 5.0, 10.0, 10.1, 11.0, 11.3, 12.0, 19.0, 20.0, 20.2, 21.0, 27.0])
+    monkeypatch.setattr(table.time, "perf_counter", lambda: next(clock))
+    calls.clear()
+    secs, _, base = table._timed(f, 3, b)
+    assert calls == ["f", "b", "b", "f", "b", "f"]
+    assert secs == 6.0 and math.isclose(base, 0.2)
+    clock = iter([0.0, 0.5])  # one run, nothing beside it
+    monkeypatch.setattr(table.time, "perf_counter", lambda: next(clock))
+    assert table._timed(f, 1)[0::2] == (0.5, None)
+
+
+def test_matching_tolerance_is_the_loosest_within_our_errors() -> None:
+    ref = {"peak": 1.0, "impacts": [[0.1, 0.2]]}
+    runs = {1e-3: (1.01, [[0.1, 0.2]]),          # peak error 1e-2: too large
+            1e-4: (1.0001, [[0.1, 0.2], [0.3, 0.31]]),  # one contact too many
+            1e-5: (1.0001, [[0.1, 0.2 + 1e-7]]),   # within both
+            1e-6: (1.00001, [[0.1, 0.2]])}
+    run = lambda r: {"peak": runs[r][0], "impacts": runs[r][1]}  # noqa: E731
+    assert scipy_peer.matching_tolerance(run, ref, 1e-3, 1e-6, 0, tuple(runs)) == (1e-5, True)
+    assert scipy_peer.matching_tolerance(run, ref, 1e-3, 1e-6, 1, tuple(runs)) == (1e-4, True)
+    assert scipy_peer.matching_tolerance(run, ref, 1e-9, 1e-9, 0, tuple(runs)) == (1e-6, False)
+
+
+def test_readme_block_is_replaced_between_the_markers() -> None:
+    rows = [table._row("p", "vibroimpact", "Newmark", "dt 1e-06 s", time_s=0.004, ratio=1.0),
+            table._row("p", "SciPy", "Radau", "rtol 1e-05", time_s=0.4, ratio=100.0),
+            table._row("p", "SciPy", "DOP853", "rtol 1e-08", time_s=0.04, ratio=10.0),
+            table._unavailable("p", "SciPy", "LSODA", "", "failed: x")]
+    info = {"date": "d", "cpu": "c", "cores": "2", "load average (1/5/15 min) when written": "l"}
+    block = table.format_readme(rows, info, quick=False)
+    assert "| p | 4 ms | 100× (rtol 1e-05) |" in block
+    assert "SciPy DOP853 (10×, short by 3× of ≥ 30×)" in block
+    assert "SciPy LSODA (not measured of ≥ 100×)" in block
+    text = f"intro\n{table.README_START}\nold\n{table.README_END}\noutro\n"
+    new = table.replace_readme_block(text, block)
+    assert new.startswith("intro\n" + table.README_START) and new.endswith(
+        table.README_END + "\noutro\n") and "old" not in new
+    with pytest.raises(ValueError, match="README: expected the markers"):
+        table.replace_readme_block("no markers", block)
 
 
 def test_impact_time_error_matches_nearest_contacts() -> None:

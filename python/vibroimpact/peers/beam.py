@@ -127,147 +127,65 @@ def scipy_beam(b: BeamProblem, method: str, rtol: float, mats: dict[str, Any] | 
 #: 2.7 million steps (74 s), at the default (1e-6) 570,000 (15 s).
 BEAM_ADAPTIVE = {"rtol": 1e-5, "atol": 1e-9}
 
-#: The SciPy peers' tolerance on the beam (one run each: Radau takes about a minute).
-BEAM_RTOL = 1e-6
+#: The SciPy tolerances tried on the beam, loosest first (Radau at 1e-6 takes about 50 s here,
+#: at 1e-7 minutes).
+BEAM_RTOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7)
 
-_REF: dict[str, Any] = {}
+_REF: dict[float, dict[str, Any]] = {}
 
 
 def reference(b: BeamProblem) -> dict[str, Any]:
-    if "ref" not in _REF:
+    """The beam's converged reference (cached per ``t_end``): DOP853 at rtol 1e-10, with its
+    difference to rtol 1e-9 as ``self_check``."""
+    if b.t_end not in _REF:
         mats = _matrices(b)
         ref = scipy_beam(b, "DOP853", 1e-10, mats)
         check = scipy_beam(b, "DOP853", 1e-9, mats)
         ref["self_check"] = (abs(check["peak"] / ref["peak"] - 1),
                              impact_time_error(check["impacts"], ref["impacts"]))
-        _REF["ref"] = ref
-    return _REF["ref"]
+        _REF[b.t_end] = ref
+    return _REF[b.t_end]
 
 
-def beam_rows(b: BeamProblem, quick: bool, repeats: int, log: Callable[[str], None]
-              ) -> list[dict[str, Any]]:
-    from vibroimpact.integrators import Adaptive, GeneralizedAlpha, Newmark, PreciseIntegration
-    from vibroimpact.peers.table import _ours_impacts, _row, _timed, _unavailable
-    from vibroimpact.simulate import simulate
+def beam_rows(b: BeamProblem, quick: bool, repeats: int, ours_repeats: int,
+              log: Callable[[str], None]) -> list[dict[str, Any]]:
+    """The beam's rows: ours, SciPy on the full beam, OpenSeesPy and Exudyn on the same model,
+    all against :func:`reference`."""
+    from vibroimpact.peers import exudyn_peer, opensees_peer
+    from vibroimpact.peers.table import newmark_run, ours_rows, peer_rows, scipy_rows
 
     key = b.key
-    if quick:
-        ref = None
-    else:
-        log(f"{key}: reference (SciPy DOP853 rtol 1e-10, full beam)")
-        ref = reference(b)
+    log(f"{key}: reference (SciPy DOP853 rtol 1e-10, full beam)")
+    ref = reference(b)
     model = b.model()
-    mid = model.gaps[1].dofs[0]
-    rows = []
+    newmark = newmark_run(model, b.t_end, b.dt)
     log(f"{key}: vibroimpact")
-    methods = [
-        ("Newmark", f"dt {b.dt:g} s", Newmark()),
-        ("generalized-α ρ∞ 0.8", f"dt {b.dt:g} s", GeneralizedAlpha(rho_inf=0.8)),
-        ("precise (Adams)", f"dt {b.dt:g} s", PreciseIntegration()),
-        ("Newmark adaptive", f"rtol {BEAM_ADAPTIVE['rtol']:g}, atol {BEAM_ADAPTIVE['atol']:g} m",
-         Newmark(adaptive=Adaptive(**BEAM_ADAPTIVE))),
-    ]
-    for name, setting, method in methods:
-        try:
-            secs, res = _timed(
-                lambda m=method: simulate(model, t_end=b.t_end, dt=b.dt, method=m), repeats)
-        except Exception as e:
-            rows.append(_unavailable(key, "vibroimpact", name, setting, f"failed: {e}"))
-            continue
-        steps = f"{res.stats.steps} steps"
-        if ref is None:
-            rows.append(_row(key, "vibroimpact", name, setting, time_s=secs, repeats=repeats,
-                             note=f"{steps}; accuracy not computed with --quick (the beam's "
-                             "reference takes minutes)"))
-            continue
-        te, note = impact_time_error(_ours_impacts(res), ref["impacts"])
-        rows.append(_row(key, "vibroimpact", name, setting, time_s=secs, repeats=repeats,
-                         peak_error=abs(float(res.max_abs_displacement[mid]) / ref["peak"] - 1),
-                         impact_time_error_s=te,
-                         note="; ".join(x for x in (note, steps) if x)))
+    rows = ours_rows(key, model, b.t_end, b.dt, BEAM_ADAPTIVE, ref, ours_repeats,
+                     model.gaps[1].dofs[0])
     log(f"{key}: SciPy solve_ivp (full beam)")
     mats = _matrices(b)
-    for method in ("Radau", "LSODA", "DOP853"):
-        if ref is None:
-            rows.append(_unavailable(key, "SciPy", method, "", "skipped with --quick (runs of "
-                                     "seconds each on the full beam)"))
-            continue
-        rtol = BEAM_RTOL
-        try:
-            secs, out = _timed(lambda m=method: scipy_beam(b, m, BEAM_RTOL, mats), 1)
-        except Exception as e:
-            rows.append(_unavailable(key, "SciPy", method, f"rtol {rtol:g}", f"failed: {e}"))
-            continue
-        te, note = impact_time_error(out["impacts"], ref["impacts"])
-        rows.append(_row(key, "SciPy", method, f"rtol {rtol:g}", time_s=secs, repeats=1,
-                         peak_error=abs(out["peak"] / ref["peak"] - 1), impact_time_error_s=te,
-                         note="; ".join(x for x in (
-                             note, "ONE timed run; one call, Hertz force (C1), events only to "
-                             "locate crossings; analytic Jacobian for Radau/LSODA; tolerance "
-                             "not matched to ours (loose)",
-                             f"{out['steps']} steps") if x)))
-    log(f"{key}: OpenSeesPy (ElasticTimoshenkoBeam)")
-    from vibroimpact.peers import opensees_peer
-    from vibroimpact.peers.table import _quiet_fds
-
-    reason = opensees_peer.available()
-    for ikey, label in (("newmark", "Newmark"), ("hht", "HHT")):
-        setting = f"dt {b.dt:g} s"
-        if reason:
-            rows.append(_unavailable(key, "OpenSeesPy", label, setting, reason))
-            continue
-        try:
-            with _quiet_fds():
-                secs, out = _timed(lambda k=ikey: opensees_peer.run_beam(b, k), 1)
-        except Exception as e:
-            rows.append(_unavailable(key, "OpenSeesPy", label, setting,
-                                     f"failed: {type(e).__name__}: {e}"))
-            continue
-        what = ("ElasticTimoshenkoBeam -cMass (the same model: same frequencies) + Hertzdamp "
-                "sliders; ONE timed run")
-        if ref is None:
-            rows.append(_row(key, "OpenSeesPy", label, setting, time_s=secs, repeats=1,
-                             note=what))
-            continue
-        te, note = impact_time_error(out["impacts"], ref["impacts"])
-        rows.append(_row(key, "OpenSeesPy", label, setting, time_s=secs, repeats=1,
-                         peak_error=abs(out["peak"] / ref["peak"] - 1), impact_time_error_s=te,
-                         note="; ".join(x for x in (note, what) if x)))
-    log(f"{key}: Exudyn (ObjectGenericODE2 with our matrices)")
-    from vibroimpact.peers import exudyn_peer
-
-    reason = exudyn_peer.available()
+    rows += scipy_rows(key, lambda m, r: scipy_beam(b, m, r, mats), ref, repeats, rows[0],
+                       newmark, quick, BEAM_RTOLS,
+                       "one call (the Hertz force is C1), events only to locate crossings; "
+                       "analytic Jacobian for Radau/LSODA")
     setting = f"dt {b.dt:g} s"
-    if reason:
-        rows.append(_unavailable(key, "Exudyn", "Newmark", setting, reason))
-    else:
-        what = ("ObjectGenericODE2 with our M, K (the same model) + ObjectContactCoordinate "
-                "Hertz sliders, load by Python forceUserFunction; ONE timed run")
-        try:
-            with _quiet_fds():
-                secs, out = _timed(lambda: exudyn_peer.run_beam(b, "newmark"), 1)
-        except Exception as e:
-            rows.append(_unavailable(key, "Exudyn", "Newmark", setting,
-                                     f"failed: {type(e).__name__}: {e}"))
-        else:
-            if ref is None:
-                rows.append(_row(key, "Exudyn", "Newmark", setting, time_s=secs, repeats=1,
-                                 note=what))
-            else:
-                te, note = impact_time_error(out["impacts"], ref["impacts"])
-                rows.append(_row(key, "Exudyn", "Newmark", setting, time_s=secs, repeats=1,
-                                 peak_error=abs(out["peak"] / ref["peak"] - 1),
-                                 impact_time_error_s=te,
-                                 note="; ".join(x for x in (note, what) if x)))
-    rows.append(_unavailable(key, "Exudyn", "generalized-α ρ∞ 0.8", setting,
-                             "not run: one Exudyn run of the beam takes about 70 s here; "
-                             "its Newmark row shows the cost"))
-    base = rows[0]["time_s"]
+    log(f"{key}: OpenSeesPy (ElasticTimoshenkoBeam)")
+    rows += peer_rows(
+        key, "OpenSeesPy", opensees_peer.available(),
+        [(label, setting, lambda k=k: opensees_peer.run_beam(b, k))
+         for k, label in (("newmark", "Newmark"), ("hht", "HHT"))], ref, repeats,
+        "ElasticTimoshenkoBeam -cMass (the same model: same frequencies) + Hertzdamp (xi 0 = "
+        "Hertz, the same law) zeroLength sliders; no event location", newmark)
+    log(f"{key}: Exudyn (ObjectGenericODE2 with our matrices)")
+    rows += peer_rows(
+        key, "Exudyn", exudyn_peer.available(),
+        [(label, setting, lambda k=k: exudyn_peer.run_beam(b, k))
+         for k, label in (("newmark", "Newmark"), ("generalized-alpha", "generalized-α ρ∞ 0.8"))],
+        ref, repeats,
+        "ObjectGenericODE2 with our M, K (the same model; Exudyn's own beam elements are a "
+        "different discretisation) + ObjectContactCoordinate Hertz sliders (the same law), "
+        "load by LoadCoordinate Python user functions; no event location", newmark)
     for r in rows:
-        if r["time_s"] is not None and base:
-            r["ratio"] = r["time_s"] / base
-        if ref is None:
-            continue
         r["reference"] = (f"SciPy DOP853 rtol 1e-10 on the full beam (42 DOFs), one call, "
                           f"events at every gap crossing: middle-slider peak "
                           f"{ref['peak'] * 1e3:.6f} mm, {len(ref['impacts'])} contacts; vs "

@@ -31,7 +31,7 @@ import numpy as np
 from vibroimpact.peers.opensees_peer import crossings
 from vibroimpact.peers.problems import SdofProblem
 
-__all__ = ["available", "run_sdof", "version"]
+__all__ = ["available", "run_beam", "run_sdof", "version"]
 
 
 def available() -> str | None:
@@ -107,45 +107,55 @@ def run_sdof(p: SdofProblem, integrator: str = "newmark", dt: float | None = Non
         sensor = mbs.AddSensor(SensorNode(nodeNumber=node,
                                           outputVariableType=exu.OutputVariableType.Coordinates,
                                           storeInternal=True, writeToFile=False))
-        mbs.Assemble()
-        s = exu.SimulationSettings()
-        ti = s.timeIntegration
-        ti.numberOfSteps = n
-        ti.endTime = p.t_end
-        ti.verboseMode = 0
-        ti.adaptiveStep = False
-        ti.newton.useModifiedNewton = False
-        ti.newton.relativeTolerance = 1e-10
-        ti.newton.absoluteTolerance = 1e-6
-        ti.discontinuous.useRecommendedStepSize = False
-        if integrator == "newmark":
-            ti.generalizedAlpha.useNewmark = True
-            ti.generalizedAlpha.newmarkBeta = 0.25
-            ti.generalizedAlpha.newmarkGamma = 0.5
-        elif integrator == "generalized-alpha":
-            ti.generalizedAlpha.useNewmark = False
-            ti.generalizedAlpha.spectralRadius = 0.8
-        else:
-            raise ValueError(integrator)
-        s.solutionSettings.sensorsWritePeriod = p.t_end / n
-        s.solutionSettings.writeSolutionToFile = False
-        mbs.SolveDynamic(s)
+        _solve(exu, mbs, n, p.t_end, integrator)
         data = mbs.GetSensorStoredData(sensor)
     t, x = np.asarray(data[:, 0]), np.asarray(data[:, 1])
     return {"t": t, "x": x, "peak": float(np.abs(x).max()),
             "impacts": crossings(t, x, p.clearance, p.sides)}
 
 
+def _solve(exu: Any, mbs: Any, steps: int, t_end: float, integrator: str,
+           dense: bool = False) -> None:
+    """``SolveDynamic`` at a fixed step, full Newton, every step stored: Newmark (β = 1/4,
+    γ = 1/2) or generalized-α (``spectralRadius`` 0.8); ``dense``: ``EigenDense`` solver."""
+    if integrator not in ("newmark", "generalized-alpha"):
+        raise ValueError(f"integrator: expected 'newmark' or 'generalized-alpha', got "
+                         f"{integrator!r}")
+    mbs.Assemble()
+    s = exu.SimulationSettings()
+    ti = s.timeIntegration
+    ti.numberOfSteps = steps
+    ti.endTime = t_end
+    ti.verboseMode = 0
+    ti.adaptiveStep = False
+    ti.newton.useModifiedNewton = False
+    ti.newton.relativeTolerance = 1e-10
+    ti.newton.absoluteTolerance = 1e-6
+    ti.discontinuous.useRecommendedStepSize = False
+    ti.generalizedAlpha.useNewmark = integrator == "newmark"
+    ti.generalizedAlpha.newmarkBeta = 0.25
+    ti.generalizedAlpha.newmarkGamma = 0.5
+    ti.generalizedAlpha.spectralRadius = 0.8
+    if dense:
+        s.linearSolverType = exu.LinearSolverType.EigenDense
+    s.solutionSettings.sensorsWritePeriod = t_end / steps
+    s.solutionSettings.writeSolutionToFile = False
+    mbs.SolveDynamic(s)
+
+
 def run_beam(b: Any, integrator: str = "newmark") -> dict[str, Any]:
     """The hollow shaft as the same model in Exudyn: one ``NodeGenericODE2`` with our beam's
     42 coordinates and an ``ObjectGenericODE2`` with its mass and stiffness matrices (taken
     from :func:`vibroimpact.cases.hollow_shaft_model`, so the discretisation is ours), the
-    10 Hz load on every node as its ``forceUserFunction`` (Python, called every Newton
-    iteration), and Hertz sliders as two ``ObjectContactCoordinate`` (``impactModel = 0``,
-    exponent 1.5) per slider coordinate. Fixed step, full Newton, ``EigenDense``; Newmark or
-    generalized-α as for the SDOF problems; every step stored by a sensor."""
+    10 Hz load as one ``LoadCoordinate`` per node with a Python ``loadUserFunction`` (a
+    ``forceUserFunction`` on the object is 3x slower: Exudyn differentiates it numerically for
+    the Jacobian, 84 calls a step), and Hertz sliders as two ``ObjectContactCoordinate``
+    (``impactModel = 0``, exponent 1.5) per slider coordinate. Fixed step, full Newton,
+    ``EigenDense``; Newmark or generalized-α as for the SDOF problems (:func:`_solve`); every
+    step stored by a sensor."""
     import exudyn as exu
     from exudyn.itemInterface import (
+        LoadCoordinate,
         MarkerNodeCoordinate,
         NodeGenericData,
         NodeGenericODE2,
@@ -161,8 +171,6 @@ def run_beam(b: Any, integrator: str = "newmark") -> dict[str, Any]:
     c = np.asarray(st.damping, dtype=float)
     n = m.shape[0]
     (load_,) = model.loads
-    fvec = np.zeros(n)
-    fvec[list(load_.dofs)] = load_.amplitude
     w = 2 * math.pi * load_.frequency
     steps = round(b.t_end / b.dt)
     with warnings.catch_warnings():
@@ -173,13 +181,17 @@ def run_beam(b: Any, integrator: str = "newmark") -> dict[str, Any]:
                                            initialCoordinates=[0.0] * n,
                                            initialCoordinates_t=[0.0] * n,
                                            numberOfODE2Coordinates=n))
-
-        def force(mbs: Any, t: float, item: int, q: Any, q_t: Any) -> Any:
-            return fvec * math.sin(w * t)
-
         extra = {"dampingMatrix": c} if np.any(c) else {}
         mbs.AddObject(ObjectGenericODE2(nodeNumbers=[node], massMatrix=m, stiffnessMatrix=k,
-                                        forceUserFunction=force, **extra))
+                                        **extra))
+
+        def load(mbs: Any, t: float, load: float) -> float:
+            return load * math.sin(w * t)
+
+        for dof in load_.dofs:
+            mbs.AddLoad(LoadCoordinate(
+                markerNumber=mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=node, coordinate=dof)),
+                load=load_.amplitude, loadUserFunction=load))
         m_ground = mbs.AddMarker(MarkerNodeCoordinate(nodeNumber=mbs.AddNode(NodePointGround()),
                                                       coordinate=0))
         slider_dofs = []
@@ -197,25 +209,7 @@ def run_beam(b: Any, integrator: str = "newmark") -> dict[str, Any]:
         sensor = mbs.AddSensor(SensorNode(nodeNumber=node,
                                           outputVariableType=exu.OutputVariableType.Coordinates,
                                           storeInternal=True, writeToFile=False))
-        mbs.Assemble()
-        s = exu.SimulationSettings()
-        ti = s.timeIntegration
-        ti.numberOfSteps = steps
-        ti.endTime = b.t_end
-        ti.verboseMode = 0
-        ti.adaptiveStep = False
-        ti.newton.useModifiedNewton = False
-        ti.newton.relativeTolerance = 1e-10
-        ti.newton.absoluteTolerance = 1e-6
-        ti.discontinuous.useRecommendedStepSize = False
-        ti.generalizedAlpha.useNewmark = integrator == "newmark"
-        ti.generalizedAlpha.newmarkBeta = 0.25
-        ti.generalizedAlpha.newmarkGamma = 0.5
-        ti.generalizedAlpha.spectralRadius = 0.8
-        s.linearSolverType = exu.LinearSolverType.EigenDense
-        s.solutionSettings.sensorsWritePeriod = b.t_end / steps
-        s.solutionSettings.writeSolutionToFile = False
-        mbs.SolveDynamic(s)
+        _solve(exu, mbs, steps, b.t_end, integrator, dense=True)
         data = mbs.GetSensorStoredData(sensor)
     t = np.asarray(data[:, 0])
     impacts: list[list[Any]] = []

@@ -33,7 +33,7 @@ import numpy as np
 
 from vibroimpact.peers.problems import SdofProblem
 
-__all__ = ["available", "crossings", "load", "run_sdof", "version"]
+__all__ = ["available", "crossings", "load", "run_beam", "run_sdof", "version"]
 
 _OPS: Any = None
 _ERROR: str | None = None

@@ -152,16 +152,14 @@ class BeamProblem:
                 f"{self.dt:g} s")
 
 
-def hollow_shaft() -> BeamProblem | None:
-    """The hollow shaft (0.2 s), or None if :mod:`vibroimpact.cases` has no builder for it."""
+def hollow_shaft() -> BeamProblem:
+    """The hollow shaft (0.2 s at :data:`vibroimpact.cases.HOLLOW_SHAFT_DT`)."""
     from vibroimpact import cases
 
-    if not hasattr(cases, "hollow_shaft_model"):
-        return None
     return BeamProblem(key="hollow-shaft", title="hollow shaft beam (0.2 s)", t_end=0.2,
-                       dt=getattr(cases, "HOLLOW_SHAFT_DT", 2e-6))
+                       dt=cases.HOLLOW_SHAFT_DT)
 
 
 def all_problems() -> list[Any]:
-    """Every problem, in table order (the beam only if its builder exists)."""
+    """Every problem, in table order."""
     return [paper_sdof(), forced_sdof(), hollow_shaft()]

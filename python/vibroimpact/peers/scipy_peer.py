@@ -10,6 +10,7 @@ impact-time errors against the converged reference are both at most ours."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from vibroimpact.peers.problems import SdofProblem
@@ -24,8 +25,10 @@ RTOLS = (1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11)
 
 
 def run_sdof(p: SdofProblem, method: str, rtol: float) -> dict[str, Any]:
-    """One run, every step kept: ``t``, ``x``, ``peak``, ``impacts``."""
-    return sdof_piecewise(p, method, rtol, keep_steps=True)
+    """One run, every step kept: ``t``, ``x``, ``peak``, ``impacts``, ``steps``."""
+    out = sdof_piecewise(p, method, rtol, keep_steps=True)
+    out["steps"] = len(out["t"]) - 1
+    return out
 
 
 def errors(out: dict[str, Any], ref: dict[str, Any]) -> tuple[float, float, str]:
@@ -34,13 +37,16 @@ def errors(out: dict[str, Any], ref: dict[str, Any]) -> tuple[float, float, str]
     return abs(out["peak"] / ref["peak"] - 1.0), te, note
 
 
-def matching_tolerance(p: SdofProblem, method: str, ref: dict[str, Any], peak_target: float,
-                       time_target: float, rtols: tuple[float, ...] = RTOLS
-                       ) -> tuple[float, bool]:
-    """The loosest ``rtol`` whose errors are within the targets, and whether one was found
-    (if not, the tightest tried)."""
+def matching_tolerance(run: Callable[[float], dict[str, Any]], ref: dict[str, Any],
+                       peak_target: float, time_target: float, contacts_off: int = 0,
+                       rtols: tuple[float, ...] = RTOLS) -> tuple[float, bool]:
+    """The loosest ``rtol`` of ``rtols`` whose run (``run(rtol)``) has peak and impact-time
+    errors within the targets and a number of contacts at most ``contacts_off`` away from the
+    reference's, and whether one was found (if not, the tightest tried)."""
     for rtol in rtols:
-        pe, te, note = errors(run_sdof(p, method, rtol), ref)
-        if not note and pe <= peak_target and te <= time_target:
+        out = run(rtol)
+        pe, te, _ = errors(out, ref)
+        if (pe <= peak_target and te <= time_target
+                and abs(len(out["impacts"]) - len(ref["impacts"])) <= contacts_off):
             return rtol, True
     return rtols[-1], False

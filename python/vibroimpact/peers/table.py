@@ -3,8 +3,9 @@ integrators, SciPy ``solve_ivp`` with contact events, OpenSeesPy and Exudyn, in 
 in one table: tool, method, step or tolerance, wall time (median), ratio to our Newmark, and
 the errors against one converged reference per problem (:mod:`vibroimpact.peers.reference`).
 
-A peer that is not installed (or fails) gives a row ``not available: reason``; nothing here
-fails because a peer is missing."""
+A peer that is not installed (or fails) gives a row ``not available: reason``; a problem a peer
+cannot express gives a row ``cannot express: reason``; nothing here fails because a peer is
+missing."""
 
 from __future__ import annotations
 
@@ -28,9 +29,10 @@ from vibroimpact.peers.problems import (
     hollow_shaft,
     paper_sdof,
 )
-from vibroimpact.peers.reference import converged, impact_time_error
+from vibroimpact.peers.reference import converged
 
-__all__ = ["TARGETS", "format_markdown", "format_text", "machine", "run", "targets"]
+__all__ = ["TARGETS", "format_markdown", "format_readme", "format_text", "machine", "run",
+           "targets"]
 
 #: Issue 9's targets: the peer must be at least this many times slower than our Newmark.
 TARGETS = {("SciPy", "Radau"): 100.0, ("SciPy", "LSODA"): 100.0, ("SciPy", "DOP853"): 30.0,
@@ -40,27 +42,38 @@ TARGETS = {("SciPy", "Radau"): 100.0, ("SciPy", "LSODA"): 100.0, ("SciPy", "DOP8
 #: on both SDOF problems.
 ADAPTIVE = {"rtol": 1e-8, "atol": 1e-12}
 
+#: A first (warm-up) run at least this long (s) counts as one of the timed runs: one-off costs
+#: (imports, caches) are negligible beside it, and the median of the runs absorbs them.
+LONG_RUN_S = 1.0
 
-def _timed(fn: Callable[[], Any], repeats: int) -> tuple[float, Any]:
-    """Median wall time of ``repeats`` calls after one warm-up call (one call, no warm-up, if
-    ``repeats <= 1``), and the last result."""
-    if repeats <= 1:
-        t0 = time.perf_counter()
-        out = fn()
-        return time.perf_counter() - t0, out
+
+def _once(fn: Callable[[], Any]) -> tuple[float, Any]:
+    t0 = time.perf_counter()
     out = fn()
-    times = []
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        out = fn()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times), out
+    return time.perf_counter() - t0, out
+
+
+def _timed(fn: Callable[[], Any], repeats: int, base: Callable[[], Any] | None = None
+           ) -> tuple[float, Any, float | None]:
+    """Median wall time of ``repeats`` calls, the last result, and, with ``base`` (our
+    Newmark's run), the median of one ``base`` call timed beside each counted call: the two
+    medians are then measured under the same machine load. A first warm-up call is not
+    counted unless it took :data:`LONG_RUN_S` or more; ``repeats <= 1``: one call."""
+    first, out = _once(fn)
+    runs = [first] if first >= LONG_RUN_S or repeats <= 1 else []
+    base_runs = [_once(base)[0]] if base is not None and runs else []
+    while len(runs) < repeats:
+        if base is not None:
+            base_runs.append(_once(base)[0])
+        t, out = _once(fn)
+        runs.append(t)
+    return statistics.median(runs), out, statistics.median(base_runs) if base_runs else None
 
 
 def _row(problem: str, tool: str, method: str, setting: str, **kw: Any) -> dict[str, Any]:
     row = {"problem": problem, "tool": tool, "method": method, "setting": setting,
            "time_s": None, "repeats": 0, "ratio": None, "peak_error": None,
-           "impact_time_error_s": None, "note": ""}
+           "impact_time_error_s": None, "contacts": None, "note": ""}
     row.update(kw)
     return row
 
@@ -70,95 +83,121 @@ def _unavailable(problem: str, tool: str, method: str, setting: str, reason: str
     return _row(problem, tool, method, setting, note=f"not available: {reason}")
 
 
-def _ours_impacts(result: Any, gaps: list[int] | None = None) -> list[list[Any]]:
+def _ours_impacts(result: Any) -> list[list[Any]]:
     imp = result.impacts
-    rows = []
-    for g, a, b in zip(imp.gap, imp.t_start, imp.t_end, strict=True):
-        if gaps is None or int(g) in gaps:
-            rows.append([float(a), None if not math.isfinite(b) else float(b)])
+    rows = [[float(a), None if not math.isfinite(b) else float(b)]
+            for a, b in zip(imp.t_start, imp.t_end, strict=True)]
     return sorted(rows, key=lambda r: r[0])
 
 
-def _ours(p: SdofProblem, ref: dict[str, Any], repeats: int) -> list[dict[str, Any]]:
+def _measured(problem: str, tool: str, method: str, setting: str,
+              timing: tuple[float, Any, float | None], repeats: int, ref: dict[str, Any],
+              *notes: str, **kw: Any) -> dict[str, Any]:
+    """A timed row from ``_timed``'s ``(seconds, out, our Newmark's seconds beside it)``:
+    ``out`` (``peak``, ``impacts``) against the reference ``ref``; the ratio is to our Newmark
+    timed beside it (set by :func:`run` for our Newmark itself)."""
+    secs, out, base_s = timing
+    pe, te, cnote = scipy_peer.errors(out, ref)
+    return _row(problem, tool, method, setting, time_s=secs, repeats=repeats, peak_error=pe,
+                impact_time_error_s=te, contacts=len(out["impacts"]),
+                ratio=None if base_s is None else secs / base_s, newmark_beside_s=base_s,
+                note="; ".join(x for x in (cnote, *notes) if x), **kw)
+
+
+def newmark_run(model: Any, t_end: float, dt: float) -> Callable[[], Any]:
+    """Our fixed-step Newmark on ``model``: the base of every ratio."""
+    from vibroimpact.integrators import Newmark
+    from vibroimpact.simulate import simulate
+
+    return lambda: simulate(model, t_end=t_end, dt=dt, method=Newmark())
+
+
+def ours_rows(key: str, model: Any, t_end: float, dt: float, adaptive: dict[str, float],
+              ref: dict[str, Any], repeats: int, peak_dof: int) -> list[dict[str, Any]]:
+    """Our Newmark (first: the base of every ratio), generalized-α, precise integration and
+    adaptive Newmark on ``model``; the peak is ``|x|`` of ``peak_dof``."""
     from vibroimpact.integrators import Adaptive, GeneralizedAlpha, Newmark, PreciseIntegration
     from vibroimpact.simulate import simulate
 
-    model = p.model()
+    base = newmark_run(model, t_end, dt)
     methods = [
-        ("Newmark", f"dt {p.dt:g} s", Newmark()),
-        ("generalized-α ρ∞ 0.8", f"dt {p.dt:g} s", GeneralizedAlpha(rho_inf=0.8)),
-        ("precise (Adams)", f"dt {p.dt:g} s", PreciseIntegration()),
-        ("Newmark adaptive", f"rtol {ADAPTIVE['rtol']:g}, atol {ADAPTIVE['atol']:g} m",
-         Newmark(adaptive=Adaptive(**ADAPTIVE))),
+        ("generalized-α ρ∞ 0.8", f"dt {dt:g} s", GeneralizedAlpha(rho_inf=0.8)),
+        ("precise (Adams)", f"dt {dt:g} s", PreciseIntegration()),
+        ("Newmark adaptive", f"rtol {adaptive['rtol']:g}, atol {adaptive['atol']:g} m",
+         Newmark(adaptive=Adaptive(**adaptive))),
     ]
     rows = []
-    for name, setting, method in methods:
-        secs, res = _timed(lambda m=method: simulate(model, t_end=p.t_end, dt=p.dt, method=m),
-                           repeats)
-        te, note = impact_time_error(_ours_impacts(res), ref["impacts"])
-        rows.append(_row(p.key, "vibroimpact", name, setting, time_s=secs, repeats=repeats,
-                         peak_error=abs(float(res.max_abs_displacement[0]) / ref["peak"] - 1),
-                         impact_time_error_s=te, note=note or f"{res.stats.steps} steps"))
+    for name, setting, fn, beside in [("Newmark", f"dt {dt:g} s", base, None)] + [
+            (n, st, lambda m=m: simulate(model, t_end=t_end, dt=dt, method=m), base)
+            for n, st, m in methods]:
+        secs, res, base_s = _timed(fn, repeats, beside)
+        out = {"peak": float(res.max_abs_displacement[peak_dof]),
+               "impacts": _ours_impacts(res)}
+        rows.append(_measured(key, "vibroimpact", name, setting, (secs, out, base_s), repeats,
+                              ref, f"{res.stats.steps} steps"))
     return rows
 
 
-def _scipy(p: SdofProblem, ref: dict[str, Any], repeats: int, base: dict[str, Any],
-           quick: bool) -> list[dict[str, Any]]:
+def scipy_rows(key: str, run: Callable[[str, float], dict[str, Any]], ref: dict[str, Any],
+               repeats: int, base: dict[str, Any], newmark: Callable[[], Any], quick: bool,
+               rtols: tuple[float, ...], how: str) -> list[dict[str, Any]]:
+    """Radau, LSODA and DOP853 (``run(method, rtol)``), each at the loosest of ``rtols`` whose
+    errors are at most our Newmark's (``base``, its row; ``newmark``, its run, timed beside),
+    or at rtol 1e-6 with ``quick``; with the run one decade looser beside it (a bracket: there
+    the peer is less accurate than ours)."""
     rows = []
     for method in scipy_peer.METHODS:
         if quick:
-            rtol, found = 1e-6, True
-            how = "rtol fixed (--quick)"
+            rtol, found, why = 1e-6, True, "rtol fixed (--quick)"
         else:
             rtol, found = scipy_peer.matching_tolerance(
-                p, method, ref, base["peak_error"], base["impact_time_error_s"])
-            how = ("loosest rtol with errors <= our Newmark's" if found
+                lambda r, m=method: run(m, r), ref, base["peak_error"],
+                base["impact_time_error_s"], abs(base["contacts"] - len(ref["impacts"])),
+                rtols)
+            why = ("loosest rtol with errors <= our Newmark's" if found
                    else "tightest rtol tried; still less accurate than our Newmark")
         try:
-            secs, out = _timed(lambda m=method, r=rtol: scipy_peer.run_sdof(p, m, r), repeats)
-        except Exception as e:  # pragma: no cover - a SciPy failure is reported, not raised
-            rows.append(_unavailable(p.key, "SciPy", method, f"rtol {rtol:g}", f"failed: {e}"))
+            timing = _timed(lambda m=method, r=rtol: run(m, r), repeats, newmark)
+        except Exception as e:  # a SciPy failure is reported, not raised
+            rows.append(_unavailable(key, "SciPy", method, f"rtol {rtol:g}", f"failed: {e}"))
             continue
-        pe, te, note = scipy_peer.errors(out, ref)
         looser = ""
         extra: dict[str, Any] = {}
-        i = scipy_peer.RTOLS.index(rtol) if rtol in scipy_peer.RTOLS else 0
+        i = rtols.index(rtol) if rtol in rtols else 0
         if not quick and found and i > 0:
-            # one decade looser: the peer is then less accurate than our Newmark (a bracket)
-            r2 = scipy_peer.RTOLS[i - 1]
-            secs2, out2 = _timed(lambda m=method, r=r2: scipy_peer.run_sdof(p, m, r), repeats)
+            r2 = rtols[i - 1]
+            secs2, out2, base2 = _timed(lambda m=method, r=r2: run(m, r), repeats, newmark)
             pe2, te2, note2 = scipy_peer.errors(out2, ref)
+            ratio2 = secs2 / base2 if base2 else math.nan
             extra = {"looser": {"rtol": r2, "time_s": secs2, "peak_error": pe2,
-                                "impact_time_error_s": te2,
-                                "ratio": secs2 / base["time_s"]}}
-            looser = (f"at rtol {r2:g}: {_fmt_time(secs2)} = {secs2 / base['time_s']:.3g}x, "
+                                "impact_time_error_s": te2, "ratio": ratio2}}
+            looser = (f"at rtol {r2:g}: {_fmt_time(secs2)} = {ratio2:.3g}x, "
                       f"errors {pe2:.1e} / {_fmt_err(te2, 's')}{' ' + note2 if note2 else ''}")
-        rows.append(_row(p.key, "SciPy", method, f"rtol {rtol:g}", time_s=secs, repeats=repeats,
-                         peak_error=pe, impact_time_error_s=te,
-                         note="; ".join(x for x in (note, how, f"{len(out['t']) - 1} steps",
-                                                    looser) if x), **extra))
+        rows.append(_measured(key, "SciPy", method, f"rtol {rtol:g}", timing, repeats, ref,
+                              why, how, f"{timing[1]['steps']} steps", looser, **extra))
     return rows
 
 
-def _fixed_step_peer(p: SdofProblem, ref: dict[str, Any], repeats: int, tool: str,
-                     module: Any, methods: list[tuple[str, str]], note: str
-                     ) -> list[dict[str, Any]]:
-    reason = module.available()
+def peer_rows(key: str, tool: str, reason: str | None,
+              runs: list[tuple[str, str, Callable[[], dict[str, Any]]]], ref: dict[str, Any],
+              repeats: int, note: str, newmark: Callable[[], Any] | None
+              ) -> list[dict[str, Any]]:
+    """One row per ``(label, setting, run)`` of a peer, with our Newmark (``newmark``) timed
+    beside it; ``reason``: why it is not available (None if it is). The peer's C-level output
+    is silenced while it runs."""
     rows = []
-    for key, label in methods:
+    for label, setting, fn in runs:
         if reason:
-            rows.append(_unavailable(p.key, tool, label, f"dt {p.dt:g} s", reason))
+            rows.append(_unavailable(key, tool, label, setting, reason))
             continue
         try:
-            secs, out = _timed(lambda k=key: module.run_sdof(p, k), repeats)
+            with _quiet_fds():
+                timing = _timed(fn, repeats, newmark)
         except Exception as e:
-            rows.append(_unavailable(p.key, tool, label, f"dt {p.dt:g} s",
+            rows.append(_unavailable(key, tool, label, setting,
                                      f"failed: {type(e).__name__}: {e}"))
             continue
-        te, cnote = impact_time_error(out["impacts"], ref["impacts"])
-        rows.append(_row(p.key, tool, label, f"dt {p.dt:g} s", time_s=secs, repeats=repeats,
-                         peak_error=abs(out["peak"] / ref["peak"] - 1), impact_time_error_s=te,
-                         note="; ".join(x for x in (cnote, note) if x)))
+        rows.append(_measured(key, tool, label, setting, timing, repeats, ref, note))
     return rows
 
 
@@ -192,24 +231,29 @@ def _sdof_rows(p: SdofProblem, quick: bool, repeats: int, ours_repeats: int,
     log(f"{p.key}: converged reference (SciPy DOP853, rtol 1e-12)")
     ref = converged(p)
     log(f"{p.key}: vibroimpact")
-    rows = _ours(p, ref, ours_repeats)
-    base = rows[0]
+    model = p.model()
+    newmark = newmark_run(model, p.t_end, p.dt)
+    rows = ours_rows(p.key, model, p.t_end, p.dt, ADAPTIVE, ref, ours_repeats, 0)
     log(f"{p.key}: SciPy solve_ivp")
-    rows += _scipy(p, ref, repeats, base, quick)
+    rows += scipy_rows(p.key, lambda m, r: scipy_peer.run_sdof(p, m, r), ref, repeats, rows[0],
+                       newmark, quick, scipy_peer.RTOLS, "")
+    setting = f"dt {p.dt:g} s"
     log(f"{p.key}: OpenSeesPy")
-    with _quiet_fds():
-        rows += _fixed_step_peer(
-            p, ref, repeats, "OpenSeesPy", opensees_peer,
-            [("newmark", "Newmark"), ("hht", "HHT")],
-            "Hertzdamp zeroLength (same law; v_imp from its step), no event location")
+    rows += peer_rows(
+        p.key, "OpenSeesPy", opensees_peer.available(),
+        [(label, setting, lambda k=k: opensees_peer.run_sdof(p, k))
+         for k, label in (("newmark", "Newmark"), ("hht", "HHT"))], ref, repeats,
+        "Hertzdamp zeroLength (the same law, but its v_imp is the speed at the step where "
+        "contact is detected); no event location", newmark)
     log(f"{p.key}: Exudyn")
-    with _quiet_fds():
-        rows += _fixed_step_peer(
-            p, ref, repeats, "Exudyn", exudyn_peer,
-            [("newmark", "Newmark"), ("generalized-alpha", "generalized-α ρ∞ 0.8")],
-            "ObjectContactCoordinate impactModel 1 (Hunt-Crossley form = LN here), "
-            "no event location" + ("; load by Python user function" if p.force_amplitude
-                                   else ""))
+    rows += peer_rows(
+        p.key, "Exudyn", exudyn_peer.available(),
+        [(label, setting, lambda k=k: exudyn_peer.run_sdof(p, k))
+         for k, label in (("newmark", "Newmark"), ("generalized-alpha", "generalized-α ρ∞ 0.8"))],
+        ref, repeats,
+        "ObjectContactCoordinate impactModel 1 (its Hunt-Crossley form with e chosen = LN); "
+        "no event location" + ("; load by Python user function" if p.force_amplitude else ""),
+        newmark)
     for r in rows:
         r["reference"] = (f"SciPy DOP853 rtol 1e-12, piecewise with events: peak "
                           f"{ref['peak'] * 1e3:.6f} mm, {len(ref['impacts'])} contacts; vs rtol "
@@ -218,22 +262,11 @@ def _sdof_rows(p: SdofProblem, quick: bool, repeats: int, ours_repeats: int,
     return rows
 
 
-def _beam_rows(b: Any, quick: bool, repeats: int,
-               log: Callable[[str], None]) -> list[dict[str, Any]]:
-    key = "hollow-shaft"
-    if b is None:
-        return [_unavailable(key, "vibroimpact", "all", "",
-                             "vibroimpact.cases has no hollow-shaft builder in this version")]
-    from vibroimpact.peers.beam import beam_rows
-
-    return beam_rows(b, quick, repeats, log)
-
-
 def run(quick: bool = False, repeats: int | None = None,
         log: Callable[[str], None] | None = None) -> list[dict[str, Any]]:
     """Every row of the table. ``repeats``: timed runs per peer (default 5; 1 with ``quick``,
     which also fixes the SciPy tolerance at 1e-6 instead of searching for the matching one and
-    runs the beam's peers not at all)."""
+    shortens the forced SDOF and the beam, :func:`problem_list`)."""
     log = log or (lambda s: None)
     if repeats is None:
         repeats = 1 if quick else 5
@@ -241,20 +274,19 @@ def run(quick: bool = False, repeats: int | None = None,
     rows: list[dict[str, Any]] = []
     for p in problem_list(quick):
         if isinstance(p, BeamProblem):
-            continue
-        prows = _sdof_rows(p, quick, repeats, ours_repeats, log)
-        base = prows[0]["time_s"]
-        for r in prows:
-            if r["time_s"] is not None:
-                r["ratio"] = r["time_s"] / base
+            from vibroimpact.peers.beam import beam_rows
+
+            prows = beam_rows(p, quick, repeats, ours_repeats, log)
+        else:
+            prows = _sdof_rows(p, quick, repeats, ours_repeats, log)
+        prows[0]["ratio"] = 1.0  # our Newmark: the others are timed beside it
         rows += prows
-    rows += _beam_rows(problem_list(quick)[2], quick, repeats, log)
     return rows
 
 
 def problem_list(quick: bool) -> list[Any]:
-    """The problems; with ``quick`` the forced SDOF runs 0.2 s and the beam 0.02 s (the paper's
-    SDOF case is short already)."""
+    """The problems; with ``quick`` the forced SDOF runs 0.2 s and the beam 0.03 s (its first
+    contacts, at 0.025 s; the paper's SDOF case is short already)."""
     import dataclasses
 
     beam = hollow_shaft()
@@ -262,9 +294,7 @@ def problem_list(quick: bool) -> list[Any]:
         return [paper_sdof(), forced_sdof(), beam]
     forced = forced_sdof()
     forced = dataclasses.replace(forced, t_end=0.2, title=forced.title.replace("1 s", "0.2 s"))
-    if beam is not None:
-        beam = dataclasses.replace(beam, t_end=0.02,
-                                   title=beam.title.replace("0.2 s", "0.02 s"))
+    beam = dataclasses.replace(beam, t_end=0.03, title=beam.title.replace("0.2 s", "0.03 s"))
     return [paper_sdof(), forced, beam]
 
 
@@ -351,18 +381,24 @@ def _fmt_err(x: float | None, unit: str = "") -> str:
 
 def _cells(r: dict[str, Any]) -> list[str]:
     ratio = "-" if r["ratio"] is None else f"{r['ratio']:.3g}x"
-    return [r["problem"], r["tool"], r["method"], r["setting"], _fmt_time(r["time_s"]), ratio,
-            _fmt_err(r["peak_error"]), _fmt_err(r["impact_time_error_s"], "s"), r["note"]]
+    runs = str(r["repeats"]) if r["time_s"] is not None else "-"
+    return [r["problem"], r["tool"], r["method"], r["setting"], _fmt_time(r["time_s"]), runs,
+            ratio, _fmt_err(r["peak_error"]), _fmt_err(r["impact_time_error_s"], "s"), r["note"]]
 
 
-HEADER = ["problem", "tool", "method", "step / tolerance", "wall time", "vs our Newmark",
-          "peak displacement error (rel.)", "impact-time error", "note"]
+HEADER = ["problem", "tool", "method", "step / tolerance", "wall time (median)", "runs",
+          "vs our Newmark", "peak displacement error (rel.)", "impact-time error", "note"]
+
+#: What ``--quick`` changes, stated above its tables.
+QUICK = ("`--quick` (a smoke test, not the benchmark): ONE run per peer (ours: median of 3), "
+         "SciPy at rtol 1e-6 (no tolerance search), the forced SDOF 0.2 s and the beam 0.03 s "
+         "long")
 
 
-def format_text(rows: list[dict[str, Any]]) -> str:
+def format_text(rows: list[dict[str, Any]], quick: bool = False) -> str:
     cells = [HEADER] + [_cells(r) for r in rows]
     widths = [max(len(c[i]) for c in cells) for i in range(len(HEADER) - 1)]
-    lines = []
+    lines = [QUICK.replace("`", "")] if quick else []
     for c in cells:
         lines.append("  ".join(c[i].ljust(widths[i]) for i in range(len(widths))) + "  " + c[-1])
     lines.append("")
@@ -377,15 +413,13 @@ def format_markdown(rows: list[dict[str, Any]], info: dict[str, str], quick: boo
         if "reference" in r:
             refs[r["problem"]] = r["reference"]
     out = ["# Benchmark against peers (issue 9)", "",
-           "Generated by `vibroimpact bench --peers --write benchmarks/results.md`"
-           + (" (`--quick`: one run per peer, SciPy tolerance fixed)" if quick else "")
+           f"Generated by `{COMMAND}`"
+           + (f" with {QUICK}" if quick else "")
            + "; every tool runs in the same Python process, one after the other.", "",
            "## Machine", "", "| | |", "|---|---|"]
     out += [f"| {k} | {v} |" for k, v in info.items()]
     out += ["", "## Problems and the reference", ""]
     for p in problems:
-        if p is None:
-            continue
         out.append(f"* **{p.key}** — {p.describe()}.")
         if p.key in refs:
             out.append(f"  Reference: {refs[p.key]}.")
@@ -398,56 +432,150 @@ def format_markdown(rows: list[dict[str, Any]], info: dict[str, str], quick: boo
     return "\n".join(out) + "\n"
 
 
+#: The command that writes ``benchmarks/results.md`` and the README's peer table.
+COMMAND = "vibroimpact bench --peers --write benchmarks/results.md --readme README.md"
+
+#: The markers around the generated block in the README.
+README_START = "<!-- bench-peers:start -->"
+README_END = "<!-- bench-peers:end -->"
+
+#: The README table's columns: header, (tool, method) of each row shown in the cell.
+_README_COLUMNS = [
+    ("SciPy Radau", [("SciPy", "Radau")]),
+    ("SciPy LSODA", [("SciPy", "LSODA")]),
+    ("SciPy DOP853", [("SciPy", "DOP853")]),
+    ("OpenSeesPy Newmark / HHT", [("OpenSeesPy", "Newmark"), ("OpenSeesPy", "HHT")]),
+    ("Exudyn Newmark / gen.-α", [("Exudyn", "Newmark"), ("Exudyn", "generalized-α ρ∞ 0.8")]),
+]
+
+
+def format_readme(rows: list[dict[str, Any]], info: dict[str, str], quick: bool) -> str:
+    """The README's peer table (between :data:`README_START` and :data:`README_END`): peer
+    time over our Newmark's per problem, and the targets met or missed, by how much."""
+    def cell(r: dict[str, Any] | None) -> str:
+        if r is None or r["ratio"] is None:
+            return "not measured"
+        tol = f" ({r['setting']})" if r["tool"] == "SciPy" else ""
+        return f"{r['ratio']:.3g}×{tol}"
+
+    out = [README_START,
+           f"<!-- generated by `{COMMAND}`{' --quick' if quick else ''}: do not edit by hand -->",
+           "",
+           f"Measured {info['date']} on {info['cpu']} ({info['cores']} cores, load average "
+           f"{info['load average (1/5/15 min) when written']}). Peer wall time ÷ our Newmark's "
+           "on the same problem, timed beside it (medians of at least 5 runs; SciPy "
+           "`solve_ivp` with contact events at the loosest tolerance whose errors are at most "
+           "our Newmark's; OpenSeesPy and Exudyn at our dt). Errors, notes and the machine: "
+           "[benchmarks/results.md](benchmarks/results.md)."
+           + (f" {QUICK}." if quick else ""), "",
+           "| problem | our Newmark | " + " | ".join(h for h, _ in _README_COLUMNS) + " |",
+           "|---|---|" + "---|" * len(_README_COLUMNS)]
+    for key in dict.fromkeys(r["problem"] for r in rows):
+        prow = [r for r in rows if r["problem"] == key]
+
+        def find(tool: str, method: str, prow: list[dict[str, Any]] = prow
+                 ) -> dict[str, Any] | None:
+            return next((r for r in prow if r["tool"] == tool and r["method"] == method), None)
+
+        ours = find("vibroimpact", "Newmark")
+        cells = [" / ".join(cell(find(*tm)) for tm in tms) for _, tms in _README_COLUMNS]
+        out.append(f"| {key} | {_fmt_time(ours['time_s'] if ours else None)} | "
+                   + " | ".join(cells) + " |")
+    missed, met = [], 0
+    for r in rows:
+        goal = TARGETS.get((r["tool"], r["method"]))
+        if goal is None:
+            continue
+        if r["ratio"] is not None and r["ratio"] >= goal:
+            met += 1
+        else:
+            by = "not measured" if r["ratio"] is None else f"{r['ratio']:.3g}×, short by " \
+                f"{goal / r['ratio']:.2g}×"
+            missed.append(f"{r['problem']} {r['tool']} {r['method']} ({by} of ≥ {goal:g}×)")
+    out += ["", f"**Targets** (issue 9: ≥ 100× SciPy Radau/LSODA, ≥ 30× DOP853, ≥ 50× "
+            f"OpenSeesPy, at equal or better accuracy): met {met} of {met + len(missed)}."
+            + (" Missed: " + "; ".join(missed) + "." if missed else ""), README_END]
+    return "\n".join(out)
+
+
+def replace_readme_block(text: str, block: str) -> str:
+    """``text`` with the part from :data:`README_START` to :data:`README_END` replaced."""
+    a, b = text.find(README_START), text.find(README_END)
+    if a < 0 or b < a:
+        raise ValueError(f"README: expected the markers {README_START!r} ... {README_END!r} "
+                         "around the peer table")
+    return text[:a] + block + text[b + len(README_END):]
+
+
 NOTES = [
-    "* Wall time: median of the repeats after one warm-up run (ours: at least 20 repeats, peers "
-    "5; `--quick`: 1 run, no warm-up), model build included, every step kept, in this "
-    "process. 'vs our Newmark' is the row's time over our fixed-step Newmark's on the same "
-    "problem.",
+    "* Wall time: median of the runs in the 'runs' column (ours: at least 20, peers 5; "
+    f"`--quick`: 1), after one warm-up run that is not counted unless it took "
+    f"{LONG_RUN_S:g} s or more (then it is the first of the runs: one-off costs are "
+    "negligible beside it and the median absorbs them); model build included, every step "
+    "kept, in this process. 'vs our Newmark': the row's median over the median of our "
+    "fixed-step Newmark on the same problem, run once beside each of the row's runs (so that "
+    "both medians see the same load on a shared machine); our Newmark's own row is its median "
+    "of its runs in a block.",
     "* Accuracy: against ONE converged reference per problem, the same for every tool: peak "
     "|x| relative error (the SDOF mass; the beam's middle slider), and the largest error of "
     "any contact's start or end time (each reference contact matched with the contact that "
     "starts nearest to it; a different number of contacts is stated in the note).",
     "* vibroimpact: the Python API (`vibroimpact.simulate`), Rust core; impact times and the peak "
     "are located inside the step.",
-    "* SciPy: `solve_ivp` phase by phase with terminal events where a gap closes or opens and "
-    "a non-terminal event at x' = 0 for the peaks (`vibroimpact.peers.scipy_peer`); its "
-    "tolerance is the loosest of 1e-3 ... 1e-11 whose peak and impact-time errors are both at "
-    "most our Newmark's, so each SciPy row is at least as accurate as our Newmark.",
+    "* SciPy: SDOF problems: `solve_ivp` phase by phase with terminal events where a gap closes "
+    "or opens and a non-terminal event at x' = 0 for the peaks "
+    "(`vibroimpact.peers.scipy_peer`); the beam: one call on the full 42-DOF model (Hertz "
+    "force, C1) with events at every gap crossing (`vibroimpact.peers.beam`). The tolerance is "
+    "the loosest of 1e-3 ... 1e-11 (beam: 1e-3 ... 1e-7) whose peak and impact-time errors are "
+    "both at most our Newmark's and whose number of contacts is as close to the reference's as "
+    "ours, so each SciPy row is at least as accurate as our Newmark; the note gives the run one "
+    "decade looser (less accurate than ours) as a bracket.",
     "* OpenSeesPy: `Hertzdamp` (force K δ^n (1 + ξ δ̇/v_imp) with ξ = 3(1 − ce²)/4, i.e. "
-    "Lankarani–Nikravesh; its v_imp is the velocity at the step where contact is detected, "
-    "not a located crossing) in `zeroLength` elements, Newton, `NormDispIncr` 1e-12, at our "
-    "dt; `analyze(1, dt)` in a loop reading `nodeDisp` (a `recorder` with `analyze(N, dt)` "
-    "took the same time). Its `GeneralizedAlpha` is not used (PEERS.md: wrong on a linear "
-    "SDOF in this version). Peak = largest step value; impact times = linear interpolation "
-    "of the clearance crossing between steps.",
-    "* Exudyn: `ObjectContactCoordinate` with `impactModel = 1` (restitution chosen so that "
-    "its 1.5(1 − e) equals 3(1 − ce²)/4), fixed step, full Newton; peak and impact times from "
-    "the stored steps as for OpenSees.",
-    "* The hollow shaft: OpenSeesPy with `ElasticTimoshenkoBeam` elements and `-cMass` (its "
-    "free-free frequencies equal ours to 9 digits: the same model) and Hertzdamp sliders; "
-    "Exudyn with our M and K in an `ObjectGenericODE2`; SciPy on our M and K. These runs are "
-    "timed ONCE each (tens of seconds), ours as the median of the repeats.",
+    "Lankarani–Nikravesh; ξ = 0 on the beam, i.e. Hertz; its v_imp is the velocity at the "
+    "step where contact is detected, not a located crossing) in `zeroLength` elements, "
+    "Newton, `NormDispIncr` 1e-12, at our dt; `analyze(1, dt)` in a loop reading `nodeDisp` "
+    "(a `recorder` with `analyze(N, dt)` took the same time). Its `GeneralizedAlpha` is not "
+    "used (PEERS.md: wrong on a linear SDOF in this version). Peak = largest step value; "
+    "impact times = linear interpolation of the clearance crossing between steps. The beam: "
+    "`ElasticTimoshenkoBeam` elements with `-cMass` (its free-free frequencies equal ours to 9 "
+    "digits: the same model).",
+    "* Exudyn: Newmark (β = 1/4, γ = 1/2) and generalized-α (spectral radius 0.8) on every "
+    "problem (it can express all three), fixed step, full Newton. SDOF: "
+    "`ObjectContactCoordinate` with `impactModel = 1` (restitution chosen so that its "
+    "1.5(1 − e) equals 3(1 − ce²)/4: the Lankarani–Nikravesh force); the beam: our M and K in "
+    "an `ObjectGenericODE2` (its own beam elements would be a different discretisation), "
+    "`ObjectContactCoordinate` Hertz sliders, the load as `LoadCoordinate` Python user "
+    "functions. Peak and impact times from the stored steps as for OpenSees.",
 ]
 
 
 def cli_main(quick: bool = False, repeats: int | None = None, write: str | None = None,
-             as_json: bool = False) -> int:
-    """``vibroimpact bench --peers [--quick] [--write FILE.md] [--json]``."""
+             as_json: bool = False, readme: str | None = None) -> int:
+    """``vibroimpact bench --peers [--quick] [--write FILE.md] [--readme README.md] [--json]``."""
     import json
     from pathlib import Path
 
     def log(msg: str) -> None:
         print(f"[bench --peers] {msg}", file=sys.stderr, flush=True)
 
+    if readme:  # fail before the long run, not after it
+        replace_readme_block(Path(readme).read_text(encoding="utf-8"), "")
     rows = run(quick=quick, repeats=repeats, log=log)
+    info = machine()
     if as_json:
-        print(json.dumps({"machine": machine(), "rows": rows, "targets": targets(rows)},
+        print(json.dumps({"machine": info, "rows": rows, "targets": targets(rows)},
                          default=float))
     else:
-        print(format_text(rows))
+        print(format_text(rows, quick))
     if write:
         path = Path(write)
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(format_markdown(rows, machine(), quick), encoding="utf-8")
+        path.write_text(format_markdown(rows, info, quick), encoding="utf-8")
         log(f"wrote {path}")
+    if readme:
+        path = Path(readme)
+        path.write_text(replace_readme_block(path.read_text(encoding="utf-8"),
+                                             format_readme(rows, info, quick)),
+                        encoding="utf-8")
+        log(f"updated the peer table in {path}")
     return 0

@@ -212,12 +212,7 @@ impl ContactLaw for Law {
         impact_speed: f64,
         max_penetration: f64,
     ) -> ContactForce {
-        match self {
-            Law::Tabulated(t) => {
-                t.evaluate_in_contact(penetration, rate, impact_speed, max_penetration)
-            }
-            _ => self.evaluate(penetration, rate, impact_speed),
-        }
+        dispatch!(self, law => law.evaluate_in_contact(penetration, rate, impact_speed, max_penetration))
     }
 }
 
