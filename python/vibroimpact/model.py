@@ -159,6 +159,14 @@ class Structure:
         """Whether the matrices are CSR arrays (else dense arrays)."""
         return sp.issparse(self.mass)
 
+    def dense_matrices(self) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                      NDArray[np.float64]]:
+        """``M, K, C`` as dense arrays (new copies when sparse): for small models and dense
+        tools only, ``8 n²`` bytes each."""
+        m, k, c = (a.toarray() if sp.issparse(a) else a for a in (self.mass, self.stiffness,
+                                                                   self.damping))
+        return m, k, c
+
 
 def _dofs(value: int | Sequence[int], field_name: str) -> tuple[int, ...]:
     items = [value] if isinstance(value, (int, np.integer)) else list(value)
