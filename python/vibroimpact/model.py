@@ -118,7 +118,10 @@ class Structure:
     damping: Matrix
 
     def __init__(
-        self, mass: Any, stiffness: Any | None = None, damping: Any | None = None
+        self,
+        mass: ArrayLike | sp.sparray | sp.spmatrix,
+        stiffness: ArrayLike | sp.sparray | sp.spmatrix | None = None,
+        damping: ArrayLike | sp.sparray | sp.spmatrix | None = None,
     ) -> None:
         m = _matrix(mass, "structure.mass")
         n = m.shape[0]
