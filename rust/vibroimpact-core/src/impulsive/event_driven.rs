@@ -52,6 +52,9 @@ use crate::integrators::expm::duhamel;
 use crate::simulate::{RunOutput, RunSettings, Stats};
 use crate::system::System;
 
+/// The method's name in errors.
+const METHOD: &str = "event-driven";
+
 /// Settings of the event-driven method.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EventDriven {
@@ -642,7 +645,7 @@ pub(crate) fn run(
 ) -> Result<RunOutput, SimError> {
     method.validate()?;
     let started = std::time::Instant::now();
-    let rig = Rigidity::new(sys)?;
+    let rig = Rigidity::new(sys, METHOD)?;
     check_initial(sys, &rig, &x0)?;
     let (n_steps, h0) = steps(settings);
     let nw = rig.n_walls();

@@ -125,9 +125,10 @@ pub(crate) struct Rigidity {
 }
 
 impl Rigidity {
-    pub fn new(sys: &System) -> Result<Self, SimError> {
+    /// For the impulsive `method` (named in the error if the model is too large to be dense).
+    pub fn new(sys: &System, method: &str) -> Result<Self, SimError> {
         let n = sys.n_dof();
-        let dense = sys.structure.dense("the impulsive methods")?;
+        let dense = sys.structure.dense(method)?;
         let m_inv = dense
             .mass
             .clone()

@@ -27,6 +27,9 @@ use crate::gap::ImpactRecord;
 use crate::simulate::{RunOutput, RunSettings, Stats};
 use crate::system::System;
 
+/// The method's name in errors.
+const METHOD: &str = "moreau-jean";
+
 /// Settings of Moreau–Jean time stepping.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MoreauJean {
@@ -62,7 +65,7 @@ pub(crate) fn run(
 ) -> Result<RunOutput, SimError> {
     method.validate()?;
     let started = std::time::Instant::now();
-    let rig = Rigidity::new(sys)?;
+    let rig = Rigidity::new(sys, METHOD)?;
     let (n_steps, h) = steps(settings);
     let th = method.theta;
     let st = &sys.structure;
