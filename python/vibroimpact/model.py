@@ -15,11 +15,14 @@ Example — the paper's SDOF case (a 100 kg block between two walls 5 mm away)::
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any, Literal, TypeAlias
 
 import numpy as np
+import scipy.linalg
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
 from numpy.typing import ArrayLike, NDArray
 
 from vibroimpact.contact import ContactLaw
@@ -33,9 +36,13 @@ __all__ = [
     "Model",
     "Structure",
     "TableLoad",
+    "spd_solver",
 ]
 
 Side = Literal["positive", "negative", "both"]
+
+#: A structure matrix: a dense array, or a SciPy CSR array for large (e.g. FE) models.
+Matrix: TypeAlias = "NDArray[np.float64] | sp.csr_array"
 
 
 def _finite_number(value: Any, field_name: str, expected: str) -> float:
@@ -44,21 +51,29 @@ def _finite_number(value: Any, field_name: str, expected: str) -> float:
     return float(value)
 
 
-def _matrix(value: ArrayLike, field_name: str, n: int | None = None) -> NDArray[np.float64]:
+def _matrix(value: Any, field_name: str, n: int | None = None) -> Matrix:
+    """A validated square, finite, symmetric matrix: a CSR array (canonical: sorted indices,
+    no duplicates) if ``value`` is a SciPy sparse matrix, else a dense array."""
+    a: Matrix
     try:
-        a = np.array(value, dtype=float)
+        if sp.issparse(value):
+            a = sp.csr_array(value, dtype=float, copy=True)
+            a.sum_duplicates()
+        else:
+            a = np.array(value, dtype=float)
     except (TypeError, ValueError):
         raise ModelError(f"{field_name}: not a numeric matrix; expected an n x n array") from None
     if a.ndim == 0:
-        a = a.reshape(1, 1)
+        a = np.asarray(a).reshape(1, 1)
     if a.ndim != 2 or a.shape[0] != a.shape[1]:
         raise ModelError(f"{field_name}: shape {a.shape} is not valid; expected a square matrix")
     if n is not None and a.shape[0] != n:
         raise ModelError(f"{field_name}: shape {a.shape} does not match; expected ({n}, {n})")
-    if not np.all(np.isfinite(a)):
+    values = a.data if sp.issparse(a) else a
+    if not np.all(np.isfinite(values)):
         raise ModelError(f"{field_name}: contains NaN or infinity; expected finite values")
-    scale = max(float(np.abs(a).max()), np.finfo(float).tiny)
-    asym = float(np.abs(a - a.T).max())
+    scale = max(float(np.abs(values).max(initial=0.0)), np.finfo(float).tiny)
+    asym = float(abs(a - a.T).max())
     if asym > 1e-9 * scale:
         raise ModelError(
             f"{field_name}: not symmetric (max |A - A^T| = {asym:.3e}); expected a symmetric matrix"
@@ -66,30 +81,63 @@ def _matrix(value: ArrayLike, field_name: str, n: int | None = None) -> NDArray[
     return a
 
 
+def spd_solver(a: Matrix) -> Callable[[NDArray[np.float64]], NDArray[np.float64]] | None:
+    """A solver of ``A x = b`` if the symmetric ``a`` is positive definite, else ``None``.
+
+    Dense: Cholesky. Sparse (never densified): SuperLU with diagonal pivots only
+    (``diag_pivot_thresh=0``, symmetric mode) in a fill-reducing symmetric ordering, so that
+    ``P A Pᵀ = L D Lᵀ`` with ``D`` the diagonal of ``U``: by Sylvester's law of inertia ``A``
+    is positive definite iff the row and column orders agree and every pivot is > 0
+    (Golub & Van Loan, *Matrix Computations*, 4th ed., §4.2)."""
+    if sp.issparse(a):
+        try:
+            lu = spla.splu(sp.csc_array(a), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                           options={"SymmetricMode": True})
+        except RuntimeError:  # an exactly zero pivot
+            return None
+        pivots = lu.U.diagonal()
+        if not (np.array_equal(lu.perm_r, lu.perm_c) and np.all(pivots > 0)):
+            return None
+        return lu.solve  # type: ignore[no-any-return]
+    try:
+        factor = scipy.linalg.cho_factor(a)
+    except np.linalg.LinAlgError:
+        return None
+    return lambda b: scipy.linalg.cho_solve(factor, b)  # type: ignore[no-any-return]
+
+
 @dataclass(frozen=True)
 class Structure:
     """Linear structure: mass ``M`` (kg), damping ``C`` (N·s/m) and stiffness ``K`` (N/m),
-    symmetric n×n arrays; ``M`` positive definite."""
+    symmetric n×n matrices; ``M`` positive definite. Dense arrays stay dense; if any of the
+    three is a SciPy sparse matrix all three are kept as CSR arrays (``scipy.sparse.csr_array``)
+    and stay sparse through validation and the core (issue 6: large FE models)."""
 
-    mass: NDArray[np.float64]
-    stiffness: NDArray[np.float64]
-    damping: NDArray[np.float64]
+    mass: Matrix
+    stiffness: Matrix
+    damping: Matrix
 
     def __init__(
-        self, mass: ArrayLike, stiffness: ArrayLike | None = None, damping: ArrayLike | None = None
+        self,
+        mass: ArrayLike | sp.sparray | sp.spmatrix,
+        stiffness: ArrayLike | sp.sparray | sp.spmatrix | None = None,
+        damping: ArrayLike | sp.sparray | sp.spmatrix | None = None,
     ) -> None:
         m = _matrix(mass, "structure.mass")
         n = m.shape[0]
-        k = np.zeros((n, n)) if stiffness is None else _matrix(stiffness, "structure.stiffness", n)
-        c = np.zeros((n, n)) if damping is None else _matrix(damping, "structure.damping", n)
-        try:
-            np.linalg.cholesky(m)
-        except np.linalg.LinAlgError:
+        sparse = any(sp.issparse(a) for a in (mass, stiffness, damping))
+        zero = sp.csr_array((n, n)) if sparse else np.zeros((n, n))
+        k = zero.copy() if stiffness is None else _matrix(stiffness, "structure.stiffness", n)
+        c = zero.copy() if damping is None else _matrix(damping, "structure.damping", n)
+        if sparse:
+            m, k, c = (sp.csr_array(a) for a in (m, k, c))
+        if spd_solver(m) is None:
             raise ModelError(
                 "structure.mass: not positive definite; expected every DOF to carry mass"
-            ) from None
-        for a in (m, k, c):
-            a.setflags(write=False)
+            )
+        if not sparse:  # (SciPy canonicalises sparse arrays in place: left writable)
+            for a in (m, k, c):
+                a.setflags(write=False)
         object.__setattr__(self, "mass", m)
         object.__setattr__(self, "stiffness", k)
         object.__setattr__(self, "damping", c)
@@ -108,6 +156,19 @@ class Structure:
     @property
     def n_dof(self) -> int:
         return int(self.mass.shape[0])
+
+    @property
+    def is_sparse(self) -> bool:
+        """Whether the matrices are CSR arrays (else dense arrays)."""
+        return sp.issparse(self.mass)
+
+    def dense_matrices(self) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                      NDArray[np.float64]]:
+        """``M, K, C`` as dense arrays (new copies when sparse): for small models and dense
+        tools only, ``8 n²`` bytes each."""
+        m, k, c = (a.toarray() if sp.issparse(a) else a for a in (self.mass, self.stiffness,
+                                                                   self.damping))
+        return m, k, c
 
 
 def _dofs(value: int | Sequence[int], field_name: str) -> tuple[int, ...]:

@@ -14,6 +14,7 @@ from collections.abc import Callable, Sequence
 from typing import IO, Any
 
 import numpy as np
+import scipy.sparse as sp
 
 from vibroimpact import _core
 from vibroimpact.errors import (
@@ -24,7 +25,7 @@ from vibroimpact.errors import (
     require,
 )
 from vibroimpact.integrators import Integrator, Newmark
-from vibroimpact.model import Model
+from vibroimpact.model import Model, spd_solver
 from vibroimpact.result import Result
 
 __all__ = ["ProgressBar", "contact_periods", "simulate"]
@@ -62,19 +63,17 @@ def contact_periods(model: Model) -> list[float | None]:
         for d, c in zip(gap.dofs, gap.coefficients or (1.0,) * len(gap.dofs), strict=True):
             b[d, g] += c
     mass = st.mass
-    diagonal = np.diagonal(mass)
-    if np.array_equal(mass, np.diag(diagonal)):  # lumped masses: no solve
+    diagonal = mass.diagonal()
+    if sp.csr_array(mass).count_nonzero() == np.count_nonzero(diagonal):  # lumped: no solve
         flexibility = np.einsum("ig,ig->g", b, b / diagonal[:, None])
     else:
-        flexibility = np.einsum("ig,ig->g", b, np.linalg.solve(mass, b))
+        solve_mass = spd_solver(mass)
+        assert solve_mass is not None  # checked by Structure
+        flexibility = np.einsum("ig,ig->g", b, solve_mass(b))
     # compliance b K⁻¹ bᵀ of each gap when K is positive definite (else: unbounded)
     compliance = np.full(n_gaps, math.inf)
-    if np.any(st.stiffness):
-        try:
-            np.linalg.cholesky(st.stiffness)
-            compliance = np.einsum("ig,ig->g", b, np.linalg.solve(st.stiffness, b))
-        except np.linalg.LinAlgError:  # only positive semi-definite
-            pass
+    if abs(st.stiffness).max() > 0 and (solve_stiffness := spd_solver(st.stiffness)):
+        compliance = np.einsum("ig,ig->g", b, solve_stiffness(b))
     periods: list[float | None] = []
     for g, gap in enumerate(model.gaps):
         try:

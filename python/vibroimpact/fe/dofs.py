@@ -48,11 +48,6 @@ __all__ = [
 #: Direction names in the order of the ABAQUS/CalculiX DOF numbers 1–6.
 DIRECTIONS: tuple[str, ...] = ("x", "y", "z", "rx", "ry", "rz")
 
-#: Above this many DOFs :meth:`FEStructure.to_structure` refuses to build dense matrices
-#: (the core's time loop is dense; reduce the model first, see :mod:`vibroimpact.fe.reduction`).
-DENSE_LIMIT = 10_000
-
-
 def direction_name(direction: str | int) -> str:
     """Canonical name of a direction: ``"x"``…``"rz"`` or the ABAQUS/CalculiX number 1–6 of
     one (``3 -> "z"``, ``"5" -> "ry"``); other integers are kept as strings."""
@@ -269,20 +264,15 @@ class FEStructure:
         return condense_massless(self, keep)
 
     def to_structure(self) -> Structure:
-        """The dense :class:`~vibroimpact.Structure` (n×n arrays) that the core integrates."""
+        """The :class:`~vibroimpact.Structure` that the core integrates, with these sparse
+        (CSR) matrices: nothing is densified."""
         massless = self.massless_dofs
         if massless:
             raise ModelError(
                 f"structure.mass: {len(massless)} massless DOFs (first: {massless[0]}); expected "
                 "every DOF to carry mass (condense them with FEStructure.condense_massless())"
             )
-        if self.n_dof > DENSE_LIMIT:
-            raise ModelError(
-                f"structure: {self.n_dof} DOFs is too many for dense matrices; expected at most "
-                f"{DENSE_LIMIT} (reduce the model with vibroimpact.fe.craig_bampton)"
-            )
-        c = None if self.damping is None else self.damping.toarray()
-        return Structure(self.mass.toarray(), self.stiffness.toarray(), c)
+        return Structure(self.mass, self.stiffness, self.damping)
 
     # ---- addressing by node and direction ----
 

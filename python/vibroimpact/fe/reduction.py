@@ -73,7 +73,7 @@ def _parts(structure: Any) -> tuple[Any, Any, Any, DofMap | None]:
     if isinstance(structure, Model):
         structure = structure.structure
     if isinstance(structure, Structure):
-        c = structure.damping if np.any(structure.damping) else None
+        c = structure.damping if abs(structure.damping).max() > 0 else None
         return structure.mass, structure.stiffness, c, None
     raise ModelError(
         f"structure: {type(structure).__name__} is not valid; expected a Structure, Model, "

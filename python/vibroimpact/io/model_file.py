@@ -37,10 +37,19 @@ from numpy.typing import NDArray
 
 from vibroimpact import contact, integrators
 from vibroimpact.errors import ModelError
-from vibroimpact.fe.dofs import DENSE_LIMIT, DofMap, FEStructure
+from vibroimpact.fe.dofs import DofMap, FEStructure
 from vibroimpact.fe.matrices import FORMATS, SUFFIXES, read_dof_map, read_matrix_files
 from vibroimpact.integrators import Integrator, method_from_options
-from vibroimpact.model import ConstantLoad, Gap, HarmonicLoad, Load, Model, Structure, TableLoad
+from vibroimpact.model import (
+    ConstantLoad,
+    Gap,
+    HarmonicLoad,
+    Load,
+    Model,
+    Structure,
+    TableLoad,
+    spd_solver,
+)
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -1081,14 +1090,12 @@ def _build_matrices(ck: _Checker, s: Mapping[str, Any]) -> Structure | None:
                          got.dof_map)
         massless = fe.massless_dofs
         retained = np.setdiff1d(np.arange(fe.n_dof), massless)
-        if len(retained) <= DENSE_LIMIT:  # larger: to_structure says so
-            np.linalg.cholesky(fe.mass[retained][:, retained].toarray())
-    except np.linalg.LinAlgError:
-        ck.invalid(
-            "structure.mass", None, "a positive definite matrix on the DOFs with mass (a "
-            "massless DOF has a zero row)", s["mass"].shown,
-        )
-        return None
+        if spd_solver(fe.mass[retained][:, retained]) is None:
+            ck.invalid(
+                "structure.mass", None, "a positive definite matrix on the DOFs with mass (a "
+                "massless DOF has a zero row)", s["mass"].shown,
+            )
+            return None
     except _CAUGHT as e:
         ck.add("structure", _reprefix(e, {}, "structure"))
         return None

@@ -8,7 +8,10 @@
   stored so that a file says how it was made: attributes ``model_spec`` and ``method_spec``
   (JSON text) and the variables ``structure_mass``, ``structure_damping``,
   ``structure_stiffness``, ``initial_displacement`` and ``initial_velocity``;
-  :func:`model_from_dataset` rebuilds the model and the integrator from them.
+  :func:`model_from_dataset` rebuilds the model and the integrator from them. A sparse
+  structure's matrices are stored as their entries (``structure_mass`` on
+  ``structure_mass_entry``, with ``structure_mass_row`` and ``structure_mass_col``), never
+  densified; :func:`structure_matrix` reads either form.
 * ``.csv``: ``NAME.csv`` holds the time histories (column names carry units:
   ``time [s]``, ``x0 [m]``, ``v0 [m/s]``, ``a0 [m/s^2]``, ``gap0 penetration [m]``,
   ``gap0 force [N]``), ``NAME_impacts.csv`` the impact table, ``NAME_energy.csv`` the energy
@@ -49,6 +52,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import scipy.sparse as sp
 
 from vibroimpact.errors import ModelError, SolverError
 from vibroimpact.result import ENERGY_TERMS
@@ -198,14 +202,40 @@ def run_metadata(result: Result) -> tuple[dict[str, Any], dict[str, tuple[tuple[
         for g, gap in zip(model["gaps"], result.model.gaps, strict=True):
             g["name"] = gap.name
         attrs["model_spec"] = json.dumps(_jsonable(model))
-        dims = ("model_dof", "model_dof_col")
         for name, (key, unit) in _MODEL_MATRICES.items():
-            variables[name] = (dims, np.asarray(spec[key], dtype=float),
-                               {"units": unit, "long_name": f"structure {key} matrix"})
+            variables.update(_matrix_variables(name, spec[key], f"structure {key} matrix", unit))
         for name, (key, unit) in _MODEL_VECTORS.items():
             variables[name] = (("model_dof",), np.asarray(spec[key], dtype=float),
                                {"units": unit, "long_name": name.replace("_", " ")})
     return attrs, variables
+
+
+def _matrix_variables(
+    name: str, a: Any, desc: str, unit: str
+) -> dict[str, tuple[tuple[str, ...], Any, dict[str, str]]]:
+    """The variables of one model matrix: dense on ``(model_dof, model_dof_col)``, or for a
+    SciPy sparse matrix its entries on ``NAME_entry`` with ``NAME_row`` and ``NAME_col``."""
+    if not sp.issparse(a):
+        return {name: (("model_dof", "model_dof_col"), np.asarray(a, dtype=float),
+                       {"units": unit, "long_name": desc})}
+    coo = sp.coo_array(a)
+    entry = (f"{name}_entry",)
+    return {
+        name: (entry, coo.data.astype(float), {"units": unit, "long_name": f"{desc}: stored "
+                                               f"entries (rows {name}_row, columns {name}_col)"}),
+        f"{name}_row": (entry, coo.row.astype(np.int64), {"long_name": f"row of {name}"}),
+        f"{name}_col": (entry, coo.col.astype(np.int64), {"long_name": f"column of {name}"}),
+    }
+
+
+def structure_matrix(ds: xr.Dataset, name: str) -> Any:
+    """A model matrix stored in a result (``structure_mass``, ``…_stiffness``, ``…_damping``):
+    a dense array, or the CSR array of a sparse structure."""
+    if f"{name}_row" not in ds:
+        return ds[name].values
+    n = ds.sizes["model_dof"]
+    rows, cols = ds[f"{name}_row"].values, ds[f"{name}_col"].values
+    return sp.csr_array((ds[name].values, (rows, cols)), shape=(n, n))
 
 
 def metadata(ds: xr.Dataset) -> dict[str, Any]:
@@ -232,10 +262,8 @@ def model_from_dataset(ds: xr.Dataset) -> tuple[Model, Integrator]:
     spec, msettings = meta["model_spec"], meta["method_spec"]
     if not spec or "structure_mass" not in ds:
         raise ModelError("result file: no model stored; expected a file written by vibroimpact")
-    structure = Structure(
-        ds["structure_mass"].values, ds["structure_stiffness"].values,
-        ds["structure_damping"].values,
-    )
+    structure = Structure(*(structure_matrix(ds, f"structure_{key}")
+                            for key in ("mass", "stiffness", "damping")))
     gaps = []
     for g in spec["gaps"]:
         law_spec = {k: v for k, v in g["law"].items() if k != "kind" and v is not None}
@@ -496,8 +524,9 @@ def impacts_frame(ds: xr.Dataset) -> Any:
 def _meta_json(ds: xr.Dataset) -> str:
     meta = metadata(ds)
     for name in (*_MODEL_MATRICES, *_MODEL_VECTORS):
-        if name in ds:
-            meta[name] = ds[name].values
+        for var in (name, f"{name}_row", f"{name}_col"):
+            if var in ds:
+                meta[var] = ds[var].values
     for name in ("dof", "gap"):
         if name in ds.coords:
             meta[name] = ds[name].values
@@ -595,12 +624,19 @@ def _load_csv(path: Path) -> xr.Dataset:
         coords["dof"] = np.asarray(dofs, dtype=np.int64)
     if gaps:
         coords["gap"] = np.asarray(gaps, dtype=np.int64)
-    for name, (key, unit) in {**_MODEL_MATRICES, **_MODEL_VECTORS}.items():
+    for name, (key, unit) in _MODEL_MATRICES.items():
         if name in meta:
             value = np.asarray(meta.pop(name), dtype=float)
-            dims = ("model_dof", "model_dof_col")[: value.ndim]
-            desc = f"structure {key} matrix" if value.ndim == 2 else name.replace("_", " ")
-            data[name] = (dims, value, {"units": unit, "long_name": desc})
+            if f"{name}_row" in meta:  # a sparse structure's entries
+                rows, cols = (np.asarray(meta.pop(f"{name}_{p}")) for p in ("row", "col"))
+                n = len(meta.get("initial_displacement", ()))
+                value = sp.csr_array((value, (rows, cols)), shape=(n, n))
+            data.update(_matrix_variables(name, value, f"structure {key} matrix", unit))
+    for name, (_, unit) in _MODEL_VECTORS.items():
+        if name in meta:
+            desc = name.replace("_", " ")
+            data[name] = (("model_dof",), np.asarray(meta.pop(name), dtype=float),
+                          {"units": unit, "long_name": desc})
     meta.pop("dof", None)
     meta.pop("gap", None)
     for key in ("model_spec", "method_spec"):

@@ -30,7 +30,7 @@ __all__ = ["beam_rows", "scipy_beam"]
 def _matrices(b: BeamProblem) -> dict[str, Any]:
     model = b.model()
     s = model.structure
-    m, k, c = (np.asarray(a, dtype=float) for a in (s.mass, s.stiffness, s.damping))
+    m, k, c = s.dense_matrices()
     n = m.shape[0]
     minv = np.linalg.inv(m)
     walls = []  # (dof, side, clearance, K, exponent)

@@ -167,8 +167,7 @@ def run_beam(b: Any, integrator: str = "newmark") -> dict[str, Any]:
 
     model = b.model()
     st = model.structure
-    m, k = np.asarray(st.mass, dtype=float), np.asarray(st.stiffness, dtype=float)
-    c = np.asarray(st.damping, dtype=float)
+    m, k, c = st.dense_matrices()
     n = m.shape[0]
     (load_,) = model.loads
     w = 2 * math.pi * load_.frequency

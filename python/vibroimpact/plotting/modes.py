@@ -34,7 +34,10 @@ def mode_shapes(
     if "structure_mass" not in ds or "structure_stiffness" not in ds:
         raise ModelError("mode-shapes: the result holds no model; expected a result written "
                          "by vibroimpact with its structure matrices")
-    m = modes((ds["structure_mass"].values, ds["structure_stiffness"].values), int(n_modes))
+    from vibroimpact.io.results_file import structure_matrix
+
+    m = modes((structure_matrix(ds, "structure_mass"), structure_matrix(ds, "structure_stiffness")),
+              int(n_modes))
     first = 0 if include_rigid else m.rigid_body_modes
     last = min(m.shapes.shape[1], m.rigid_body_modes + int(n_modes))
     prefix = "" if label is None else f"{label}: "

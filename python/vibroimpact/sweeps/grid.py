@@ -30,6 +30,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import scipy.sparse as sp
 from numpy.typing import NDArray
 
 from vibroimpact.errors import ModelError
@@ -160,8 +161,7 @@ def numeric_paths(spec: Mapping[str, Any]) -> list[str]:
     """Every parameter path of ``spec`` that a sweep can set."""
     out: list[str] = []
     for name in sorted(_MATRICES):
-        a = np.asarray(spec[name])
-        if a.shape == (1, 1):
+        if np.shape(spec[name]) == (1, 1):
             out.append(f"structure.{name}")
         else:
             out.append(f"structure.{name}.I.J")
@@ -200,7 +200,8 @@ def apply(spec: dict[str, Any], path: str, value: float) -> dict[str, Any]:
     if head == "structure":
         if len(parts) < 2 or parts[1] not in _MATRICES:
             raise _fail(path, spec, "not a structure matrix")
-        a = np.array(spec[parts[1]], dtype=float)
+        src = spec[parts[1]]
+        a = src.tolil() if sp.issparse(src) else np.array(src, dtype=float)
         n = a.shape[0]
         if len(parts) == 2:
             if n != 1:
@@ -211,7 +212,7 @@ def apply(spec: dict[str, Any], path: str, value: float) -> dict[str, Any]:
         else:
             raise _fail(path, spec, "not a matrix entry")
         a[i, j] = a[j, i] = value
-        out[parts[1]] = a
+        out[parts[1]] = sp.csr_array(a) if sp.issparse(src) else a
         return out
     if head == "initial":
         if len(parts) < 2 or parts[1] not in _INITIAL:

@@ -92,8 +92,8 @@ mod avx2 {
     }
 }
 
-/// Compressed sparse rows.
-#[derive(Debug, Clone)]
+/// Compressed sparse rows of a square matrix, column indices strictly increasing in each row.
+#[derive(Debug, Clone, PartialEq)]
 pub struct Csr {
     n: usize,
     row_start: Vec<usize>,
@@ -126,8 +126,146 @@ impl Csr {
         }
     }
 
+    /// A CSR matrix from its arrays (SciPy's `indptr`, `indices`, `data`) for an `n × n`
+    /// matrix. Checks that `row_start` starts at 0, never decreases and ends at the number of
+    /// entries, and that each row's column indices are below `n` and strictly increasing;
+    /// the error names what is wrong.
+    pub fn from_parts(
+        n: usize,
+        row_start: Vec<usize>,
+        cols: Vec<usize>,
+        vals: Vec<f64>,
+    ) -> Result<Self, String> {
+        if row_start.len() != n + 1 {
+            return Err(format!(
+                "indptr has {} entries; expected {} (rows + 1)",
+                row_start.len(),
+                n + 1
+            ));
+        }
+        if cols.len() != vals.len() {
+            return Err(format!(
+                "{} indices and {} values; expected one index per value",
+                cols.len(),
+                vals.len()
+            ));
+        }
+        if row_start[0] != 0 || row_start[n] != cols.len() {
+            return Err(format!(
+                "indptr runs from {} to {}; expected 0 to {} (the number of values)",
+                row_start[0],
+                row_start[n],
+                cols.len()
+            ));
+        }
+        for (i, w) in row_start.windows(2).enumerate() {
+            if w[1] < w[0] {
+                return Err(format!(
+                    "indptr decreases at row {i}; expected a non-decreasing array"
+                ));
+            }
+            let row = &cols[w[0]..w[1]];
+            if let Some(&j) = row.iter().find(|&&j| j >= n) {
+                return Err(format!(
+                    "row {i} has column {j}; expected columns below {n}"
+                ));
+            }
+            if row.windows(2).any(|p| p[1] <= p[0]) {
+                return Err(format!(
+                    "row {i}: column indices not strictly increasing; expected sorted indices \
+                     without duplicates (scipy: sum_duplicates())"
+                ));
+            }
+        }
+        Ok(Self {
+            n,
+            row_start,
+            cols,
+            vals,
+        })
+    }
+
+    pub fn n(&self) -> usize {
+        self.n
+    }
+
     pub fn nnz(&self) -> usize {
         self.vals.len()
+    }
+
+    /// The stored values, row after row.
+    pub fn values(&self) -> &[f64] {
+        &self.vals
+    }
+
+    /// `max |A − Aᵀ|` over the entries, from the rows of `A` and of `Aᵀ` merged column by column.
+    pub fn asymmetry(&self) -> f64 {
+        let t = self.transpose();
+        let mut worst = 0.0_f64;
+        for i in 0..self.n {
+            let (mut a, mut b) = (self.row(i).peekable(), t.row(i).peekable());
+            loop {
+                let d = match (a.peek().copied(), b.peek().copied()) {
+                    (None, None) => break,
+                    (Some((ja, va)), Some((jb, vb))) if ja == jb => {
+                        a.next();
+                        b.next();
+                        va - vb
+                    }
+                    (Some((ja, va)), Some((jb, _))) if ja < jb => {
+                        a.next();
+                        va
+                    }
+                    (Some((_, va)), None) => {
+                        a.next();
+                        va
+                    }
+                    (_, Some((_, vb))) => {
+                        b.next();
+                        vb
+                    }
+                };
+                worst = worst.max(d.abs());
+            }
+        }
+        worst
+    }
+
+    /// `Aᵀ` (its rows are the columns of `A`, in increasing column order).
+    pub fn transpose(&self) -> Self {
+        let mut row_start = vec![0; self.n + 1];
+        for &j in &self.cols {
+            row_start[j + 1] += 1;
+        }
+        for i in 0..self.n {
+            row_start[i + 1] += row_start[i];
+        }
+        let mut next = row_start.clone();
+        let (mut cols, mut vals) = (vec![0; self.nnz()], vec![0.0; self.nnz()]);
+        for i in 0..self.n {
+            for (j, v) in self.row(i) {
+                cols[next[j]] = i;
+                vals[next[j]] = v;
+                next[j] += 1;
+            }
+        }
+        Self {
+            n: self.n,
+            row_start,
+            cols,
+            vals,
+        }
+    }
+
+    /// The dense matrix (small models only: `n²` values).
+    pub fn to_dense(&self) -> DMatrix<f64> {
+        let mut a = DMatrix::zeros(self.n, self.n);
+        for i in 0..self.n {
+            for (j, v) in self.row(i) {
+                a[(i, j)] = v;
+            }
+        }
+        a
     }
 
     /// `y += alpha A x`.
@@ -522,6 +660,38 @@ mod tests {
                     assert!((got - want).abs() < 1e-12 * want.abs().max(1.0), "{rows}x{cols}");
                 }
             }
+        }
+    }
+
+    #[test]
+    fn csr_from_parts_checks_its_arrays() {
+        let ok = Csr::from_parts(2, vec![0, 2, 3], vec![0, 1, 1], vec![2.0, -1.0, 3.0]).unwrap();
+        assert_eq!(
+            ok.to_dense(),
+            DMatrix::from_row_slice(2, 2, &[2.0, -1.0, 0.0, 3.0])
+        );
+        assert_eq!(ok.transpose().to_dense(), ok.to_dense().transpose());
+        assert_eq!(ok.asymmetry(), 1.0);
+        let sym = Csr::from_dense(&DMatrix::from_row_slice(2, 2, &[2.0, -1.0, -1.0, 3.0]));
+        assert_eq!(sym.asymmetry(), 0.0);
+        for (ptr, idx, what) in [
+            (vec![0, 2], vec![0, 1], "indptr has 2 entries"),
+            (vec![0, 2, 1], vec![0, 1], "indptr runs from 0 to 1"),
+            (
+                vec![0, 2, 2],
+                vec![1, 0],
+                "row 0: column indices not strictly increasing",
+            ),
+            (
+                vec![0, 2, 2],
+                vec![0, 0],
+                "row 0: column indices not strictly increasing",
+            ),
+            (vec![0, 1, 2], vec![0, 2], "row 1 has column 2"),
+        ] {
+            let vals = vec![1.0; idx.len()];
+            let e = Csr::from_parts(2, ptr, idx, vals).unwrap_err();
+            assert!(e.contains(what), "{e}");
         }
     }
 

@@ -712,7 +712,7 @@ impl Account {
         if sys.has_damping {
             // Δxᵀ C (v₀ + v₁)/2
             let d = sys
-                .sparse
+                .structure
                 .damping
                 .increment_form(&s0.x, &s1.x, &s0.v, &s1.v);
             self.damping_dissipated += 0.5 * d;
@@ -730,7 +730,9 @@ impl Account {
 /// Kinetic + strain + contact potential energy of a state, J.
 fn mechanical_energy(sys: &System, s: &State) -> f64 {
     let potential: f64 = s.walls.iter().map(|w| w.potential).sum();
-    sys.sparse.mass.quadratic_form(&s.v) + sys.sparse.stiffness.quadratic_form(&s.x) + potential
+    sys.structure.mass.quadratic_form(&s.v)
+        + sys.structure.stiffness.quadratic_form(&s.x)
+        + potential
 }
 
 /// The gap of the wall in contact with the largest force, if any.
@@ -800,8 +802,8 @@ impl Recorder<'_> {
             rows.gap_penetration.push(pen);
             rows.gap_force.push(force);
         }
-        let kinetic = sys.sparse.mass.quadratic_form(&s.v);
-        let strain = sys.sparse.stiffness.quadratic_form(&s.x);
+        let kinetic = sys.structure.mass.quadratic_form(&s.v);
+        let strain = sys.structure.stiffness.quadratic_form(&s.x);
         let e = &mut rows.energy;
         e.kinetic.push(kinetic);
         e.strain.push(strain);

@@ -509,10 +509,12 @@ impl Scratch {
 /// from the eigenvalues of `L⁻¹ K L⁻ᵀ` and `L⁻¹ C L⁻ᵀ` (`M = L Lᵀ`). Models with more than
 /// [`MAX_EIGEN_DOFS`] DOFs are not extrapolated.
 fn extrapolation_limit(sys: &System) -> f64 {
-    let st = &sys.structure;
     if sys.n_dof() > MAX_EIGEN_DOFS {
         return 0.0;
     }
+    let Ok(st) = sys.structure.dense("adaptive extrapolation") else {
+        return 0.0;
+    };
     let Some(chol) = st.mass.clone().cholesky() else {
         return 0.0;
     };

@@ -1,25 +1,82 @@
 //! The linear structure `M x'' + C x' + K x = F(t)` (paper eq. 1) and its external loads.
 
+use std::sync::{Arc, OnceLock};
+
 use nalgebra::DMatrix;
 
 use crate::error::{invalid, SimError};
+use crate::linalg::{BandedCholesky, Csr};
 
-/// Mass, damping and stiffness matrices of the linear part (SI units).
-#[derive(Debug, Clone, PartialEq)]
+/// Largest structure (DOFs) that the dense-only methods (precise integration, Bathe, the
+/// impulsive methods, Newmark's dense predictor) take: their `n × n` matrices would need
+/// `8 n²` bytes each (200 MB at this size).
+pub const MAX_DENSE_DOFS: usize = 5_000;
+
+/// Mass, damping and stiffness matrices of the linear part (SI units), held as sparse rows
+/// so that an imported FE model is never densified; dense copies are made on demand (and
+/// kept) for the methods that need them ([`LinearStructure::dense`]).
+#[derive(Debug, Clone)]
 pub struct LinearStructure {
+    pub mass: Csr,
+    pub damping: Csr,
+    pub stiffness: Csr,
+    /// `M = L Lᵀ` (banded, reverse Cuthill–McKee order): the positive-definiteness check,
+    /// and the initial acceleration's solve.
+    mass_factor: BandedCholesky,
+    pub(crate) dense: OnceLock<Arc<DenseStructure>>,
+}
+
+/// Dense copies of a small structure's matrices.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DenseStructure {
     pub mass: DMatrix<f64>,
     pub damping: DMatrix<f64>,
     pub stiffness: DMatrix<f64>,
 }
 
 impl LinearStructure {
-    /// Checks shapes, finiteness, symmetry and that the mass matrix is positive definite.
+    /// From dense matrices (kept as the dense copies): see [`Self::from_sparse`].
     pub fn new(
         mass: DMatrix<f64>,
         damping: DMatrix<f64>,
         stiffness: DMatrix<f64>,
     ) -> Result<Self, SimError> {
-        let n = mass.nrows();
+        for (name, m) in [("damping", &damping), ("stiffness", &stiffness)] {
+            if m.shape() != mass.shape() {
+                return invalid(format!(
+                    "structure.{name}: shape {}x{} does not match; expected {}x{}",
+                    m.nrows(),
+                    m.ncols(),
+                    mass.nrows(),
+                    mass.ncols()
+                ));
+            }
+        }
+        if !mass.is_square() {
+            return invalid(format!(
+                "structure.mass: shape {}x{} is not square; expected an n x n matrix",
+                mass.nrows(),
+                mass.ncols()
+            ));
+        }
+        let s = Self::from_sparse(
+            Csr::from_dense(&mass),
+            Csr::from_dense(&damping),
+            Csr::from_dense(&stiffness),
+        )?;
+        let dense = DenseStructure {
+            mass,
+            damping,
+            stiffness,
+        };
+        s.dense.set(Arc::new(dense)).expect("a new structure");
+        Ok(s)
+    }
+
+    /// Checks shapes, finiteness, symmetry (`max |A − Aᵀ| ≤ 1e-9 max |A|`) and that the mass
+    /// matrix is positive definite (its banded Cholesky factor exists), without densifying.
+    pub fn from_sparse(mass: Csr, damping: Csr, stiffness: Csr) -> Result<Self, SimError> {
+        let n = mass.n();
         if n == 0 {
             return invalid("structure.mass: empty matrix; expected at least one DOF");
         }
@@ -28,40 +85,75 @@ impl LinearStructure {
             ("damping", &damping),
             ("stiffness", &stiffness),
         ] {
-            if m.nrows() != n || m.ncols() != n {
+            if m.n() != n {
                 return invalid(format!(
-                    "structure.{name}: shape {}x{} does not match; expected {n}x{n}",
-                    m.nrows(),
-                    m.ncols()
+                    "structure.{name}: shape {0}x{0} does not match; expected {n}x{n}",
+                    m.n()
                 ));
             }
-            if let Some(v) = m.iter().find(|v| !v.is_finite()) {
+            if let Some(v) = m.values().iter().find(|v| !v.is_finite()) {
                 return invalid(format!(
                     "structure.{name}: contains {v}; expected finite values"
                 ));
             }
-            let scale = m.amax().max(f64::MIN_POSITIVE);
-            let asym = (m - m.transpose()).amax();
+            let scale = m
+                .values()
+                .iter()
+                .fold(0.0_f64, |a, v| a.max(v.abs()))
+                .max(f64::MIN_POSITIVE);
+            let asym = m.asymmetry();
             if asym > 1e-9 * scale {
                 return invalid(format!(
                     "structure.{name}: not symmetric (max |A - A^T| = {asym:.3e}); expected a symmetric matrix"
                 ));
             }
         }
-        if mass.clone().cholesky().is_none() {
+        let (perm, bw) = BandedCholesky::ordering(n, &[&mass]);
+        let Some(mass_factor) = BandedCholesky::factor(&[(1.0, &mass)], perm, bw) else {
             return invalid(
                 "structure.mass: not positive definite; expected every DOF to carry mass",
             );
-        }
+        };
         Ok(Self {
             mass,
             damping,
             stiffness,
+            mass_factor,
+            dense: OnceLock::new(),
         })
     }
 
     pub fn n_dof(&self) -> usize {
-        self.mass.nrows()
+        self.mass.n()
+    }
+
+    /// Solves `M a = r` in place.
+    pub fn solve_mass(&self, r: &mut [f64]) {
+        let mut work = vec![0.0; self.mass_factor.work_len()];
+        self.mass_factor.solve_in_place(r, &mut work);
+    }
+
+    /// Dense `M`, `C`, `K` for `method` (built once, then shared). Refuses structures with
+    /// more than [`MAX_DENSE_DOFS`] DOFs with a one-line error naming the method.
+    pub fn dense(&self, method: &str) -> Result<Arc<DenseStructure>, SimError> {
+        let n = self.n_dof();
+        if n > MAX_DENSE_DOFS {
+            return invalid(format!(
+                "solver.method: {method} needs dense n x n matrices and the structure has {n} DOFs \
+                 (more than {MAX_DENSE_DOFS}); use newmark or generalized-alpha (sparse), or \
+                 reduce the model (vibroimpact.fe.reduction)"
+            ));
+        }
+        Ok(self
+            .dense
+            .get_or_init(|| {
+                Arc::new(DenseStructure {
+                    mass: self.mass.to_dense(),
+                    damping: self.damping.to_dense(),
+                    stiffness: self.stiffness.to_dense(),
+                })
+            })
+            .clone())
     }
 }
 
@@ -222,5 +314,48 @@ mod tests {
         let mneg = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, -1.0]);
         assert!(LinearStructure::new(mneg, c.clone(), k.clone()).is_err());
         assert!(LinearStructure::new(m, DMatrix::zeros(3, 3), k).is_err());
+    }
+
+    /// A sparse structure is validated, solves with its mass and makes dense copies only
+    /// below the dense methods' size limit.
+    #[test]
+    fn sparse_structure_checks_and_limits_dense_copies() {
+        let chain = |n: usize, asym: f64| {
+            let mut ptr = vec![0];
+            let (mut idx, mut val) = (vec![], vec![]);
+            for i in 0..n {
+                for j in i.saturating_sub(1)..(i + 2).min(n) {
+                    idx.push(j);
+                    val.push(match j.cmp(&i) {
+                        std::cmp::Ordering::Equal => 2.0,
+                        std::cmp::Ordering::Less => -1.0,
+                        std::cmp::Ordering::Greater => -1.0 + asym,
+                    });
+                }
+                ptr.push(idx.len());
+            }
+            Csr::from_parts(n, ptr, idx, val).unwrap()
+        };
+        let n = MAX_DENSE_DOFS + 1;
+        let s = LinearStructure::from_sparse(chain(n, 0.0), chain(n, 0.0), chain(n, 0.0)).unwrap();
+        // M a = r for r = M·1: a = 1
+        let mut r = vec![0.0; n];
+        s.mass.mul_add(1.0, &vec![1.0; n], &mut r);
+        s.solve_mass(&mut r);
+        assert!(r.iter().all(|v| (v - 1.0).abs() < 1e-9));
+        let e = s.dense("precise").unwrap_err().to_string();
+        assert!(e.contains("precise") && e.contains(&n.to_string()), "{e}");
+        let small = LinearStructure::from_sparse(chain(4, 0.0), chain(4, 0.0), chain(4, 0.0));
+        let d = small.unwrap().dense("bathe").unwrap();
+        assert_eq!(d.mass, chain(4, 0.0).to_dense());
+        let e = LinearStructure::from_sparse(chain(4, 0.0), chain(4, 0.0), chain(4, 1e-3));
+        assert!(e
+            .unwrap_err()
+            .to_string()
+            .contains("structure.stiffness: not symmetric"));
+        let mut neg = chain(4, 0.0).to_dense();
+        neg[(0, 0)] = -1.0;
+        let e = LinearStructure::from_sparse(Csr::from_dense(&neg), chain(4, 0.0), chain(4, 0.0));
+        assert!(e.unwrap_err().to_string().contains("not positive definite"));
     }
 }

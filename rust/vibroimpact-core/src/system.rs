@@ -6,7 +6,6 @@ use nalgebra::DVector;
 use crate::contact::MIN_IMPACT_SPEED;
 use crate::error::{invalid, SimError};
 use crate::gap::{evaluate_wall, Gap, Wall, WallState};
-use crate::linalg::Csr;
 use crate::structure::{LinearStructure, Load};
 
 /// `M x'' + C x' + K x = F(t) − Σ_g φ_g b_gᵀ`, with `φ_g = Σ_walls s F` the generalized
@@ -18,17 +17,6 @@ pub struct System {
     pub loads: Vec<Load>,
     pub walls: Vec<Wall>,
     pub has_damping: bool,
-    /// `M`, `C`, `K` as sparse rows, for the per-step work that does not need a solve
-    /// (energy account, banded predictor).
-    pub sparse: SparseStructure,
-}
-
-/// The structure's matrices as compressed sparse rows.
-#[derive(Debug, Clone)]
-pub struct SparseStructure {
-    pub mass: Csr,
-    pub damping: Csr,
-    pub stiffness: Csr,
 }
 
 impl System {
@@ -55,19 +43,13 @@ impl System {
                 })
             })
             .collect();
-        let has_damping = structure.damping.iter().any(|&c| c != 0.0);
-        let sparse = SparseStructure {
-            mass: Csr::from_dense(&structure.mass),
-            damping: Csr::from_dense(&structure.damping),
-            stiffness: Csr::from_dense(&structure.stiffness),
-        };
+        let has_damping = structure.damping.values().iter().any(|&c| c != 0.0);
         Ok(Self {
             structure,
             gaps,
             loads,
             walls,
             has_damping,
-            sparse,
         })
     }
 
@@ -228,22 +210,19 @@ impl State {
         );
         let load: Vec<f64> = sys.loads.iter().map(|l| l.value(t0)).collect();
         let st = &sys.structure;
-        let mut rhs = DVector::zeros(n);
-        sys.add_loads(&load, 1.0, rhs.as_mut_slice());
-        sys.add_contact_force_scaled(&phi, 1.0, rhs.as_mut_slice());
-        rhs.gemv(-1.0, &st.damping, &v0, 1.0);
-        rhs.gemv(-1.0, &st.stiffness, &x0, 1.0);
-        let chol = st.mass.clone().cholesky().ok_or_else(|| {
-            SimError::InvalidModel("structure.mass: not positive definite".into())
-        })?;
-        let a = chol.solve(&rhs);
+        let mut a = vec![0.0; n];
+        sys.add_loads(&load, 1.0, &mut a);
+        sys.add_contact_force_scaled(&phi, 1.0, &mut a);
+        st.damping.mul_add(-1.0, v0.as_slice(), &mut a);
+        st.stiffness.mul_add(-1.0, x0.as_slice(), &mut a);
+        st.solve_mass(&mut a);
         let mut u_accel = vec![0.0; ng];
-        sys.gap_coordinates(a.as_slice(), &mut u_accel);
+        sys.gap_coordinates(&a, &mut u_accel);
         Ok(State {
             t: t0,
             x: x0.as_slice().to_vec(),
             v: v0.as_slice().to_vec(),
-            a: a.as_slice().to_vec(),
+            a,
             load,
             phi,
             u,

@@ -14,6 +14,7 @@ use vibroimpact_core::contact::{
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::impulsive::{EventDriven, MoreauJean};
 use vibroimpact_core::integrators::{Bathe, NewmarkFamily, NewtonSettings, PreciseIntegration};
+use vibroimpact_core::linalg::Csr;
 use vibroimpact_core::simulate::{Method, RunSettings};
 use vibroimpact_core::step_control::Adaptive;
 use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
@@ -56,11 +57,54 @@ fn opt<'py, T: FromPyObjectOwned<'py>>(
     }
 }
 
-fn matrix(d: &Bound<'_, PyDict>, key: &str) -> PyResult<DMatrix<f64>> {
-    let a: PyReadonlyArray2<f64> = item(d, key, "structure")?;
-    let a = a.as_array();
-    let (r, c) = a.dim();
-    Ok(DMatrix::from_fn(r, c, |i, j| a[[i, j]]))
+/// A structure matrix of the spec: a dense 2-D array, or a SciPy CSR matrix (read through
+/// its `indptr`, `indices`, `data` and `shape` without densifying).
+enum Matrix {
+    Dense(DMatrix<f64>),
+    Sparse(Csr),
+}
+
+impl Matrix {
+    fn into_csr(self) -> Csr {
+        match self {
+            Matrix::Dense(a) => Csr::from_dense(&a),
+            Matrix::Sparse(a) => a,
+        }
+    }
+}
+
+fn matrix(d: &Bound<'_, PyDict>, key: &str) -> PyResult<Matrix> {
+    let obj = d
+        .get_item(key)?
+        .ok_or_else(|| ModelError::new_err(format!("structure.{key}: missing")))?;
+    if !obj.hasattr("indptr")? {
+        let a: PyReadonlyArray2<f64> = item(d, key, "structure")?;
+        let a = a.as_array();
+        let (r, c) = a.dim();
+        return Ok(Matrix::Dense(DMatrix::from_fn(r, c, |i, j| a[[i, j]])));
+    }
+    let bad = |what: String| ModelError::new_err(format!("structure.{key}: {what}"));
+    let (rows, cols): (usize, usize) = obj.getattr("shape")?.extract()?;
+    if rows != cols {
+        return Err(bad(format!(
+            "shape {rows}x{cols} is not square; expected an n x n matrix"
+        )));
+    }
+    let index = |name: &str| -> PyResult<Vec<usize>> {
+        let a = obj.getattr(name)?.call_method1("astype", ("int64",))?;
+        let a: PyReadonlyArray1<i64> = a.extract().map_err(|e| bad(format!("{name}: {e}")))?;
+        a.as_array()
+            .iter()
+            .map(|&v| usize::try_from(v).map_err(|_| bad(format!("{name} has {v}; expected >= 0"))))
+            .collect()
+    };
+    let (row_start, indices) = (index("indptr")?, index("indices")?);
+    let data = obj.getattr("data")?.call_method1("astype", ("float64",))?;
+    let data: PyReadonlyArray1<f64> = data.extract().map_err(|e| bad(format!("data: {e}")))?;
+    let data = data.as_array().to_vec();
+    Csr::from_parts(rows, row_start, indices, data)
+        .map(Matrix::Sparse)
+        .map_err(bad)
 }
 
 fn vector(d: &Bound<'_, PyDict>, key: &str) -> PyResult<DVector<f64>> {
@@ -229,11 +273,15 @@ fn adaptive(spec: &Bound<'_, PyDict>) -> PyResult<Option<Adaptive>> {
 }
 
 pub(crate) fn job_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Job> {
-    let structure = LinearStructure::new(
+    let structure = match (
         matrix(spec, "mass")?,
         matrix(spec, "damping")?,
         matrix(spec, "stiffness")?,
-    )
+    ) {
+        // small dense models keep their dense matrices for the dense methods
+        (Matrix::Dense(m), Matrix::Dense(c), Matrix::Dense(k)) => LinearStructure::new(m, c, k),
+        (m, c, k) => LinearStructure::from_sparse(m.into_csr(), c.into_csr(), k.into_csr()),
+    }
     .map_err(to_py_err)?;
     let gaps_list: Bound<'_, PyList> = item(spec, "gaps", "model")?;
     let gaps = gaps_list

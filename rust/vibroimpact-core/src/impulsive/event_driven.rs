@@ -52,6 +52,9 @@ use crate::integrators::expm::duhamel;
 use crate::simulate::{RunOutput, RunSettings, Stats};
 use crate::system::System;
 
+/// The method's name in errors.
+const METHOD: &str = "event-driven";
+
 /// Settings of the event-driven method.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct EventDriven {
@@ -101,7 +104,7 @@ struct Mode {
 }
 
 impl Mode {
-    fn new(sys: &System, rig: &Rigidity, set: Vec<usize>) -> Self {
+    fn new(rig: &Rigidity, set: Vec<usize>) -> Self {
         let n = rig.n;
         let gs = rig.jacobian(&set);
         let m_inv_gt = &rig.m_inv * gs.transpose();
@@ -114,7 +117,7 @@ impl Mode {
                 .unwrap_or_else(|_| DMatrix::zeros(set.len(), set.len()))
         };
         let pi_m_inv = &rig.m_inv - &m_inv_gt * &w_pinv * &gs * &rig.m_inv;
-        let st = &sys.structure;
+        let st = &rig.dense;
         let mut a = DMatrix::zeros(2 * n, 2 * n);
         a.view_mut((0, n), (n, n)).fill_with_identity();
         a.view_mut((n, 0), (n, n))
@@ -182,8 +185,9 @@ impl Mode {
                 fdot[k] += d;
             }
         }
-        fdot.gemv(-1.0, &st.damping, a, 1.0);
-        fdot.gemv(-1.0, &st.stiffness, v, 1.0);
+        st.damping.mul_add(-1.0, a.as_slice(), fdot.as_mut_slice());
+        st.stiffness
+            .mul_add(-1.0, v.as_slice(), fdot.as_mut_slice());
         &self.w_pinv * (&self.gs * (&rig.m_inv * fdot))
     }
 
@@ -258,7 +262,7 @@ const SAMPLES: usize = 32;
 impl Driver<'_> {
     fn ensure(&mut self, set: &[usize]) {
         if !self.modes.contains_key(set) {
-            let m = Mode::new(self.sys, &self.rig, set.to_vec());
+            let m = Mode::new(&self.rig, set.to_vec());
             self.modes.insert(set.to_vec(), m);
         }
     }
@@ -641,7 +645,7 @@ pub(crate) fn run(
 ) -> Result<RunOutput, SimError> {
     method.validate()?;
     let started = std::time::Instant::now();
-    let rig = Rigidity::new(sys)?;
+    let rig = Rigidity::new(sys, METHOD)?;
     check_initial(sys, &rig, &x0)?;
     let (n_steps, h0) = steps(settings);
     let nw = rig.n_walls();

@@ -25,11 +25,14 @@ mod moreau_jean;
 pub use event_driven::EventDriven;
 pub use moreau_jean::MoreauJean;
 
+use std::sync::Arc;
+
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::{invalid, SimError};
 use crate::gap::ImpactRecord;
 use crate::simulate::{EnergyHistory, Method, RunOutput, RunSettings, Stats};
+use crate::structure::DenseStructure;
 use crate::system::System;
 
 /// Refuses rigid gaps with the compliant integrators and compliant laws with the impulsive
@@ -110,6 +113,8 @@ pub(crate) fn simulate_impulsive(
 /// constraint Jacobian (`δ_j = g_j · x − d_j`), `M⁻¹`, and the load columns.
 pub(crate) struct Rigidity {
     pub n: usize,
+    /// The structure's dense matrices (the impulsive methods work with dense projections).
+    pub dense: Arc<DenseStructure>,
     pub m_inv: DMatrix<f64>,
     /// One row per wall (n columns).
     pub g: Vec<DVector<f64>>,
@@ -120,10 +125,11 @@ pub(crate) struct Rigidity {
 }
 
 impl Rigidity {
-    pub fn new(sys: &System) -> Result<Self, SimError> {
+    /// For the impulsive `method` (named in the error if the model is too large to be dense).
+    pub fn new(sys: &System, method: &str) -> Result<Self, SimError> {
         let n = sys.n_dof();
-        let m_inv = sys
-            .structure
+        let dense = sys.structure.dense(method)?;
+        let m_inv = dense
             .mass
             .clone()
             .cholesky()
@@ -153,6 +159,7 @@ impl Rigidity {
         }
         Ok(Self {
             n,
+            dense,
             m_inv,
             g,
             clearance,
@@ -195,8 +202,8 @@ impl Rigidity {
                 f[d] += val;
             }
         }
-        f.gemv(-1.0, &st.damping, v, 1.0);
-        f.gemv(-1.0, &st.stiffness, x, 1.0);
+        st.damping.mul_add(-1.0, v.as_slice(), f.as_mut_slice());
+        st.stiffness.mul_add(-1.0, x.as_slice(), f.as_mut_slice());
         f
     }
 
@@ -204,8 +211,8 @@ impl Rigidity {
     pub fn energies(&self, sys: &System, x: &DVector<f64>, v: &DVector<f64>) -> (f64, f64) {
         let st = &sys.structure;
         (
-            0.5 * v.dot(&(&st.mass * v)),
-            0.5 * x.dot(&(&st.stiffness * x)),
+            st.mass.quadratic_form(v.as_slice()),
+            st.stiffness.quadratic_form(x.as_slice()),
         )
     }
 }
@@ -234,9 +241,8 @@ impl Work {
             let moved: f64 = load.dofs.iter().map(|&d| x1[d] - x0[d]).sum();
             self.external += 0.5 * (load.value(t0) + load.value(t1)) * moved;
         }
-        let dx = x1 - x0;
-        let vs = v0 + v1;
-        self.damping += 0.5 * dx.dot(&(&sys.structure.damping * vs));
+        let (x0, x1, v0, v1) = (x0.as_slice(), x1.as_slice(), v0.as_slice(), v1.as_slice());
+        self.damping += 0.5 * sys.structure.damping.increment_form(x0, x1, v0, v1);
     }
 }
 

@@ -27,6 +27,9 @@ use crate::gap::ImpactRecord;
 use crate::simulate::{RunOutput, RunSettings, Stats};
 use crate::system::System;
 
+/// The method's name in errors.
+const METHOD: &str = "moreau-jean";
+
 /// Settings of Moreau–Jean time stepping.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MoreauJean {
@@ -62,13 +65,14 @@ pub(crate) fn run(
 ) -> Result<RunOutput, SimError> {
     method.validate()?;
     let started = std::time::Instant::now();
-    let rig = Rigidity::new(sys)?;
+    let rig = Rigidity::new(sys, METHOD)?;
     let (n_steps, h) = steps(settings);
     let th = method.theta;
     let st = &sys.structure;
     let nw = rig.n_walls();
     check_initial(sys, &rig, &x0)?;
-    let a_hat = &st.mass + &st.damping * (h * th) + &st.stiffness * (h * h * th * th);
+    let d = &rig.dense;
+    let a_hat = &d.mass + &d.damping * (h * th) + &d.stiffness * (h * h * th * th);
     let a_inv = a_hat
         .lu()
         .try_inverse()
@@ -95,9 +99,10 @@ pub(crate) fn run(
                 rhs[d] += val;
             }
         }
-        rhs.gemv(-1.0, &st.damping, &v, 1.0);
-        rhs.gemv(-1.0, &st.stiffness, &x, 1.0);
-        rhs.gemv(-h * th, &st.stiffness, &v, 1.0);
+        st.damping.mul_add(-1.0, v.as_slice(), rhs.as_mut_slice());
+        st.stiffness.mul_add(-1.0, x.as_slice(), rhs.as_mut_slice());
+        st.stiffness
+            .mul_add(-h * th, v.as_slice(), rhs.as_mut_slice());
         let mut v1 = &v + &a_inv * (rhs * h);
         let x_pred = &x + &v * (0.5 * h);
         let active: Vec<usize> = (0..nw)

@@ -78,7 +78,7 @@ struct BackwardOperator {
 impl BackwardOperator {
     fn new(sys: &System, scheme: &Bathe, h: f64) -> Result<Self, SimError> {
         let c = scheme.coefficients(h);
-        let st = &sys.structure;
+        let st = sys.structure.dense("bathe")?;
         let (m, cd, k) = (&st.mass, &st.damping, &st.stiffness);
         let lu = (k + cd * c[2] + m * (c[2] * c[2])).lu();
         if !lu.is_invertible() {

@@ -14,6 +14,7 @@ use super::newton::{GapNewton, GapProblem, NewtonSettings, RateMap};
 use super::{StepFailure, Stepper, ANY_LEVEL};
 use crate::error::{invalid, SimError};
 use crate::linalg::{axpy, inverse_permutation, BandedCholesky, DenseMatVec, StackedRows};
+use crate::structure::MAX_DENSE_DOFS;
 use crate::system::{State, System};
 
 /// Parameters of a Newmark-family scheme.
@@ -95,7 +96,7 @@ struct StepOperator {
 /// How the linear predictor `Δx_lin` is formed, from Newmark's predictors (see
 /// [`BandedRhs`]): `Δx_lin = d̃ + K̃⁻¹ (F₁ + c_f F₀ − R)`.
 enum Predictor {
-    /// Small or dense models: `K̃⁻¹` applied once per step size to the operators of `R`
+    /// Small or dense models (at most [`MAX_DENSE_DOFS`] DOFs): `K̃⁻¹` applied once per step size to the operators of `R`
     /// (`K`, and `C`, `M` where the scheme needs them; row-major n×n) and to the load
     /// vectors (`L_l = K̃⁻¹ b_l`): one to three dense mat-vecs, no solve.
     Dense {
@@ -169,7 +170,6 @@ impl StepOperator {
         ];
         let c_m = (1.0 - alpha_m) / (1.0 - alpha_f);
         let st = &sys.structure;
-        let (m, c, k) = (&st.mass, &st.damping, &st.stiffness);
         let n = sys.n_dof();
         let singular = SimError::SingularTangent { t: 0.0, dt: h };
         // The operators of the right-hand side R (see BandedRhs): K, C, M.
@@ -184,13 +184,12 @@ impl StepOperator {
         };
         let banded = try_banded
             .then(|| {
-                let sp = &sys.sparse;
                 let (perm, bw) =
-                    BandedCholesky::ordering(n, &[&sp.mass, &sp.damping, &sp.stiffness]);
+                    BandedCholesky::ordering(n, &[&st.mass, &st.damping, &st.stiffness]);
                 // Rough cycles per step: the dense predictor streams n² values per operator,
                 // `dense_lanes` per instruction; the banded one multiplies the sparse rows and
                 // substitutes forward and back, each row waiting on the previous (~8 cycles).
-                let nnz = [&sp.stiffness, &sp.damping, &sp.mass]
+                let nnz = [&st.stiffness, &st.damping, &st.mass]
                     .iter()
                     .zip(uses)
                     .filter(|(_, used)| *used)
@@ -199,13 +198,15 @@ impl StepOperator {
                 let operators = uses.iter().filter(|used| **used).count();
                 let dense_cost = operators * n * n / (2 * dense_lanes);
                 let banded_cost = nnz + 16 * n * (1 + bw / 4);
-                if choice == PredictorChoice::Cheapest && banded_cost >= dense_cost {
+                let dense_allowed = n <= MAX_DENSE_DOFS;
+                if choice == PredictorChoice::Cheapest && dense_allowed && banded_cost >= dense_cost
+                {
                     return None;
                 }
                 let terms = [
-                    (1.0, &sp.stiffness),
-                    (c_m * a[0], &sp.mass),
-                    (a[1], &sp.damping),
+                    (1.0, &st.stiffness),
+                    (c_m * a[0], &st.mass),
+                    (a[1], &st.damping),
                 ];
                 BandedCholesky::factor(&terms, perm, bw)
             })
@@ -223,23 +224,22 @@ impl StepOperator {
                     }
                     Ok(col)
                 };
-                let sp = &sys.sparse;
                 let order = factor.permutation();
                 let rhs = if alpha_form {
                     let inertia = alpha_m / (1.0 - alpha_f);
                     BandedRhs::Alpha(StackedRows::new(
                         [
-                            &[(1.0, &sp.stiffness)],
-                            &[(1.0, &sp.damping)],
-                            &[(inertia, &sp.mass)],
+                            &[(1.0, &st.stiffness)],
+                            &[(1.0, &st.damping)],
+                            &[(inertia, &st.mass)],
                         ],
                         order,
                     ))
                 } else if sys.has_damping {
-                    let (k, c) = (&[(1.0, &sp.stiffness)], &[(1.0, &sp.damping)]);
+                    let (k, c) = (&[(1.0, &st.stiffness)], &[(1.0, &st.damping)]);
                     BandedRhs::StiffnessDamping(StackedRows::new([k, c], order))
                 } else {
-                    BandedRhs::Stiffness(StackedRows::new([&[(1.0, &sp.stiffness)]], order))
+                    BandedRhs::Stiffness(StackedRows::new([&[(1.0, &st.stiffness)]], order))
                 };
                 let inv = inverse_permutation(factor.permutation());
                 let load_rows = sys
@@ -254,7 +254,11 @@ impl StepOperator {
                 };
                 (predictor, Box::new(solve))
             }
-            _ => {
+            // A large model never densifies: its K̃ is not positive definite.
+            None if n > MAX_DENSE_DOFS => return Err(singular),
+            None => {
+                let dense = st.dense("newmark (dense predictor)")?;
+                let (m, c, k) = (&dense.mass, &dense.damping, &dense.stiffness);
                 let lu = (k + m * (c_m * a[0]) + c * a[1]).lu();
                 if !lu.is_invertible() {
                     return Err(singular);
@@ -501,6 +505,7 @@ mod tests {
     use super::*;
     use crate::contact::{Hertz, Law};
     use crate::gap::{Gap, Side};
+    use crate::linalg::Csr;
     use crate::structure::{LinearStructure, Load, LoadHistory};
 
     /// A damped 30-DOF chain in scrambled DOF order with two gaps (one relative) and a
@@ -599,5 +604,60 @@ mod tests {
                 assert!((a - b).abs() < 1e-8 * vscale, "{scheme:?}: {a} vs {b}");
             }
         }
+    }
+
+    /// `diag(d) + off (sub- and super-diagonal)` of size `n` as sparse rows.
+    fn tridiagonal(n: usize, d: f64, off: f64) -> Csr {
+        let (mut ptr, mut idx, mut val) = (vec![0], vec![], vec![]);
+        for i in 0..n {
+            for j in i.saturating_sub(1)..(i + 2).min(n) {
+                if j == i || off != 0.0 {
+                    idx.push(j);
+                    val.push(if j == i { d } else { off });
+                }
+            }
+            ptr.push(idx.len());
+        }
+        Csr::from_parts(n, ptr, idx, val).unwrap()
+    }
+
+    /// Above [`MAX_DENSE_DOFS`] the stepper works on the sparse rows only: the run takes its
+    /// steps through an impact without ever building the dense matrices, and an effective
+    /// stiffness that is not positive definite is a singular tangent, not a dense LU.
+    #[test]
+    fn large_models_never_densify() {
+        let n = MAX_DENSE_DOFS + 1;
+        let zero = Csr::from_parts(n, vec![0; n + 1], vec![], vec![]).unwrap();
+        let (m, k) = (tridiagonal(n, 1.0, 0.0), tridiagonal(n, 2e4, -1e4));
+        let s = LinearStructure::from_sparse(m.clone(), zero.clone(), k).unwrap();
+        let gap = Gap {
+            dofs: vec![n - 1],
+            coefficients: vec![1.0],
+            clearance: 1e-4,
+            side: Side::Positive,
+            law: Law::Hertz(Hertz::new(1e9, 1.5).unwrap()),
+        };
+        let sys = System::new(s, vec![gap], vec![]).unwrap();
+        let scheme = NewmarkFamily::average_acceleration();
+        let mut stepper = NewmarkStepper::new(&sys, scheme, NewtonSettings::default()).unwrap();
+        let v0 = DVector::from_fn(n, |i, _| if i == n - 1 { 1.0 } else { 0.0 });
+        let mut cur = State::initial(&sys, DVector::zeros(n), v0, 0.0).unwrap();
+        let mut next = cur.clone();
+        let mut contact = false;
+        for _ in 0..400 {
+            stepper.attempt(&sys, &cur, 0, 1e-6, &mut next).unwrap();
+            stepper.accept(&sys, &next);
+            std::mem::swap(&mut cur, &mut next);
+            contact |= cur.phi[0] != 0.0;
+        }
+        assert!(contact && cur.x[n - 1] > 1e-4, "{}", cur.x[n - 1]);
+        assert!(sys.structure.dense.get().is_none());
+        // K̃ = K + 4M/h² with K = −1e9 I and h = 1 ms: indefinite
+        let negative = tridiagonal(n, -1e9, 0.0);
+        let s = LinearStructure::from_sparse(m, zero, negative).unwrap();
+        let sys = System::new(s, vec![], vec![]).unwrap();
+        let op = StepOperator::new(&sys, &scheme, 1e-3, PredictorChoice::Cheapest, 4);
+        assert!(matches!(op, Err(SimError::SingularTangent { .. })));
+        assert!(sys.structure.dense.get().is_none());
     }
 }

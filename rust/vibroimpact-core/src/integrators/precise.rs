@@ -44,7 +44,7 @@ use super::{StepFailure, Stepper, ANY_LEVEL};
 use crate::error::{invalid, SimError};
 use crate::gap::WallState;
 use crate::linalg::axpy;
-use crate::structure::LinearStructure;
+use crate::structure::{DenseStructure, LinearStructure};
 use crate::system::{State, System};
 
 /// Settings of the precise integration method.
@@ -59,8 +59,8 @@ pub struct PreciseIntegration {
 const MIN_SPACING: f64 = 0.5;
 
 /// `H` of eqs. 36–37 and `M⁻¹`.
-fn hamiltonian(st: &LinearStructure) -> Result<(DMatrix<f64>, DMatrix<f64>), SimError> {
-    let n = st.n_dof();
+fn hamiltonian(st: &DenseStructure) -> Result<(DMatrix<f64>, DMatrix<f64>), SimError> {
+    let n = st.mass.nrows();
     let (m, c, k) = (&st.mass, &st.damping, &st.stiffness);
     let m_inv = m
         .clone()
@@ -95,7 +95,7 @@ pub fn precise_matrices(
     eta: f64,
 ) -> Result<PreciseMatrices, SimError> {
     let n = structure.n_dof();
-    let (hamiltonian, _) = hamiltonian(structure)?;
+    let (hamiltonian, _) = hamiltonian(&*structure.dense("precise")?)?;
     let mut b = DMatrix::zeros(2 * n, n);
     b.view_mut((n, 0), (n, n)).fill_with_identity();
     let (phi, duhamel) = duhamel(&hamiltonian, eta, &b, 2);
@@ -135,8 +135,8 @@ struct Fixed {
 
 impl Fixed {
     fn new(sys: &System) -> Result<Self, SimError> {
-        let st = &sys.structure;
-        let n = st.n_dof();
+        let n = sys.n_dof();
+        let st = &*sys.structure.dense("precise")?;
         let (h, m_inv) = hamiltonian(st)?;
         let (nl, ng) = (sys.loads.len(), sys.gaps.len());
         let mut b = DMatrix::zeros(2 * n, nl + ng);
