@@ -648,7 +648,9 @@ mod tests {
     #[test]
     fn dense_mat_vec_kernels_subtract_a_x() {
         for (rows, cols) in [(1, 1), (3, 5), (4, 4), (7, 9), (13, 6), (42, 42)] {
-            let a: Vec<f64> = (0..rows * cols).map(|k| ((k * 37) % 11) as f64 - 5.0).collect();
+            let a: Vec<f64> = (0..rows * cols)
+                .map(|k| ((k * 37) % 11) as f64 - 5.0)
+                .collect();
             let x: Vec<f64> = (0..cols).map(|j| 0.5 + j as f64 * 0.25).collect();
             let expected: Vec<f64> = (0..rows)
                 .map(|i| 1.0 - (0..cols).map(|j| a[i * cols + j] * x[j]).sum::<f64>())
@@ -657,7 +659,10 @@ mod tests {
                 let mut y = vec![1.0; rows];
                 (kernel.sub)(&a, &x, &mut y);
                 for (got, want) in y.iter().zip(&expected) {
-                    assert!((got - want).abs() < 1e-12 * want.abs().max(1.0), "{rows}x{cols}");
+                    assert!(
+                        (got - want).abs() < 1e-12 * want.abs().max(1.0),
+                        "{rows}x{cols}"
+                    );
                 }
             }
         }
