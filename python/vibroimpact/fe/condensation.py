@@ -18,7 +18,8 @@ condensation then neglects the damping force on those rows (keeping ``Tᵀ C T``
 approximation; :attr:`StaticCondensation.damping_residual` measures it and a
 :class:`CondensationWarning` says so. A force or a contact on a massless DOF would change
 ``x_s`` instantaneously; such DOFs cannot be condensed and are refused (give them mass or move
-the gap or load to a DOF with mass).
+the gap or load to a DOF with mass). Recorded histories of condensed DOFs are recovered from
+the retained ones (:class:`DofRecovery`).
 
 ``K_ss`` is factorised once (sparse LU with symmetric pivoting, which keeps ``K_ss``'s
 definiteness visible on the pivots); only the master columns that ``K_sm`` couples are solved
@@ -177,7 +178,7 @@ def massless_dofs(mass: sp.csr_array) -> NDArray[np.int64]:
 
 def condense_massless(fe: FEStructure, keep: Iterable[int] = ()) -> StaticCondensation:
     """Condense the massless DOFs of ``fe`` statically (module docstring). ``keep``: DOFs
-    that must stay (gaps, loads, recorded DOFs); a massless one among them is refused with a
+    that must stay (gaps, loads); a massless one among them is refused with a
     :class:`ModelError`. Raises a :class:`ModelError` if ``K`` does not hold the massless
     DOFs (``K_ss`` singular or not positive definite)."""
     from vibroimpact.fe.dofs import FEStructure
@@ -189,7 +190,7 @@ def condense_massless(fe: FEStructure, keep: Iterable[int] = ()) -> StaticConden
     if bad:
         raise ModelError(
             f"dof: {bad[0]} ({_label(fe, bad[0])}) is not valid; expected a DOF that carries "
-            "mass for a gap, load or output (massless DOFs are condensed out statically)"
+            "mass for a gap or a load (massless DOFs are condensed out statically)"
         )
     m_idx = np.setdiff1d(np.arange(n), s)
     if len(m_idx) == 0:

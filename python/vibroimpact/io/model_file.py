@@ -519,7 +519,8 @@ SCHEMA: tuple[Field, ...] = (
     # [output]
     Field("output.every", "integer", "keep every k-th step in the time histories (impacts, "
           "peaks and energies see every step)", default=1, minimum=1),
-    Field("output.dofs", "dof-list", "DOFs whose histories are kept", default_text="all",
+    Field("output.dofs", "dof-list", "DOFs whose histories are kept (massless ones are "
+          "recovered, see Massless DOFs)", default_text="all",
           rule="distinct, 0 <= dof < number of DOFs"),
 )
 # fmt: on
@@ -1725,11 +1726,17 @@ def render_reference() -> str:
         "(`vibroimpact.fe.condensation`, sparse). This is exact when the damping on the massless",
         "DOFs is zero, Rayleigh (`αM + βK`) or modal; any other damping acting on them is",
         "neglected in their (static) equations, with a `CondensationWarning`. `K_ss` must be",
-        "positive definite (the massless DOFs held by stiffness). A gap, a load or an",
-        "`output.dofs` entry on a massless DOF is refused, and `[initial]` must be 0 there. DOF",
-        "indices in the file (`dof`, `output.dofs`, the `[initial]` lists) count the file's DOFs;",
-        "the model that runs, and its results, has the DOFs with mass only, in the same order",
-        "(`ModelFile.condensation.retained` maps them back).",
+        "positive definite (the massless DOFs held by stiffness). A gap or a load on a massless",
+        "DOF is refused (a force there would move it instantaneously), and `[initial]` must be",
+        "0 there. DOF indices in the file (`dof`, `output.dofs`, the `[initial]` lists) count",
+        "the file's DOFs. The model that runs has the DOFs with mass only, in the same order",
+        "(`ModelFile.condensation.retained` maps them back), but its results (`vibroimpact run`,",
+        "`ModelFile.simulate`: the `dof` coordinate, the CSV columns `x9 [m]`, ...) number the",
+        "file's DOFs: every DOF, or those of `output.dofs`. A massless DOF there is recovered",
+        "from the recorded rows, `x_s = -K_ss⁻¹ K_sm x_m` and its velocity and acceleration by",
+        "the same matrix (exact where the condensation is); its peak `|x|` is taken over the",
+        "recorded rows (every `output.every`-th step), the other DOFs' over every step.",
+        "Rotations are in rad (rad/s, rad/s²) although the columns say m.",
         "",
     ]
     out += _methods_section()
