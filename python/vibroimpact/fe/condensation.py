@@ -157,9 +157,9 @@ class DofRecovery:
                              f"record the DOFs {self.record.tolist()} of DofRecovery.record")
         rows = self.rows({"displacement": result.displacement, "velocity": result.velocity,
                           "acceleration": result.acceleration})
-        core_peak = np.asarray(result.max_abs_displacement, dtype=float)
         direct = self._direct >= 0
-        peak = np.where(direct, core_peak[np.where(direct, self._direct, 0)], self._peak)
+        peak = self._peak.copy()
+        peak[direct] = np.asarray(result.max_abs_displacement, dtype=float)[self._direct[direct]]
         return dataclasses.replace(result, dofs=self.labels, max_abs_displacement=peak, **rows)
 
 
