@@ -770,8 +770,9 @@ def simulate_to_file(
     Returns the summary of :meth:`vibroimpact.Result.summary` plus ``windows`` (the blocks
     written) and ``steps_computed``. ``progress(fraction)`` is called after each block;
     ``progress_bar`` draws :class:`vibroimpact.simulate.ProgressBar` on a terminal.
-    ``recovery`` (:meth:`vibroimpact.io.ModelFile.recovery`, with ``dofs`` its ``record``):
-    write the DOFs of a condensed model's file instead, the massless ones recovered.
+    ``recovery`` (:meth:`vibroimpact.io.ModelFile.recovery`): write the DOFs of a condensed
+    model's file instead, the massless ones recovered (the run records its ``record``, whatever
+    ``dofs`` says).
     """
     from vibroimpact.simulate import simulate
 
@@ -784,9 +785,9 @@ def simulate_to_file(
     if not (isinstance(every, int) and every >= 1):
         raise ModelError(f"output.every: {every!r} is not valid; expected an integer >= 1")
     netcdf_engine()
-    n_dofs = (model.n_dof if dofs is None else len(dofs)) if recovery is None else len(
-        recovery.labels)
-    relabel = (lambda rows: rows) if recovery is None else recovery.rows
+    n_dofs = model.n_dof if dofs is None else len(dofs)
+    if recovery is not None:
+        dofs, n_dofs = recovery.record.tolist(), len(recovery.labels)
     blocks = 0
     failure: SolverError | None = None
     tmp = _temp_path(path)
@@ -799,7 +800,7 @@ def simulate_to_file(
             def on_rows(rows: dict[str, Any]) -> None:
                 nonlocal blocks
                 assert stream is not None
-                stream.append(relabel(rows))
+                stream.append(rows if recovery is None else recovery.rows(rows))
                 blocks += 1
                 if progress is not None and len(rows["time"]):
                     progress(min(float(rows["time"][-1]) / t_end, 1.0))
