@@ -338,8 +338,17 @@ def test_results_label_the_files_dofs_and_recover_rotations(files: Path) -> None
     assert np.all(r.max_abs_displacement[m] >= np.abs(r.displacement[:, m]).max(0))
 
     # output.dofs in file numbering, a rotation among them: the same columns of the same run
-    part = load_model(with_output(write_model(files, NPZ), [8, 9, 3])).simulate()
+    mf = load_model(with_output(write_model(files, NPZ), [8, 9, 3]))
+    part = mf.simulate()
     np.testing.assert_array_equal(part.dofs, [8, 9, 3])
+    dm = mf.condensation.full.dof_map  # the file's DOF map: tip x, tip ry, node 2 ry
+    assert [(dm.nodes[d], dm.directions[d]) for d in part.dofs] == [(5, "x"), (5, "ry"),
+                                                                     (2, "ry")]
+    assert mf.run_dofs == [0, 1, 2, 3, 4]  # a rotation needs every translation
+    with pytest.raises(ModelError, match=r"^dofs: \[0, 1, 2, 3, 4, 5, 6, 7, 8, 9\] is not "
+                       r"valid; expected the run to record the DOFs \[0, 1, 2, 3, 4\]") as info:
+        mf.recovery().result(r)  # a result already in the file's DOFs
+    assert "\n" not in str(info.value)
     for name in ("displacement", "velocity", "acceleration"):
         np.testing.assert_allclose(getattr(part, name), getattr(r, name)[:, [8, 9, 3]],
                                    rtol=0, atol=1e-12 * np.abs(getattr(r, name)).max())
