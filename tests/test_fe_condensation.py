@@ -26,6 +26,7 @@ import pytest
 import scipy.linalg
 import scipy.sparse as sp
 from scipy.integrate import solve_ivp
+from vibroimpact.cli import main as cli_main
 from vibroimpact.errors import ModelError
 from vibroimpact.fe import DofMap, FEStructure, craig_bampton, modes
 from vibroimpact.fe.condensation import CondensationWarning
@@ -36,7 +37,7 @@ from vibroimpact.fe.matrices import (
     write_calculix,
     write_matrix_market,
 )
-from vibroimpact.io import ModelFileError, load_model
+from vibroimpact.io import ModelFileError, load_model, results_file
 
 E_I = 2.0e4  # N·m², bending stiffness
 MASS_PER_LENGTH = 8.0  # kg/m
@@ -234,7 +235,7 @@ def test_calculix_model_file_matches_scipy_on_the_flexibility_model(files: Path)
     np.testing.assert_array_equal(mf.model.initial_velocity, np.full(ELEMENTS, V0))
     r = mf.simulate()
     assert len(r.impacts) >= 2
-    tip = r.displacement[:, -1]
+    tip = r.displacement[:, list(r.dofs).index(2 * ELEMENTS - 2)]  # the file's DOF 8: node 5 x
     ref = reference_tip(r.time)
     err = np.abs(tip - ref).max() / np.abs(ref).max()
     assert err < 5e-4, err  # measured 1.6e-4 (Newmark at dt = 2 µs, 5 impacts)
@@ -295,3 +296,83 @@ def test_addressing_mistakes(files: Path) -> None:
         assert len(info.value.errors) == 1 and info.value.errors[0].startswith(message), (
             info.value.errors
         )
+
+
+# ------------------------------------------------------------------------------------------
+# Results in the file's DOF numbering, massless DOFs recovered
+# ------------------------------------------------------------------------------------------
+
+NPZ = 'mass = "beam.npz"\nstiffness = "beam.npz"'
+
+
+def with_output(path: Path, dofs: list[int], every: int = 1) -> Path:
+    path.write_text(path.read_text(encoding="utf-8") + f"\n[output]\ndofs = {dofs}\n"
+                    f"every = {every}\n", encoding="utf-8")
+    return path
+
+
+def test_results_label_the_files_dofs_and_recover_rotations(files: Path) -> None:
+    """Every DOF of the file is reported (rotations too); the rotations equal an independent
+    dense solve of K_ss x_s = -K_sm x_m on the recorded translations, for x, v and a."""
+    r = load_model(write_model(files, NPZ)).simulate()
+    np.testing.assert_array_equal(r.dofs, np.arange(2 * ELEMENTS))
+    k = lumped_cantilever().stiffness.toarray()
+    s, m = np.arange(1, 2 * ELEMENTS, 2), np.arange(0, 2 * ELEMENTS, 2)
+    for name in ("displacement", "velocity", "acceleration"):
+        h = getattr(r, name)
+        expected = -np.linalg.solve(k[np.ix_(s, s)], k[np.ix_(s, m)] @ h[:, m].T).T
+        scale = np.abs(expected).max()
+        assert scale > 0 and np.abs(h[:, s] - expected).max() <= 1e-10 * scale, name
+    # beam theory: the nodal forces are F = flexibility⁻¹ x_m, and the cantilever's slope at
+    # x_j under a unit force at x_i is x_i²/2EI (x_i <= x_j) or x_j (2 x_i - x_j)/2EI
+    x = np.arange(1, ELEMENTS + 1) * LENGTH / ELEMENTS
+    a, b = np.meshgrid(x, x, indexing="ij")  # a: slope node x_j, b: load node x_i
+    theta = np.where(b <= a, b**2 / (2 * E_I), (2 * b * a - a**2) / (2 * E_I))
+    forces = np.linalg.solve(flexibility(), r.displacement[:, m].T)
+    slopes = (theta @ forces).T
+    scale = np.abs(slopes).max()
+    assert np.abs(r.displacement[:, s] - slopes).max() <= 1e-10 * scale
+    # the peaks: the core's for translations (every step), the recorded rows' for rotations
+    np.testing.assert_allclose(r.max_abs_displacement[s], np.abs(r.displacement[:, s]).max(0),
+                               rtol=0, atol=0)
+    assert np.all(r.max_abs_displacement[m] >= np.abs(r.displacement[:, m]).max(0))
+
+    # output.dofs in file numbering, a rotation among them: the same columns of the same run
+    mf = load_model(with_output(write_model(files, NPZ), [8, 9, 3]))
+    part = mf.simulate()
+    np.testing.assert_array_equal(part.dofs, [8, 9, 3])
+    dm = mf.condensation.full.dof_map  # the file's DOF map: tip x, tip ry, node 2 ry
+    assert [(dm.nodes[d], dm.directions[d]) for d in part.dofs] == [(5, "x"), (5, "ry"),
+                                                                     (2, "ry")]
+    assert mf.run_dofs == [0, 1, 2, 3, 4]  # a rotation needs every translation
+    with pytest.raises(ModelError, match=r"^dofs: \[0, 1, 2, 3, 4, 5, 6, 7, 8, 9\] is not "
+                       r"valid; expected the run to record the DOFs \[0, 1, 2, 3, 4\]") as info:
+        mf.recovery().result(r)  # a result already in the file's DOFs
+    assert "\n" not in str(info.value)
+    for name in ("displacement", "velocity", "acceleration"):
+        np.testing.assert_allclose(getattr(part, name), getattr(r, name)[:, [8, 9, 3]],
+                                   rtol=0, atol=1e-12 * np.abs(getattr(r, name)).max())
+
+
+def test_result_files_carry_the_files_dof_numbers(files: Path, tmp_path: Path) -> None:
+    """NetCDF (in memory and streamed by the CLI) and CSV label the DOFs by the file's
+    numbers; the CSV headers carry the number and the unit."""
+    model = with_output(write_model(files, NPZ), [9, 8, 3], every=10)
+    r = load_model(model).simulate()
+    r.save(tmp_path / "mem.nc")
+    mem = results_file.load(tmp_path / "mem.nc")
+    np.testing.assert_array_equal(mem["dof"].values, [9, 8, 3])
+    assert cli_main(["run", str(model), "-q", "-o", str(tmp_path / "stream.nc"), "--stream",
+                     "--window", "2000"]) == 0
+    streamed = results_file.load(tmp_path / "stream.nc")
+    np.testing.assert_array_equal(streamed["dof"].values, [9, 8, 3])
+    for name in ("displacement", "velocity", "acceleration"):
+        np.testing.assert_array_equal(streamed[name].values, mem[name].values)
+    assert cli_main(["run", str(model), "-q", "-o", str(tmp_path / "run.csv")]) == 0
+    header = (tmp_path / "run.csv").read_text(encoding="utf-8").splitlines()[0].split(",")
+    assert header[:4] == ["time [s]", "x9 [m]", "v9 [m/s]", "a9 [m/s^2]"]
+    assert [h for h in header if h.startswith("x")] == ["x9 [m]", "x8 [m]", "x3 [m]"]
+    back = results_file.load(tmp_path / "run.csv")
+    np.testing.assert_array_equal(back["dof"].values, [3, 8, 9])
+    np.testing.assert_allclose(back["displacement"].sel(dof=9).values,
+                               mem["displacement"].sel(dof=9).values, rtol=1e-15)

@@ -25,7 +25,7 @@ from vibroimpact.errors import ContactResolutionWarning, Interrupted, ModelError
 from vibroimpact.io import results_file
 from vibroimpact.io.model_file import ModelFile, ModelFileError, load_model
 from vibroimpact.report import add_verbosity_options, configure_logging, log_run
-from vibroimpact.simulate import contact_resolution_messages, simulate
+from vibroimpact.simulate import contact_resolution_messages
 
 __all__ = ["OUTPUT_SUFFIXES", "add_parser", "main"]
 
@@ -189,12 +189,12 @@ def _run(mf: ModelFile, out: Path | None, stream: bool, args: argparse.Namespace
         warnings.simplefilter("ignore", ContactResolutionWarning)  # printed above
         if stream and out is not None:
             summary = results_file.simulate_to_file(
-                mf.model, out, mf.t_end, mf.dt, mf.method, every=mf.every, dofs=mf.dofs,
+                mf.model, out, mf.t_end, mf.dt, mf.method, every=mf.every, dofs=mf.run_dofs,
                 window_steps=args.window or STREAM_WINDOW_STEPS, progress_bar=not args.quiet,
+                recovery=mf.recovery(),
             )
             return summary, [out]
-        result = simulate(mf.model, mf.t_end, mf.dt, mf.method, every=mf.every, dofs=mf.dofs,
-                          progress=not args.quiet)
+        result = mf.simulate(progress=not args.quiet)
     summary = result.summary()
     return summary, (results_file.save(result, out) if out is not None else [])
 

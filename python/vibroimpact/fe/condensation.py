@@ -18,7 +18,8 @@ condensation then neglects the damping force on those rows (keeping ``Tᵀ C T``
 approximation; :attr:`StaticCondensation.damping_residual` measures it and a
 :class:`CondensationWarning` says so. A force or a contact on a massless DOF would change
 ``x_s`` instantaneously; such DOFs cannot be condensed and are refused (give them mass or move
-the gap or load to a DOF with mass).
+the gap or load to a DOF with mass). Recorded histories of condensed DOFs are recovered from
+the retained ones (:class:`DofRecovery`).
 
 ``K_ss`` is factorised once (sparse LU with symmetric pivoting, which keeps ``K_ss``'s
 definiteness visible on the pivots); only the master columns that ``K_sm`` couples are solved
@@ -27,8 +28,9 @@ for, so ``T`` and the reduced matrices stay sparse where the model is.
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -41,8 +43,15 @@ from vibroimpact.errors import ModelError
 
 if TYPE_CHECKING:
     from vibroimpact.fe.dofs import FEStructure
+    from vibroimpact.result import Result
 
-__all__ = ["CondensationWarning", "StaticCondensation", "condense_massless", "massless_dofs"]
+__all__ = [
+    "CondensationWarning",
+    "DofRecovery",
+    "StaticCondensation",
+    "condense_massless",
+    "massless_dofs",
+]
 
 #: ``C_s· T`` relative to ``C`` above this is reported as inexact damping.
 DAMPING_TOLERANCE = 1e-9
@@ -90,6 +99,69 @@ class StaticCondensation:
             return np.asarray(self.transform @ x)
         return np.asarray((self.transform @ x.T).T)
 
+    def output(self, dofs: Sequence[int] | None = None) -> DofRecovery:
+        """The :class:`DofRecovery` of a run that should report the full DOFs ``dofs`` (None:
+        every DOF, the condensed ones included)."""
+        return DofRecovery(self, dofs)
+
+
+class DofRecovery:
+    """Time histories of a condensed run in the full model's DOF numbering, the condensed
+    DOFs recovered from the retained ones.
+
+    ``x_s = T_s x_m`` (module docstring) is linear and time-independent, so velocities and
+    accelerations follow by the same matrix: ``v_s = T_s v_m``, ``a_s = T_s a_m`` (exact when
+    the condensation is, see :attr:`StaticCondensation.damping_residual`). ``labels``: the full
+    DOFs reported (the ``dof`` coordinate of the results); ``record``: the retained (run) DOFs
+    the run must record, those the reported rows of ``T`` touch; ``matrix``: ``T[labels,
+    record]``, reported = recorded ``@ matrix.T``. One object per run: :meth:`rows` keeps the
+    recovered DOFs' peak ``|x|`` over the rows it sees (every recorded row; the retained DOFs
+    keep the core's peak over every step).
+    """
+
+    def __init__(self, condensation: StaticCondensation, dofs: Sequence[int] | None) -> None:
+        t = condensation.transform
+        n = t.shape[0]
+        self.labels = np.arange(n) if dofs is None else np.asarray(dofs, dtype=np.int64)
+        bad = [int(d) for d in self.labels if not 0 <= d < n]
+        if bad:
+            raise ModelError(f"output.dofs: {bad[0]} is out of range; expected 0 <= dof < {n}")
+        rows = sp.csr_array(t[self.labels])
+        self.record: NDArray[np.int64] = np.unique(rows.indices).astype(np.int64)
+        self.matrix = sp.csr_array(rows[:, self.record])
+        retained = {int(d): k for k, d in enumerate(condensation.retained)}
+        position = {int(d): j for j, d in enumerate(self.record)}
+        #: column of ``record`` that a reported DOF is, -1 for a recovered (condensed) one
+        self._direct = np.array([position[retained[int(d)]] if int(d) in retained else -1
+                                 for d in self.labels], dtype=np.int64)
+        self._peak = np.zeros(len(self.labels))
+
+    def rows(self, raw: Mapping[str, object]) -> dict[str, object]:
+        """A block of rows in the core's layout (``on_rows`` of :func:`vibroimpact.simulate`)
+        with ``displacement``, ``velocity`` and ``acceleration`` on the reported DOFs."""
+        out = dict(raw)
+        for name in ("displacement", "velocity", "acceleration"):
+            x = np.asarray(raw[name], dtype=float).reshape(-1, len(self.record))
+            out[name] = np.asarray((self.matrix @ x.T).T).reshape(-1, len(self.labels))
+        x = out["displacement"]
+        assert isinstance(x, np.ndarray)
+        if len(x):
+            self._peak = np.maximum(self._peak, np.abs(x).max(axis=0))
+        return out
+
+    def result(self, result: Result) -> Result:
+        """``result`` (recording :attr:`record`) on the reported DOFs; call once, after every
+        block of a streamed run has passed :meth:`rows`."""
+        if not np.array_equal(result.dofs, self.record):
+            raise ModelError(f"dofs: {result.dofs.tolist()} is not valid; expected the run to "
+                             f"record the DOFs {self.record.tolist()} of DofRecovery.record")
+        rows = self.rows({"displacement": result.displacement, "velocity": result.velocity,
+                          "acceleration": result.acceleration})
+        direct = self._direct >= 0
+        peak = self._peak.copy()
+        peak[direct] = np.asarray(result.max_abs_displacement, dtype=float)[self._direct[direct]]
+        return dataclasses.replace(result, dofs=self.labels, max_abs_displacement=peak, **rows)
+
 
 def _label(fe: FEStructure, dof: int) -> str:
     if fe.dof_map is None:
@@ -106,7 +178,7 @@ def massless_dofs(mass: sp.csr_array) -> NDArray[np.int64]:
 
 def condense_massless(fe: FEStructure, keep: Iterable[int] = ()) -> StaticCondensation:
     """Condense the massless DOFs of ``fe`` statically (module docstring). ``keep``: DOFs
-    that must stay (gaps, loads, recorded DOFs); a massless one among them is refused with a
+    that must stay (gaps, loads); a massless one among them is refused with a
     :class:`ModelError`. Raises a :class:`ModelError` if ``K`` does not hold the massless
     DOFs (``K_ss`` singular or not positive definite)."""
     from vibroimpact.fe.dofs import FEStructure
@@ -118,7 +190,7 @@ def condense_massless(fe: FEStructure, keep: Iterable[int] = ()) -> StaticConden
     if bad:
         raise ModelError(
             f"dof: {bad[0]} ({_label(fe, bad[0])}) is not valid; expected a DOF that carries "
-            "mass for a gap, load or output (massless DOFs are condensed out statically)"
+            "mass for a gap or a load (massless DOFs are condensed out statically)"
         )
     m_idx = np.setdiff1d(np.arange(n), s)
     if len(m_idx) == 0:

@@ -36,7 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibroimpact import contact, integrators
-from vibroimpact.errors import ModelError
+from vibroimpact.errors import ModelError, SolverError
 from vibroimpact.fe.dofs import DofMap, FEStructure
 from vibroimpact.fe.matrices import FORMATS, SUFFIXES, read_dof_map, read_matrix_files
 from vibroimpact.integrators import Integrator, method_from_options
@@ -57,6 +57,7 @@ else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
 if TYPE_CHECKING:
+    from vibroimpact.fe.condensation import DofRecovery
     from vibroimpact.result import Result
 
 __all__ = [
@@ -518,7 +519,8 @@ SCHEMA: tuple[Field, ...] = (
     # [output]
     Field("output.every", "integer", "keep every k-th step in the time histories (impacts, "
           "peaks and energies see every step)", default=1, minimum=1),
-    Field("output.dofs", "dof-list", "DOFs whose histories are kept", default_text="all",
+    Field("output.dofs", "dof-list", "DOFs whose histories are kept (massless ones are "
+          "recovered, see Massless DOFs)", default_text="all",
           rule="distinct, 0 <= dof < number of DOFs"),
 )
 # fmt: on
@@ -1401,8 +1403,6 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
     dofs = output.get("dofs")
     if dofs is not None:
         _check_dofs(ck, "output.dofs", dofs, n)
-        if ck.ok("output.dofs"):
-            dofs = _on_mass(ck, "output.dofs", tuple(dofs), "an output")
     if ck.errors:
         raise ModelFileError(ck.lines())
     assert structure is not None and method is not None and dt is not None and t_end is not None
@@ -1438,7 +1438,9 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
 class ModelFile:
     """A checked model file: the :class:`~vibroimpact.Model` and how to run it
     (``t_end`` and ``dt`` in s, the integrator, output decimation ``every`` and the recorded
-    ``dofs``, None for all). ``path`` is the file it was read from."""
+    ``dofs`` of the file, ``output.dofs``, None for all). ``path`` is the file it was read
+    from. Run it with :meth:`simulate`, or pass :attr:`run_dofs` to
+    :func:`vibroimpact.simulate` and its result through :meth:`relabel`."""
 
     model: Model
     t_end: float
@@ -1451,26 +1453,43 @@ class ModelFile:
     #: node positions), else None.
     beam: Any = None
     #: The :class:`vibroimpact.fe.StaticCondensation` of a ``kind = "matrices"`` file with
-    #: massless DOFs, else None. The model (and its results) then has the DOFs with mass only:
-    #: its DOF ``k`` is the file's DOF ``condensation.retained[k]`` (gaps, loads, ``[initial]``
-    #: and ``output.dofs`` in the file count the file's DOFs); ``condensation.recover`` gives
-    #: the condensed DOFs' values.
+    #: massless DOFs, else None. The model then has the DOFs with mass only: its DOF ``k`` is
+    #: the file's DOF ``condensation.retained[k]`` (gaps, loads, ``[initial]`` and
+    #: ``output.dofs`` in the file count the file's DOFs); :meth:`simulate` reports the
+    #: file's DOFs, the condensed ones recovered (:class:`vibroimpact.fe.condensation.DofRecovery`).
     condensation: Any = None
 
-    def simulate(self, *, throw: bool = True) -> Result:
+    @property
+    def run_dofs(self) -> list[int] | None:
+        """The DOFs of :attr:`model` to record (``dofs`` of :func:`vibroimpact.simulate`;
+        None for all) so that :meth:`recovery` can report :attr:`dofs`."""
+        if self.condensation is None or self.dofs is None:
+            return self.dofs
+        return self.condensation.output(self.dofs).record.tolist()
+
+    def recovery(self) -> DofRecovery | None:
+        """A fresh :class:`~vibroimpact.fe.condensation.DofRecovery` that turns a run of
+        :attr:`model` (recording :attr:`run_dofs`) into the file's DOFs; None if the model is
+        the file's (no condensation)."""
+        return None if self.condensation is None else self.condensation.output(self.dofs)
+
+    def simulate(self, *, throw: bool = True, progress: bool = False) -> Result:
         """Run the model with the file's solver and output settings
-        (:func:`vibroimpact.simulate`)."""
+        (:func:`vibroimpact.simulate`, ``throw`` and ``progress`` as there); the result's DOFs
+        are the file's (``output.dofs``, massless ones recovered), also in a
+        :class:`~vibroimpact.SolverError`'s ``partial``."""
         from vibroimpact.simulate import simulate
 
-        return simulate(
-            self.model,
-            t_end=self.t_end,
-            dt=self.dt,
-            method=self.method,
-            every=self.every,
-            dofs=self.dofs,
-            throw=throw,
-        )
+        recovery = self.recovery()
+        try:
+            result = simulate(self.model, t_end=self.t_end, dt=self.dt, method=self.method,
+                              every=self.every, dofs=self.run_dofs, throw=throw,
+                              progress=progress)
+        except SolverError as e:
+            if recovery is not None and e.partial is not None:
+                e.partial = recovery.result(e.partial)
+            raise
+        return result if recovery is None else recovery.result(result)
 
 
 _TOML_POSITION = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")
@@ -1707,11 +1726,17 @@ def render_reference() -> str:
         "(`vibroimpact.fe.condensation`, sparse). This is exact when the damping on the massless",
         "DOFs is zero, Rayleigh (`αM + βK`) or modal; any other damping acting on them is",
         "neglected in their (static) equations, with a `CondensationWarning`. `K_ss` must be",
-        "positive definite (the massless DOFs held by stiffness). A gap, a load or an",
-        "`output.dofs` entry on a massless DOF is refused, and `[initial]` must be 0 there. DOF",
-        "indices in the file (`dof`, `output.dofs`, the `[initial]` lists) count the file's DOFs;",
-        "the model that runs, and its results, has the DOFs with mass only, in the same order",
-        "(`ModelFile.condensation.retained` maps them back).",
+        "positive definite (the massless DOFs held by stiffness). A gap or a load on a massless",
+        "DOF is refused (a force there would move it instantaneously), and `[initial]` must be",
+        "0 there. DOF indices in the file (`dof`, `output.dofs`, the `[initial]` lists) count",
+        "the file's DOFs. The model that runs has the DOFs with mass only, in the same order",
+        "(`ModelFile.condensation.retained` maps them back), but its results (`vibroimpact run`,",
+        "`ModelFile.simulate`: the `dof` coordinate, the CSV columns `x9 [m]`, ...) number the",
+        "file's DOFs: every DOF, or those of `output.dofs`. A massless DOF there is recovered",
+        "from the recorded rows, `x_s = -K_ss⁻¹ K_sm x_m` and its velocity and acceleration by",
+        "the same matrix (exact where the condensation is); its peak `|x|` is taken over the",
+        "recorded rows (every `output.every`-th step), the other DOFs' over every step.",
+        "Rotations are in rad (rad/s, rad/s²) although the columns say m.",
         "",
     ]
     out += _methods_section()

@@ -60,6 +60,7 @@ from vibroimpact.result import ENERGY_TERMS
 if TYPE_CHECKING:
     import xarray as xr
 
+    from vibroimpact.fe.condensation import DofRecovery
     from vibroimpact.integrators import Integrator
     from vibroimpact.model import Model
     from vibroimpact.result import Result
@@ -749,6 +750,7 @@ def simulate_to_file(
     window_steps: int = 200_000,
     progress: Callable[[float], None] | None = None,
     progress_bar: bool = False,
+    recovery: DofRecovery | None = None,
 ) -> dict[str, Any]:
     """Run ``model`` from 0 to ``t_end`` and write its time histories to the NetCDF-4 file
     ``path`` (``.nc``/``.h5``) while it runs, so that memory holds a few blocks of rows, not
@@ -768,6 +770,9 @@ def simulate_to_file(
     Returns the summary of :meth:`vibroimpact.Result.summary` plus ``windows`` (the blocks
     written) and ``steps_computed``. ``progress(fraction)`` is called after each block;
     ``progress_bar`` draws :class:`vibroimpact.simulate.ProgressBar` on a terminal.
+    ``recovery`` (:meth:`vibroimpact.io.ModelFile.recovery`): write the DOFs of a condensed
+    model's file instead, the massless ones recovered (the run records its ``record``, whatever
+    ``dofs`` says).
     """
     from vibroimpact.simulate import simulate
 
@@ -781,6 +786,8 @@ def simulate_to_file(
         raise ModelError(f"output.every: {every!r} is not valid; expected an integer >= 1")
     netcdf_engine()
     n_dofs = model.n_dof if dofs is None else len(dofs)
+    if recovery is not None:
+        dofs, n_dofs = recovery.record.tolist(), len(recovery.labels)
     blocks = 0
     failure: SolverError | None = None
     tmp = _temp_path(path)
@@ -793,7 +800,7 @@ def simulate_to_file(
             def on_rows(rows: dict[str, Any]) -> None:
                 nonlocal blocks
                 assert stream is not None
-                stream.append(rows)
+                stream.append(rows if recovery is None else recovery.rows(rows))
                 blocks += 1
                 if progress is not None and len(rows["time"]):
                     progress(min(float(rows["time"][-1]) / t_end, 1.0))
@@ -806,6 +813,10 @@ def simulate_to_file(
                 if e.partial is None:
                     raise
                 result, failure = e.partial, e
+            if recovery is not None:
+                result = recovery.result(result)
+                if failure is not None:
+                    failure.partial = result
             stream.finish(result)
             blocks += 1
             if progress is not None and failure is None:
