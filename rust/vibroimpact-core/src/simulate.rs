@@ -386,35 +386,25 @@ fn run_watched<'o>(
     if let Some(sink) = sink {
         run.watch(sink);
     }
+    // Every stepper caches one operator per level of the step cuts (or adaptive sizes).
+    let cut_newton = NewtonSettings {
+        max_step_cuts: max_levels,
+        ..newton
+    };
     let stepper: Result<Box<dyn Stepper>, SimError> = (|| -> Result<Box<dyn Stepper>, SimError> {
         Ok(match method {
             Method::NewmarkFamily(scheme) => {
-                let mut s = NewmarkStepper::new(
-                    sys,
-                    scheme,
-                    NewtonSettings {
-                        max_step_cuts: max_levels,
-                        ..newton
-                    },
-                )?;
+                let mut s = NewmarkStepper::new(sys, scheme, cut_newton)?;
                 s.prepare(sys, h0)?;
                 Box::new(s)
             }
             Method::Precise(variant) => {
-                let settings = NewtonSettings {
-                    max_step_cuts: max_levels,
-                    ..newton
-                };
-                let mut s = PreciseStepper::new(sys, variant, settings)?;
+                let mut s = PreciseStepper::new(sys, variant, cut_newton)?;
                 s.prepare(sys, h0)?;
                 Box::new(s)
             }
             Method::Bathe(scheme) => {
-                let settings = NewtonSettings {
-                    max_step_cuts: max_levels,
-                    ..newton
-                };
-                let mut s = BatheStepper::new(sys, scheme, settings)?;
+                let mut s = BatheStepper::new(sys, scheme, cut_newton)?;
                 s.prepare(sys, h0)?;
                 Box::new(s)
             }

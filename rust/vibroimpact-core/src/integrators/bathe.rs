@@ -20,7 +20,7 @@ use nalgebra::DMatrix;
 
 use super::newmark::{NewmarkFamily, NewmarkStepper};
 use super::newton::{GapNewton, GapProblem, NewtonSettings, RateMap};
-use super::{StepFailure, Stepper, ANY_LEVEL};
+use super::{OperatorCache, StepFailure, Stepper};
 use crate::error::{invalid, SimError};
 use crate::gap::WallState;
 use crate::linalg::axpy;
@@ -134,8 +134,7 @@ pub struct BatheStepper {
     scheme: Bathe,
     newton: NewtonSettings,
     trapezoidal: NewmarkStepper,
-    operators: Vec<Option<BackwardOperator>>,
-    one_off: Option<(f64, BackwardOperator)>,
+    operators: OperatorCache<BackwardOperator>,
     /// State at `t + γΔt`.
     mid: State,
     dx: Vec<f64>,
@@ -156,8 +155,7 @@ impl BatheStepper {
             scheme,
             newton,
             trapezoidal: NewmarkStepper::new(sys, NewmarkFamily::average_acceleration(), newton)?,
-            operators: (0..=newton.max_step_cuts).map(|_| None).collect(),
-            one_off: None,
+            operators: OperatorCache::new(newton.max_step_cuts),
             mid: State {
                 t: 0.0,
                 x: zeros(n),
@@ -183,9 +181,8 @@ impl BatheStepper {
     /// is reported before the run starts.
     pub fn prepare(&mut self, sys: &System, h: f64) -> Result<(), SimError> {
         self.trapezoidal.prepare(sys, self.scheme.gamma * h)?;
-        if let Some(slot) = self.operators.first_mut() {
-            *slot = Some(BackwardOperator::new(sys, &self.scheme, h)?);
-        }
+        let op = BackwardOperator::new(sys, &self.scheme, h)?;
+        self.operators.set_largest(op);
         Ok(())
     }
 }
@@ -206,25 +203,14 @@ impl Stepper for BatheStepper {
             .attempt(sys, s0, level, gamma * h, &mut self.mid)?;
 
         // Sub-step 2: three-point backward formula to t + h.
-        let singular = |_| StepFailure {
-            iterations,
-            ..StepFailure::singular_tangent()
-        };
-        let cached = level != ANY_LEVEL && level < self.operators.len();
-        if cached {
-            if self.operators[level].is_none() {
-                let op = BackwardOperator::new(sys, &self.scheme, h).map_err(singular)?;
-                self.operators[level] = Some(op);
-            }
-        } else if self.one_off.as_ref().is_none_or(|(size, _)| *size != h) {
-            let op = BackwardOperator::new(sys, &self.scheme, h).map_err(singular)?;
-            self.one_off = Some((h, op));
-        }
-        let op = if cached {
-            self.operators[level].as_ref().expect("built above")
-        } else {
-            &self.one_off.as_ref().expect("built above").1
-        };
+        let scheme = &self.scheme;
+        self.operators
+            .ensure(level, h, || BackwardOperator::new(sys, scheme, h))
+            .map_err(|_| StepFailure {
+                iterations,
+                ..StepFailure::singular_tangent()
+            })?;
+        let op = self.operators.get(level);
         let [c1, c2, c3] = op.c;
         let mid = &self.mid;
         let n = s0.x.len();

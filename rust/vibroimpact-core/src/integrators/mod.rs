@@ -19,6 +19,59 @@ use crate::system::{State, System};
 /// on `t_end`): the stepper builds, or reuses, a one-off operator for that size.
 pub const ANY_LEVEL: usize = usize::MAX;
 
+/// An integrator's per-step-size operators: one per cached level (`dt / 2^level`) and the
+/// last step of any other size ([`ANY_LEVEL`], e.g. a step landed on an event), each built
+/// on first use — per step size, never per step.
+pub(crate) struct OperatorCache<T> {
+    levels: Vec<Option<T>>,
+    one_off: Option<(f64, T)>,
+}
+
+impl<T> OperatorCache<T> {
+    /// A cache for levels `0 ..= max_level`.
+    pub(crate) fn new(max_level: usize) -> Self {
+        Self {
+            levels: (0..=max_level).map(|_| None).collect(),
+            one_off: None,
+        }
+    }
+
+    /// Stores the operator of level 0 (the largest step), built before the run.
+    pub(crate) fn set_largest(&mut self, op: T) {
+        self.levels[0] = Some(op);
+    }
+
+    /// Builds the operator of a step of length `h` at `level` unless it is cached.
+    pub(crate) fn ensure<E>(
+        &mut self,
+        level: usize,
+        h: f64,
+        build: impl FnOnce() -> Result<T, E>,
+    ) -> Result<(), E> {
+        match self.levels.get_mut(level) {
+            Some(slot) => {
+                if slot.is_none() {
+                    *slot = Some(build()?);
+                }
+            }
+            None => {
+                if self.one_off.as_ref().is_none_or(|(size, _)| *size != h) {
+                    self.one_off = Some((h, build()?));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The operator [`Self::ensure`] made available for `level`.
+    pub(crate) fn get(&self, level: usize) -> &T {
+        match self.levels.get(level) {
+            Some(slot) => slot.as_ref().expect("ensured before use"),
+            None => &self.one_off.as_ref().expect("ensured before use").1,
+        }
+    }
+}
+
 /// Why a step attempt failed; the driver cuts the step and retries.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct StepFailure {

@@ -11,7 +11,7 @@
 use nalgebra::DMatrix;
 
 use super::newton::{GapNewton, GapProblem, NewtonSettings, RateMap};
-use super::{StepFailure, Stepper, ANY_LEVEL};
+use super::{OperatorCache, StepFailure, Stepper};
 use crate::error::{invalid, SimError};
 use crate::linalg::{axpy, inverse_permutation, BandedCholesky, DenseMatVec, StackedRows};
 use crate::structure::MAX_DENSE_DOFS;
@@ -312,9 +312,7 @@ impl StepOperator {
 pub struct NewmarkStepper {
     scheme: NewmarkFamily,
     newton: NewtonSettings,
-    operators: Vec<Option<StepOperator>>,
-    /// Operator of the last step whose size is not `dt / 2^level` ([`ANY_LEVEL`]).
-    one_off: Option<(f64, StepOperator)>,
+    operators: OperatorCache<StepOperator>,
     dx: Vec<f64>,
     /// Work vector of the banded solve (zero padding on both sides).
     padded: Vec<f64>,
@@ -340,8 +338,7 @@ impl NewmarkStepper {
         Ok(Self {
             scheme,
             newton,
-            operators: (0..=newton.max_step_cuts).map(|_| None).collect(),
-            one_off: None,
+            operators: OperatorCache::new(newton.max_step_cuts),
             dx: vec![0.0; n],
             padded: Vec::new(),
             tilde: [vec![0.0; n], vec![0.0; n]],
@@ -356,7 +353,8 @@ impl NewmarkStepper {
     /// Builds the operator of the largest step now, so that a singular tangent is reported
     /// before the run starts.
     pub fn prepare(&mut self, sys: &System, h: f64) -> Result<(), SimError> {
-        self.operators[0] = Some(self.operator(sys, h)?);
+        let op = self.operator(sys, h)?;
+        self.operators.set_largest(op);
         Ok(())
     }
 
@@ -374,20 +372,11 @@ impl Stepper for NewmarkStepper {
         h: f64,
         s1: &mut State,
     ) -> Result<usize, StepFailure> {
-        let singular = |_| StepFailure::singular_tangent();
-        let op = if level == ANY_LEVEL {
-            if self.one_off.as_ref().is_none_or(|(size, _)| *size != h) {
-                let op = self.operator(sys, h).map_err(singular)?;
-                self.one_off = Some((h, op));
-            }
-            &self.one_off.as_ref().expect("built above").1
-        } else {
-            if self.operators[level].is_none() {
-                let op = self.operator(sys, h).map_err(singular)?;
-                self.operators[level] = Some(op);
-            }
-            self.operators[level].as_ref().expect("built above")
-        };
+        let build = || StepOperator::new(sys, &self.scheme, h, self.choice, self.mat_vec.lanes);
+        self.operators
+            .ensure(level, h, build)
+            .map_err(|_| StepFailure::singular_tangent())?;
+        let op = self.operators.get(level);
         let NewmarkFamily {
             beta,
             gamma,

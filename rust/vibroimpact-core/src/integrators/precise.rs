@@ -40,7 +40,7 @@ use nalgebra::DMatrix;
 
 use super::expm::duhamel;
 use super::newton::{solve_small, GapNewton, GapProblem, NewtonSettings, RateMap};
-use super::{StepFailure, Stepper, ANY_LEVEL};
+use super::{OperatorCache, StepFailure, Stepper};
 use crate::error::{invalid, SimError};
 use crate::gap::WallState;
 use crate::linalg::axpy;
@@ -315,8 +315,7 @@ pub struct PreciseStepper {
     variant: PreciseIntegration,
     newton: NewtonSettings,
     fixed: Fixed,
-    operators: Vec<Option<StepOperator>>,
-    one_off: Option<(f64, StepOperator)>,
+    operators: OperatorCache<StepOperator>,
     /// Newest first; `history[0]` is the state the next step starts from.
     history: [Sample; 3],
     history_len: usize,
@@ -356,8 +355,7 @@ impl PreciseStepper {
             variant,
             newton,
             fixed: Fixed::new(sys)?,
-            operators: (0..=newton.max_step_cuts).map(|_| None).collect(),
-            one_off: None,
+            operators: OperatorCache::new(newton.max_step_cuts),
             history: [sample.clone(), sample.clone(), sample],
             history_len: 0,
             last_h: f64::NAN,
@@ -384,9 +382,7 @@ impl PreciseStepper {
         let op = self
             .fixed
             .operator(sys, h, self.variant.predictor_corrector)?;
-        if let Some(slot) = self.operators.first_mut() {
-            *slot = Some(op);
-        }
+        self.operators.set_largest(op);
         Ok(())
     }
 
@@ -463,16 +459,10 @@ impl Stepper for PreciseStepper {
         s1: &mut State,
     ) -> Result<usize, StepFailure> {
         let implicit = self.variant.predictor_corrector;
-        let singular = |_| StepFailure::singular_tangent();
-        if level == ANY_LEVEL || level >= self.operators.len() {
-            if self.one_off.as_ref().is_none_or(|(size, _)| *size != h) {
-                let op = self.fixed.operator(sys, h, implicit).map_err(singular)?;
-                self.one_off = Some((h, op));
-            }
-        } else if self.operators[level].is_none() {
-            let op = self.fixed.operator(sys, h, implicit).map_err(singular)?;
-            self.operators[level] = Some(op);
-        }
+        let fixed = &self.fixed;
+        self.operators
+            .ensure(level, h, || fixed.operator(sys, h, implicit))
+            .map_err(|_| StepFailure::singular_tangent())?;
         self.last_h = h;
         self.sync_history(s0, h);
         let (nodes, count) = self.past_nodes(h);
@@ -480,7 +470,6 @@ impl Stepper for PreciseStepper {
             newton: settings,
             fixed,
             operators,
-            one_off,
             history,
             predictor,
             corrector,
@@ -498,11 +487,7 @@ impl Stepper for PreciseStepper {
             gap_newton,
             ..
         } = self;
-        let op = if level == ANY_LEVEL || level >= operators.len() {
-            &one_off.as_ref().expect("built above").1
-        } else {
-            operators[level].as_ref().expect("built above")
-        };
+        let op = operators.get(level);
         let n = fixed.n;
         let n2 = 2 * n;
         let ng = sys.gaps.len();
