@@ -199,7 +199,7 @@ def as_sparse(value: Any, name: str, n: int | None = None) -> sp.csr_array:
 @dataclass(frozen=True)
 class FEStructure:
     """A linear structure kept sparse (``M`` kg, ``C`` N·s/m, ``K`` N/m as CSR arrays) with an
-    optional :class:`DofMap`. Build the dense :class:`~vibroimpact.Structure` the core runs
+    optional :class:`DofMap`. Build the (sparse) :class:`~vibroimpact.Structure` the core runs
     with :meth:`to_structure`, or reduce it first (:func:`vibroimpact.fe.craig_bampton`)."""
 
     mass: sp.csr_array
@@ -324,7 +324,7 @@ class FEStructure:
         initial_displacement: ArrayLike | None = None,
         initial_velocity: ArrayLike | None = None,
     ) -> Model:
-        """A :class:`~vibroimpact.Model` of this structure (dense, see :meth:`to_structure`)."""
+        """A :class:`~vibroimpact.Model` of this structure (sparse, see :meth:`to_structure`)."""
         return Model(
             self.to_structure(),
             gaps=gaps,

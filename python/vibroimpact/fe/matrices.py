@@ -30,9 +30,9 @@ Massless DOFs (zero rows of ``M``, e.g. the rotations of a lumped-mass export) a
 them with :meth:`FEStructure.condense_massless` (:mod:`vibroimpact.fe.condensation`).
 
 A one-triangle file is mirrored; a square file must be symmetric. Sparse matrices stay sparse
-until a dense :class:`~vibroimpact.Structure` is built for the core
-(:meth:`FEStructure.to_structure`) — for large models reduce first
-(:func:`vibroimpact.fe.craig_bampton`).
+through :meth:`FEStructure.to_structure` into the core (Newmark-family methods on a banded
+factor); the dense-only methods (precise, Bathe, impulsive) need a reduced model above 5,000
+DOFs (:func:`vibroimpact.fe.craig_bampton`).
 
 Recipe for a CalculiX fixture (what the tests do, no ccx needed): build any structure, write
 it with :func:`write_calculix` (the exact ``fprintf`` layout of ccx), read it back. With ccx::

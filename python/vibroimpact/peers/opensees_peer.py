@@ -110,18 +110,7 @@ def _build(ops: Any, p: SdofProblem, integrator: str) -> None:
         ops.setNodeDisp(2, 1, p.x0, "-commit")
     if p.v0:
         ops.setNodeVel(2, 1, p.v0, "-commit")
-    ops.constraints("Plain")
-    ops.numberer("Plain")
-    ops.system("FullGeneral")
-    ops.test("NormDispIncr", 1e-12, 50)
-    ops.algorithm("Newton")
-    if integrator == "newmark":
-        ops.integrator("Newmark", 0.5, 0.25)
-    elif integrator == "hht":
-        ops.integrator("HHT", 0.9)
-    else:
-        raise ValueError(integrator)
-    ops.analysis("Transient")
+    _transient(ops, integrator, numberer="Plain", system="FullGeneral")
 
 
 def run_sdof(p: SdofProblem, integrator: str = "newmark", dt: float | None = None
@@ -218,18 +207,7 @@ def run_beam(b: Any, integrator: str = "newmark") -> dict[str, Any]:
         ops.pattern("Plain", 1, 1)
         for i in range(n_el + 1):
             ops.load(i + 1, 1.0, 0.0, 0.0)
-        ops.constraints("Plain")
-        ops.numberer("RCM")
-        ops.system("BandGeneral")
-        ops.test("NormDispIncr", 1e-12, 50)
-        ops.algorithm("Newton")
-        if integrator == "newmark":
-            ops.integrator("Newmark", 0.5, 0.25)
-        elif integrator == "hht":
-            ops.integrator("HHT", 0.9)
-        else:
-            raise ValueError(integrator)
-        ops.analysis("Transient")
+        _transient(ops, integrator, numberer="RCM", system="BandGeneral")
     x = np.zeros((n + 1, 3))
     analyze, disp = ops.analyze, ops.nodeDisp
     a, m_, c = sliders
@@ -243,3 +221,20 @@ def run_beam(b: Any, integrator: str = "newmark") -> dict[str, Any]:
         impacts += crossings(t, x[:, j], clearance, (1, -1))
     return {"t": t, "x": x[:, 1], "peak": float(np.abs(x[:, 1]).max()),
             "impacts": sorted(impacts, key=lambda r: r[0])}
+
+
+def _transient(ops: Any, integrator: str, numberer: str, system: str) -> None:
+    """Newton iterations to 1e-12 on the displacement increment and the ``integrator``
+    (``newmark``: average acceleration; ``hht``: HHT with OpenSees' α = 0.9, i.e. our 0.1)."""
+    ops.constraints("Plain")
+    ops.numberer(numberer)
+    ops.system(system)
+    ops.test("NormDispIncr", 1e-12, 50)
+    ops.algorithm("Newton")
+    if integrator == "newmark":
+        ops.integrator("Newmark", 0.5, 0.25)
+    elif integrator == "hht":
+        ops.integrator("HHT", 0.9)
+    else:
+        raise ValueError(integrator)
+    ops.analysis("Transient")
