@@ -176,17 +176,7 @@ impl State {
         t0: f64,
     ) -> Result<Self, SimError> {
         let n = sys.n_dof();
-        for (name, vec) in [("initial.displacement", &x0), ("initial.velocity", &v0)] {
-            if vec.len() != n {
-                return invalid(format!(
-                    "{name}: {} values; expected {n} (one per DOF)",
-                    vec.len()
-                ));
-            }
-            if vec.iter().any(|v| !v.is_finite()) {
-                return invalid(format!("{name}: contains a non-finite value"));
-            }
-        }
+        check_initial_state(sys, &x0, &v0)?;
         let ng = sys.gaps.len();
         let (mut u, mut u_rate) = (vec![0.0; ng], vec![0.0; ng]);
         sys.gap_coordinates(x0.as_slice(), &mut u);
@@ -231,4 +221,25 @@ impl State {
             walls,
         })
     }
+}
+
+/// One finite value per DOF in the initial displacement and velocity.
+pub(crate) fn check_initial_state(
+    sys: &System,
+    x0: &DVector<f64>,
+    v0: &DVector<f64>,
+) -> Result<(), SimError> {
+    let n = sys.n_dof();
+    for (name, vec) in [("initial.displacement", x0), ("initial.velocity", v0)] {
+        if vec.len() != n {
+            return invalid(format!(
+                "{name}: {} values; expected {n} (one per DOF)",
+                vec.len()
+            ));
+        }
+        if vec.iter().any(|v| !v.is_finite()) {
+            return invalid(format!("{name}: contains a non-finite value"));
+        }
+    }
+    Ok(())
 }

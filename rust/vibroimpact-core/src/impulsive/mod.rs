@@ -90,18 +90,7 @@ pub(crate) fn simulate_impulsive(
             method_name(&method)
         ));
     }
-    let n = sys.n_dof();
-    for (name, vec) in [("initial.displacement", &x0), ("initial.velocity", &v0)] {
-        if vec.len() != n {
-            return invalid(format!(
-                "{name}: {} values; expected {n} (one per DOF)",
-                vec.len()
-            ));
-        }
-        if vec.iter().any(|v| !v.is_finite()) {
-            return invalid(format!("{name}: contains a non-finite value"));
-        }
-    }
+    crate::system::check_initial_state(sys, &x0, &v0)?;
     match method {
         Method::EventDriven(m) => event_driven::run(sys, m, settings, x0, v0),
         Method::MoreauJean(m) => moreau_jean::run(sys, m, settings, x0, v0),
