@@ -30,17 +30,12 @@ def precise_matrices(
     stiffness: NDArray[np.float64],
     dt: float,
 ) -> dict[str, Any]: ...
-def hertz_stiffness(
-    kind: str,
-    radius1: float,
-    radius2: float | None,
-    youngs_modulus1: float,
-    poisson1: float,
-    youngs_modulus2: float,
-    poisson2: float,
-) -> float: ...
 def contact_force(
-    law: dict[str, Any], penetration: float, rate: float, impact_speed: float
+    law: dict[str, Any],
+    penetration: float,
+    rate: float,
+    impact_speed: float,
+    max_penetration: float | None = None,
 ) -> tuple[float, float, float]: ...
 def contact_law_evaluate(
     law: dict[str, Any],
@@ -48,6 +43,7 @@ def contact_law_evaluate(
     rate: NDArray[np.float64],
     impact_speed: NDArray[np.float64],
     clamp: bool = False,
+    max_penetration: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]: ...
 def geometry_stiffness(
     kind: str,

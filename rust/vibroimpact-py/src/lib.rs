@@ -209,51 +209,6 @@ fn geometry_stiffness(
     Ok((k, geometry.exponent()))
 }
 
-/// Hertz stiffness `K = (4/3) E* √R*` (paper eq. 4), N/m^1.5.
-#[pyfunction]
-#[pyo3(signature = (kind, radius1, radius2, youngs_modulus1, poisson1, youngs_modulus2, poisson2))]
-#[allow(clippy::too_many_arguments)]
-fn hertz_stiffness(
-    kind: &str,
-    radius1: f64,
-    radius2: Option<f64>,
-    youngs_modulus1: f64,
-    poisson1: f64,
-    youngs_modulus2: f64,
-    poisson2: f64,
-) -> PyResult<f64> {
-    let need2 =
-        || radius2.ok_or_else(|| ModelError::new_err(format!("geometry: {kind} needs radius2")));
-    let geometry = match kind {
-        "sphere-sphere" => ContactGeometry::SphereSphere {
-            radius1,
-            radius2: need2()?,
-        },
-        "ball-in-socket" => ContactGeometry::BallInSocket {
-            radius1,
-            radius2: need2()?,
-        },
-        "sphere-plane" => ContactGeometry::SpherePlane { radius: radius1 },
-        other => {
-            return Err(ModelError::new_err(format!(
-                "geometry.kind: '{other}' is not known; expected one of sphere-sphere, ball-in-socket, sphere-plane"
-            )))
-        }
-    };
-    geometry
-        .stiffness(
-            Material {
-                youngs_modulus: youngs_modulus1,
-                poisson: poisson1,
-            },
-            Material {
-                youngs_modulus: youngs_modulus2,
-                poisson: poisson2,
-            },
-        )
-        .map_err(to_py_err)
-}
-
 fn square(a: &PyReadonlyArray2<'_, f64>, name: &str) -> PyResult<DMatrix<f64>> {
     let a = a.as_array();
     let (r, c) = a.dim();
@@ -428,7 +383,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(precise_matrices, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_check, m)?)?;
-    m.add_function(wrap_pyfunction!(hertz_stiffness, m)?)?;
     m.add_function(wrap_pyfunction!(contact_force, m)?)?;
     m.add_function(wrap_pyfunction!(contact_law_evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(geometry_stiffness, m)?)?;
