@@ -318,6 +318,9 @@ pub struct NewmarkStepper {
     padded: Vec<f64>,
     /// `x̃ + c_f x₀` and `ṽ + c_f v₀`, the inputs of the predictor's right-hand side.
     tilde: [Vec<f64>; 2],
+    /// Newmark's displacement predictor `d̃ = h v₀ + h²(½ − β) a₀`, and its gap coordinates.
+    d_tilde: Vec<f64>,
+    du_pred: Vec<f64>,
     /// `y −= A x` for the dense predictor (SIMD where the CPU has it).
     mat_vec: DenseMatVec,
     choice: PredictorChoice,
@@ -342,6 +345,8 @@ impl NewmarkStepper {
             dx: vec![0.0; n],
             padded: Vec::new(),
             tilde: [vec![0.0; n], vec![0.0; n]],
+            d_tilde: vec![0.0; n],
+            du_pred: vec![0.0; ng],
             mat_vec: DenseMatVec::fastest(),
             choice: PredictorChoice::Cheapest,
             du_lin: vec![0.0; ng],
@@ -383,7 +388,7 @@ impl Stepper for NewmarkStepper {
             alpha_f,
             ..
         } = self.scheme;
-        let [a0, a1, a2, a3, a4, a5] = op.a;
+        let [a0, a1, _, _, a4, a5] = op.a;
         let n = s0.x.len();
         let ng = sys.gaps.len();
         let c_f = alpha_f / (1.0 - alpha_f);
@@ -393,14 +398,21 @@ impl Stepper for NewmarkStepper {
         for (g, load) in s1.load.iter_mut().zip(&sys.loads) {
             *g = load.value(s1.t);
         }
-        // d̃ in dx, and the vectors `R`'s operators multiply: x̃ + c_f x₀, ṽ + c_f v₀, a₀
+        // d̃, and the vectors `R`'s operators multiply: x̃ + c_f x₀, ṽ + c_f v₀, a₀; the
+        // correction e = Δx − d̃ accumulates in dx
         let (x_old, v_old, a_old) = (&s0.x[..n], &s0.v[..n], &s0.a[..n]);
         let (d_a, v_a) = (h * h * (0.5 - beta), (1.0 - gamma) * h);
         let [xt, vt] = &mut self.tilde;
-        let (d, xt, vt) = (&mut self.dx[..n], &mut xt[..n], &mut vt[..n]);
+        let (d_tilde, d, xt, vt) = (
+            &mut self.d_tilde[..n],
+            &mut self.dx[..n],
+            &mut xt[..n],
+            &mut vt[..n],
+        );
         for i in 0..n {
-            d[i] = h * v_old[i] + d_a * a_old[i];
-            xt[i] = x_old[i] + d[i] + c_f * x_old[i];
+            d_tilde[i] = h * v_old[i] + d_a * a_old[i];
+            d[i] = 0.0;
+            xt[i] = x_old[i] + d_tilde[i] + c_f * x_old[i];
             vt[i] = v_old[i] + v_a * a_old[i] + c_f * v_old[i];
         }
         let inputs: [&[f64]; 3] = [xt, vt, a_old];
@@ -439,7 +451,7 @@ impl Stepper for NewmarkStepper {
                 }
                 factor.solve_padded(z);
                 for (new, &old) in factor.permutation().iter().enumerate() {
-                    d[old] += z[bw + new];
+                    d[old] = z[bw + new];
                 }
             }
         }
@@ -451,6 +463,10 @@ impl Stepper for NewmarkStepper {
             }
         }
         sys.gap_coordinates(&self.dx, &mut self.du_lin);
+        sys.gap_coordinates(&self.d_tilde, &mut self.du_pred);
+        for (du, dp) in self.du_lin.iter_mut().zip(&self.du_pred) {
+            *du += dp;
+        }
 
         // Newton on the gap coordinates, starting from the previous step's contact forces;
         // the gap rates follow the increment through eq. 17: u̇₁ = a₁ Δu − a₄ u̇₀ − a₅ ü₀.
@@ -470,16 +486,18 @@ impl Stepper for NewmarkStepper {
         };
         let iterations = newton.solve(sys, &self.newton, &problem, &mut s1.walls, &mut s1.phi)?;
 
-        // Δx = Δx_lin − Σ_g G_g φ_g; then the Newmark relations (eqs. 14, 18) for a₁, v₁.
+        // e = e_lin − Σ_g G_g φ_g; then the Newmark relations (eqs. 14, 18) in predictor
+        // form: x₁ = x₀ + d̃ + e and a₁ = a₀ e (the same as a₀ Δx − a₂ v₀ − a₃ a₀ without its
+        // cancellation of large terms), v₁ from a₁.
         for (col, &p) in op.gaps.iter().zip(&s1.phi) {
             if p != 0.0 {
                 axpy(-p, col, &mut self.dx);
             }
         }
         for i in 0..n {
-            let dx = self.dx[i];
-            s1.x[i] = s0.x[i] + dx;
-            s1.a[i] = a0 * dx - a2 * s0.v[i] - a3 * s0.a[i];
+            let e = self.dx[i];
+            s1.x[i] = s0.x[i] + (self.d_tilde[i] + e);
+            s1.a[i] = a0 * e;
             s1.v[i] = s0.v[i] + h * ((1.0 - gamma) * s0.a[i] + gamma * s1.a[i]);
         }
         s1.finish_gaps(sys, &self.gap_newton.u);
