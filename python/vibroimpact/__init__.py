@@ -21,6 +21,7 @@ from vibroimpact.errors import SolverError as SolverError
 from vibroimpact.integrators import HHT as HHT
 from vibroimpact.integrators import Adaptive as Adaptive
 from vibroimpact.integrators import Bathe as Bathe
+from vibroimpact.integrators import Dop853 as Dop853
 from vibroimpact.integrators import EventDriven as EventDriven
 from vibroimpact.integrators import GeneralizedAlpha as GeneralizedAlpha
 from vibroimpact.integrators import Integrator as Integrator

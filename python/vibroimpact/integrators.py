@@ -14,6 +14,7 @@ __all__ = [
     "METHODS",
     "Adaptive",
     "Bathe",
+    "Dop853",
     "EventDriven",
     "GeneralizedAlpha",
     "Integrator",
@@ -126,8 +127,13 @@ class Integrator:
 
     name: str = field(default="", init=False)
     supports_adaptive: ClassVar[bool] = False
+    #: Adaptive stepping unless the model file says ``adaptive = false``, with these
+    #: tolerances where it gives none (the explicit method).
+    adaptive_defaults: ClassVar[dict[str, float] | None] = None
     #: True for the methods of rigid gaps (``contact.Rigid``), which take no force law.
     impulsive: ClassVar[bool] = False
+    #: False for the methods without Newton iterations (no ``newton_*`` options).
+    uses_newton: ClassVar[bool] = True
     newton: NewtonOptions = field(default_factory=NewtonOptions)
     adaptive: Adaptive | None = None
 
@@ -294,6 +300,31 @@ class Bathe(Integrator):
 
 
 @dataclass(frozen=True)
+class Dop853(Integrator):
+    """Explicit Runge–Kutta DOP853 (Dormand & Prince; Hairer, Nørsett & Wanner, *Solving
+    ODEs I*, 1993, §II.10: order 8, error estimators of orders 5 and 3) with located contact
+    events, for small models. The contact set is fixed inside each step; every wall's closing,
+    opening and first peak is located on the step's quintic Hermite interpolant and the step
+    retaken to end on it, so ``v_imp``, impact times, ``v_out`` and peaks are those of the
+    integrated motion. The energy account's work integrals are integrated with the same
+    stages. Adaptive by default (``adaptive = Adaptive(...)``: each DOF's displacement error
+    against ``atol + rtol·|x|``, its velocity error against ``atol/dt_max + rtol·v_max``);
+    ``adaptive = None`` takes fixed steps ``dt`` (still landing on events). Explicit: the
+    step is bounded by the stiffest mode (``ω_max·h ≲ 5``), so stiff FE models are better
+    served by the implicit methods. On the paper's SDOF case it reaches 1e-8 m / 1e-9 s in
+    about 200 steps (``vibroimpact bench``). No Newton iterations."""
+
+    name: str = field(default="dop853", init=False)
+    supports_adaptive: ClassVar[bool] = True
+    uses_newton: ClassVar[bool] = False
+    adaptive_defaults: ClassVar[dict[str, float] | None] = {"rtol": 1e-8, "atol": 1e-12}
+    adaptive: Adaptive | None = field(default_factory=lambda: Adaptive(rtol=1e-8, atol=1e-12))
+
+    def to_spec(self) -> dict[str, Any]:
+        return {"kind": "dop853"}
+
+
+@dataclass(frozen=True)
 class EventDriven(Integrator):
     """Event-driven integration of rigid impacts (gaps with ``contact.Rigid`` only): every
     impact instant is located by root finding on the exact solution, Newton's restitution
@@ -371,6 +402,7 @@ METHODS: dict[str, type[Integrator]] = {
     "hht": HHT,
     "precise": PreciseIntegration,
     "bathe": Bathe,
+    "dop853": Dop853,
     "event-driven": EventDriven,
     "moreau-jean": MoreauJean,
 }
@@ -405,14 +437,15 @@ def method_options(name: str) -> dict[str, tuple[str, Any]]:
     if cls.impulsive:
         return out  # no Newton iterations, no adaptive stepping
     newton = {f.name: f for f in fields(NewtonOptions)}
-    for key, attr in NEWTON_KEYS.items():
+    for key, attr in NEWTON_KEYS.items() if cls.uses_newton else ():
         f = newton[attr]
         out[key] = ("int" if isinstance(f.default, int) else "float", f.default)
     if cls.supports_adaptive:
-        out["adaptive"] = ("bool", False)
+        defaults = cls.adaptive_defaults or {}
+        out["adaptive"] = ("bool", cls.adaptive_defaults is not None)
         adaptive = {f.name: f for f in fields(Adaptive)}
         for key in ADAPTIVE_KEYS:
-            out[key] = ("float", adaptive[key].default)
+            out[key] = ("float", defaults.get(key, adaptive[key].default))
     return out
 
 
@@ -434,7 +467,8 @@ def method_from_options(name: str, options: dict[str, Any] | None = None) -> Int
             f"{', '.join(sorted(known))}"
         )
     newton = NewtonOptions(**{a: options.pop(k) for k, a in NEWTON_KEYS.items() if k in options})
-    adaptive_on = options.pop("adaptive", False)
+    defaults = METHODS[name].adaptive_defaults
+    adaptive_on = options.pop("adaptive", defaults is not None)
     require(isinstance(adaptive_on, bool), "solver.adaptive", adaptive_on, "true or false")
     tolerances = {k: options.pop(k) for k in ADAPTIVE_KEYS if k in options}
     if tolerances and not adaptive_on:
@@ -443,7 +477,7 @@ def method_from_options(name: str, options: dict[str, Any] | None = None) -> Int
             f"solver.{key}: {tolerances[key]!r} is given but adaptive is false; expected "
             "adaptive = true with it"
         )
-    adaptive = Adaptive(**tolerances) if adaptive_on else None
+    adaptive = Adaptive(**{**(defaults or {}), **tolerances}) if adaptive_on else None
     return METHODS[name](newton=newton, adaptive=adaptive, **options)
 
 
@@ -538,6 +572,58 @@ stays exact in both; the loads are third order in both.
   contact: the predictor–corrector.
 * Not with adaptive stepping. `Φ` costs `O((2n + 3k)³)` once per step size: fine for
   hundreds of DOFs, not for a raw FE model of thousands (reduce it first).
+""",
+    "dop853": """\
+### The method
+
+Dormand & Prince's explicit Runge–Kutta pair DOP853 (Hairer, Nørsett & Wanner, *Solving
+ODEs I*, 2nd ed. 1993, §II.10; coefficients as in Hairer's `dop853.f` and SciPy) on
+`x' = v`, `M v' = F(t) − C v − K x − Σ φ_g b_gᵀ`: 12 stages per step, the 13th (the
+acceleration at the step's end) reused as the next step's first. Error: Hairer's norm of the
+fifth-order estimate damped by the third-order one, each DOF's displacement against
+`atol + rtol·|x|` and its velocity against `atol/dt_max + rtol·v_max`; step factor
+`0.9·err^(−1/8)` within [0.2, 6], with Gustafsson's predictive correction, no growth after a
+rejection.
+
+**Contacts.** The set of closed walls is fixed inside a step, so each step integrates a
+smooth equation. After each step every wall's penetration is interpolated by the quintic
+Hermite polynomial through its value, rate and acceleration at both ends; a closing, an
+opening or the first peak of a contact inside the step makes the step be retaken to end
+there (the event is then within 1e-5 of a step of its end, and the wall switches at the
+next step's start — the force law is zero on the open side, so the early switch changes
+nothing measurable). A step rejected for its error that contains a closing or opening lands
+on it instead of shrinking blindly. `v_imp` is the rate at the closing; the impact table
+interpolates `t_start`, `t_end`, `v_out` inside the step that ends at the event. The first
+step of a contact and every step landed on an event take the larger (third-order) error
+estimate: a Hertzian force grows like `t^1.5` from the closing, where the damped estimate
+can fall several times below the true error. The next contact starts with the first step
+of the last one.
+
+**Energy account.** The external work and the damping and contact dissipation are
+integrated with the same stages (`W' = F·v`, `D' = vᵀCv`, `(F − F_el)·δ̇`), so the balance
+closes to the method's accuracy (1e-8 of the energy in at the default rtol 1e-8) — the
+trapezoidal account of the implicit methods is exact only for average acceleration.
+
+### Verification
+
+* Order 8 on the damped oscillator, fixed steps ω_n·dt from 1 to 0.25
+  (`tests/test_integrator_order.py`: measured 7.98).
+* The paper's SDOF case at the default rtol 1e-8: peak within 1e-11 m, every impact's start
+  and end within 1e-9 s of the SciPy reference, in under 450 steps solved
+  (`tests/test_dop853.py`); Hertz's closed form (peak indentation, contact duration,
+  restitution 1, energy to 3e-9); a grazing contact found inside 10 ms steps; a forced
+  2-DOF relative gap against an independent SciPy integration (33 impacts); the Rust test
+  `hertz_impact_of_a_free_mass_matches_energy_closed_form`.
+
+### When to use
+
+Small models (a few DOFs) where impact times, peaks and rebound speeds must be accurate to
+many digits, and parameter sweeps of such models: an eighth-order method needs tens of
+steps per impact where a second-order one needs thousands. Not for FE models with stiff
+high modes: as an explicit method its step is bounded by the stiffest mode (`ω_max·h ≲ 5`);
+use `newmark`, `generalized-alpha` or `bathe` there. No Newton iterations
+(`newton_iterations` is 0); `adaptive = false` takes fixed steps `dt` (still landing on
+events).
 """,
     "bathe": """\
 ### The method (Bathe & Baig 2005; Bathe 2007)

@@ -1,5 +1,6 @@
 //! Times the paper's SDOF case (0.02 s at dt = 1 µs) in the core alone, without Python:
-//! `cargo run --release --example sdof_bench -p vibroimpact-core`.
+//! `cargo run --release --example sdof_bench -p vibroimpact-core`; `METHOD=dop853` times
+//! adaptive DOP853 (rtol 1e-8) instead of Newmark.
 
 use std::time::Instant;
 
@@ -11,6 +12,7 @@ use vibroimpact_core::contact::{Hertz, LankaraniNikravesh, Law};
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings};
 use vibroimpact_core::simulate::{simulate, Method, RunSettings};
+use vibroimpact_core::step_control::Adaptive;
 use vibroimpact_core::structure::LinearStructure;
 use vibroimpact_core::system::System;
 
@@ -37,15 +39,29 @@ fn main() {
             law,
         };
         let sys = System::new(s, vec![gap], vec![]).unwrap();
+        let dop853 = std::env::var("METHOD").is_ok_and(|m| m == "dop853");
+        let (method, adaptive) = if dop853 {
+            let tol = Adaptive {
+                rtol: 1e-8,
+                atol: 1e-12,
+                dt_min: 1e-12,
+                dt_max: 1e-3,
+            };
+            (Method::Dop853, Some(tol))
+        } else {
+            let scheme = NewmarkFamily::average_acceleration();
+            (Method::NewmarkFamily(scheme), None)
+        };
         let settings = RunSettings {
             t_end: 0.02,
-            dt: 1e-6,
+            dt: if dop853 { 1e-5 } else { 1e-6 },
             every: 1,
             record_dofs: vec![0],
             newton: NewtonSettings::default(),
-            adaptive: None,
+            adaptive,
         };
         let mut times = vec![];
+        let mut stats = None;
         let runs: usize = std::env::var("RUNS")
             .map(|s| s.parse().unwrap())
             .unwrap_or(200);
@@ -53,7 +69,7 @@ fn main() {
             let t0 = Instant::now();
             let out = simulate(
                 &sys,
-                Method::NewmarkFamily(NewmarkFamily::average_acceleration()),
+                method,
                 &settings,
                 DVector::zeros(1),
                 DVector::from_element(1, 8.0),
@@ -61,8 +77,15 @@ fn main() {
             .unwrap();
             times.push(t0.elapsed().as_secs_f64());
             assert!(out.error.is_none());
+            stats = Some(out.stats);
         }
         times.sort_by(|a, b| a.partial_cmp(b).unwrap());
-        println!("{name}: median {:.3} ms", times[times.len() / 2] * 1e3);
+        let stats = stats.unwrap();
+        println!(
+            "{name}: median {:.3} ms, {} steps, {} rejected",
+            times[times.len() / 2] * 1e3,
+            stats.steps,
+            stats.rejected_steps
+        );
     }
 }

@@ -118,6 +118,118 @@ impl HermiteSegment {
     }
 }
 
+/// Quintic Hermite interpolant of a gap's penetration over one step from its value, rate and
+/// acceleration at both ends (error `O(h⁶)`): where the high-order integrators locate events.
+#[derive(Debug, Clone, Copy)]
+pub struct QuinticSegment {
+    /// Coefficients of `p(s) = Σ c_k s^k`, `s ∈ [0, 1]` the fraction of the step.
+    c: [f64; 6],
+}
+
+impl QuinticSegment {
+    /// From `(y, y', y'')` at the start and at the end of a step of length `h`.
+    pub fn new(start: [f64; 3], end: [f64; 3], h: f64) -> Self {
+        let (c0, c1, c2) = (start[0], start[1] * h, 0.5 * start[2] * h * h);
+        let d = end[0] - (c0 + c1 + c2);
+        let e = end[1] * h - (c1 + 2.0 * c2);
+        let f = end[2] * h * h - 2.0 * c2;
+        Self {
+            c: [
+                c0,
+                c1,
+                c2,
+                10.0 * d - 4.0 * e + 0.5 * f,
+                -15.0 * d + 7.0 * e - f,
+                6.0 * d - 3.0 * e + 0.5 * f,
+            ],
+        }
+    }
+
+    /// `p(s)`.
+    #[inline]
+    pub fn value(&self, s: f64) -> f64 {
+        let c = &self.c;
+        c[0] + s * (c[1] + s * (c[2] + s * (c[3] + s * (c[4] + s * c[5]))))
+    }
+
+    /// `dp/ds` (the rate times the step length).
+    #[inline]
+    pub fn slope(&self, s: f64) -> f64 {
+        let c = &self.c;
+        c[1] + s * (2.0 * c[2] + s * (3.0 * c[3] + s * (4.0 * c[4] + s * 5.0 * c[5])))
+    }
+
+    /// `d²p/ds²`.
+    #[inline]
+    fn curvature(&self, s: f64) -> f64 {
+        let c = &self.c;
+        2.0 * c[2] + s * (6.0 * c[3] + s * (12.0 * c[4] + s * 20.0 * c[5]))
+    }
+
+    /// First `s ∈ (0, 1]` where `p` (`rate = false`) or `dp/ds` (`rate = true`) passes from
+    /// `≤ 0` to `> 0` (`rising`) or from `≥ 0` to `< 0`, searched on `samples` equal
+    /// sub-intervals and refined by safeguarded Newton; the start counts as on the near side.
+    pub fn first_crossing(&self, rate: bool, rising: bool, samples: usize) -> Option<f64> {
+        let sign = if rising { 1.0 } else { -1.0 };
+        // sign·p (or sign·p') on [0, 1] is at most the sum of its positive terms: no crossing
+        // when that bound stays ≤ 0 (most steps, cheaply)
+        let bound: f64 = if rate {
+            (1..6)
+                .map(|k| (sign * k as f64 * self.c[k]).max(0.0))
+                .sum::<f64>()
+                + (sign * self.c[1]).min(0.0)
+        } else {
+            (1..6).map(|k| (sign * self.c[k]).max(0.0)).sum::<f64>() + sign * self.c[0]
+        };
+        if bound <= 0.0 {
+            return None;
+        }
+        let g = |s: f64| sign * if rate { self.slope(s) } else { self.value(s) };
+        let dg = |s: f64| {
+            sign * if rate {
+                self.curvature(s)
+            } else {
+                self.slope(s)
+            }
+        };
+        let mut lo = 0.0;
+        for k in 1..=samples {
+            let hi = k as f64 / samples as f64;
+            if g(hi) > 0.0 {
+                return Some(refine_root(g, dg, lo, hi));
+            }
+            lo = hi;
+        }
+        None
+    }
+}
+
+/// Root of `g` in `[lo, hi]` with `g(hi) > 0` and `g` taken as `≤ 0` at `lo`: Newton steps
+/// kept inside the shrinking bracket, bisection otherwise.
+fn refine_root(g: impl Fn(f64) -> f64, dg: impl Fn(f64) -> f64, lo: f64, hi: f64) -> f64 {
+    let (mut lo, mut hi) = (lo, hi);
+    let mut s = hi;
+    for _ in 0..60 {
+        let f = g(s);
+        if f > 0.0 {
+            hi = s;
+        } else {
+            lo = s;
+        }
+        if f == 0.0 || hi - lo < 1e-15 {
+            break;
+        }
+        let d = dg(s);
+        let newton = s - f / d;
+        s = if newton > lo && newton < hi {
+            newton
+        } else {
+            0.5 * (lo + hi)
+        };
+    }
+    s.clamp(lo, hi)
+}
+
 /// Vertex of the parabola through three samples `(t, y)`; returns the largest of the samples
 /// and the vertex value when the middle sample is a local maximum.
 pub fn parabola_peak(t: [f64; 3], y: [f64; 3]) -> f64 {
@@ -203,6 +315,45 @@ mod tests {
         assert!((peak - 1e-3).abs() < 1e-15);
         let up = seg.crossing_between(0.0, s);
         assert!(f(up).abs() < 1e-15 && up < 0.3);
+    }
+
+    #[test]
+    fn quintic_is_exact_for_quintics_and_finds_the_first_crossing() {
+        // y = (t − 0.2)(t − 0.7)(t + 1)(t² + 1)/10, lowest power first
+        let c = [
+            0.013999999999999999,
+            -0.07599999999999998,
+            0.024000000000000007,
+            0.02400000000000001,
+            0.010000000000000009,
+            0.1,
+        ];
+        let poly = |t: f64, k: usize| -> f64 {
+            (k..6)
+                .map(|p| {
+                    let falling: f64 = (p + 1 - k..=p).map(|q| q as f64).product();
+                    c[p] * falling * t.powi((p - k) as i32)
+                })
+                .sum()
+        };
+        let ends = |t: f64| [poly(t, 0), poly(t, 1), poly(t, 2)];
+        let q = QuinticSegment::new(ends(0.0), ends(1.0), 1.0);
+        for &s in &[0.0, 0.3, 0.55, 1.0] {
+            assert!((q.value(s) - poly(s, 0)).abs() < 1e-15, "{s}");
+            assert!((q.slope(s) - poly(s, 1)).abs() < 1e-14, "{s}");
+        }
+        // from +: down through 0.2; the rate turns (− to +) between the roots
+        let down = q.first_crossing(false, false, 16).unwrap();
+        assert!((down - 0.2).abs() < 1e-14, "{down}");
+        let turn = q.first_crossing(true, true, 16).unwrap();
+        assert!(
+            poly(turn, 1).abs() < 1e-15 && turn > 0.2 && turn < 0.7,
+            "{turn}"
+        );
+        // from − at t = 0.3 over a step of 0.9: up through 0.7, at s = 0.4 / 0.9
+        let q = QuinticSegment::new(ends(0.3), ends(1.2), 0.9);
+        let up = q.first_crossing(false, true, 16).unwrap();
+        assert!((0.3 + 0.9 * up - 0.7).abs() < 1e-14, "{up}");
     }
 
     #[test]

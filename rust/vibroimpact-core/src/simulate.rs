@@ -9,6 +9,7 @@ use nalgebra::DVector;
 
 use crate::error::{invalid, SimError, ENERGY_GROWTH_LIMIT};
 use crate::gap::{ImpactLog, ImpactRecord};
+use crate::integrators::dop853::{self, Steps};
 use crate::integrators::{
     Bathe, BatheStepper, NewmarkFamily, NewmarkStepper, NewtonSettings, PreciseIntegration,
     PreciseStepper, StepFailure, Stepper,
@@ -31,6 +32,8 @@ pub enum Method {
     EventDriven(crate::impulsive::EventDriven),
     /// Rigid gaps only: Moreau–Jean θ-method time stepping with one LCP per step.
     MoreauJean(crate::impulsive::MoreauJean),
+    /// Explicit Runge–Kutta DOP853 with located contact events (`integrators::dop853`).
+    Dop853,
 }
 
 /// Step size, duration and what to record.
@@ -356,27 +359,38 @@ fn run_watched<'o>(
     }
     // Fixed steps: dt is shortened so that t_end is a whole number of steps. Adaptive steps:
     // the cached sizes are dt_max / 2^k, with dt_max likewise a whole fraction of t_end.
+    let explicit = matches!(method, Method::Dop853);
     let control = match adaptive {
-        Some(a) => Some(StepControl::new(a, method, t_end, dt)?),
-        None => None,
+        Some(a) if !explicit => Some(StepControl::new(a, method, t_end, dt)?),
+        _ => None,
     };
     let n_steps_f = (t_end / dt - 1e-9).ceil();
-    if control.is_none() && n_steps_f > 1e10 {
+    if adaptive.is_none() && n_steps_f > 1e10 {
         return invalid(format!(
             "solver.dt: {dt} gives {n_steps_f:.3e} steps for t_end = {t_end}; expected at most 1e10"
         ));
     }
     let n_steps = n_steps_f as usize;
-    let h0 = match &control {
-        Some(c) => c.dt_max,
-        None => t_end / n_steps as f64,
+    let explicit_steps = match adaptive {
+        _ if !explicit => None,
+        Some(tol) => Some(Steps::Adaptive {
+            tol,
+            dt_max: tol.checked_dt_max(t_end)?,
+            first: dt,
+        }),
+        None => Some(Steps::Fixed(t_end / n_steps as f64)),
+    };
+    let h0 = match (&control, &explicit_steps) {
+        (Some(c), _) => c.dt_max,
+        (_, Some(Steps::Adaptive { dt_max, .. })) => *dt_max,
+        _ => t_end / n_steps as f64,
     };
     let max_levels = match &control {
         Some(c) => c.levels(),
         None => newton.max_step_cuts,
     };
 
-    let n_rec = if control.is_some() {
+    let n_rec = if adaptive.is_some() {
         1024
     } else {
         n_steps / every + 2
@@ -386,53 +400,34 @@ fn run_watched<'o>(
     if let Some(sink) = sink {
         run.watch(sink);
     }
-    // Every stepper caches one operator per level of the step cuts (or adaptive sizes).
-    let cut_newton = NewtonSettings {
-        max_step_cuts: max_levels,
-        ..newton
-    };
-    let stepper: Result<Box<dyn Stepper>, SimError> = (|| -> Result<Box<dyn Stepper>, SimError> {
-        Ok(match method {
-            Method::NewmarkFamily(scheme) => {
-                let mut s = NewmarkStepper::new(sys, scheme, cut_newton)?;
-                s.prepare(sys, h0)?;
-                Box::new(s)
-            }
-            Method::Precise(variant) => {
-                let mut s = PreciseStepper::new(sys, variant, cut_newton)?;
-                s.prepare(sys, h0)?;
-                Box::new(s)
-            }
-            Method::Bathe(scheme) => {
-                let mut s = BatheStepper::new(sys, scheme, cut_newton)?;
-                s.prepare(sys, h0)?;
-                Box::new(s)
-            }
-            Method::EventDriven(_) | Method::MoreauJean(_) => {
-                unreachable!("the impulsive methods returned above")
-            }
-        })
-    })();
-    let error = match stepper {
-        // A singular tangent is a solver failure at t = 0: the initial state is the result.
-        Err(e @ SimError::SingularTangent { .. }) => Some(e),
-        Err(e) => return Err(e),
-        Ok(mut stepper) => {
-            let error = match &control {
-                None => run.fixed_steps(
-                    sys,
-                    stepper.as_mut(),
-                    h0,
-                    n_steps,
-                    every,
-                    newton.max_step_cuts,
-                ),
-                Some(c) => c.run(&mut run, sys, stepper.as_mut(), every),
+    let error = match explicit_steps {
+        Some(steps) => dop853::run(&mut run, sys, steps, t_end, every),
+        None => {
+            // Every stepper caches one operator per level of the step cuts (or adaptive sizes).
+            let cut_newton = NewtonSettings {
+                max_step_cuts: max_levels,
+                ..newton
             };
-            // the last check of the energy (runs shorter than interrupt::CHECK_EVERY steps)
-            error.or_else(|| run.check_energy(sys).err())
+            match stepper(sys, method, cut_newton, h0) {
+                // A singular tangent is a solver failure at t = 0: the initial state is the result.
+                Err(e @ SimError::SingularTangent { .. }) => Some(e),
+                Err(e) => return Err(e),
+                Ok(mut stepper) => match &control {
+                    None => run.fixed_steps(
+                        sys,
+                        stepper.as_mut(),
+                        h0,
+                        n_steps,
+                        every,
+                        newton.max_step_cuts,
+                    ),
+                    Some(c) => c.run(&mut run, sys, stepper.as_mut(), every),
+                },
+            }
         }
     };
+    // the last check of the energy (runs shorter than interrupt::CHECK_EVERY steps)
+    let error = error.or_else(|| run.check_energy(sys).err());
     if error.is_some() && run.out.last_time != run.cur.t {
         run.out.record(sys, &run.cur, &run.account);
     }
@@ -456,6 +451,35 @@ fn run_watched<'o>(
         stats: run.stats,
         dt: h0,
         error,
+    })
+}
+
+/// The stepper of an implicit or precise `method`, its operators prepared for steps of `h0`.
+fn stepper(
+    sys: &System,
+    method: Method,
+    newton: NewtonSettings,
+    h0: f64,
+) -> Result<Box<dyn Stepper>, SimError> {
+    Ok(match method {
+        Method::NewmarkFamily(scheme) => {
+            let mut s = NewmarkStepper::new(sys, scheme, newton)?;
+            s.prepare(sys, h0)?;
+            Box::new(s)
+        }
+        Method::Precise(variant) => {
+            let mut s = PreciseStepper::new(sys, variant, newton)?;
+            s.prepare(sys, h0)?;
+            Box::new(s)
+        }
+        Method::Bathe(scheme) => {
+            let mut s = BatheStepper::new(sys, scheme, newton)?;
+            s.prepare(sys, h0)?;
+            Box::new(s)
+        }
+        Method::EventDriven(_) | Method::MoreauJean(_) | Method::Dop853 => {
+            unreachable!("the impulsive and explicit methods have no stepper")
+        }
     })
 }
 
@@ -582,6 +606,21 @@ impl<'o> Run<'o> {
         h: f64,
         iterations: usize,
     ) -> Result<(), SimError> {
+        self.commit_trial(sys, h, iterations, None)?;
+        stepper.accept(sys, &self.cur);
+        Ok(())
+    }
+
+    /// [`Self::accept`] for any integrator: `work` holds the increments of the external work
+    /// and of the damping and contact dissipation over the step when the integrator computed
+    /// them itself; without it they are accumulated with the trapezoidal rule.
+    pub(crate) fn commit_trial(
+        &mut self,
+        sys: &System,
+        h: f64,
+        iterations: usize,
+        work: Option<[f64; 3]>,
+    ) -> Result<(), SimError> {
         self.stats.newton_iterations += iterations;
         self.stats.steps += 1;
         let trial = &self.trial;
@@ -591,7 +630,10 @@ impl<'o> Run<'o> {
                 gap: busiest_gap(sys, &self.cur),
             });
         }
-        self.account.commit(sys, &self.cur, trial);
+        match work {
+            Some(w) => self.account.add(w),
+            None => self.account.commit(sys, &self.cur, trial),
+        }
         for (m, &d) in self.out.max_abs.iter_mut().zip(&self.out.dofs) {
             *m = m.max(trial.x[d].abs());
         }
@@ -602,7 +644,6 @@ impl<'o> Run<'o> {
             observer.accepted(sys, &self.cur, &self.trial, h);
         }
         std::mem::swap(&mut self.cur, &mut self.trial);
-        stepper.accept(sys, &self.cur);
         self.since_check += 1;
         if self.since_check >= interrupt::CHECK_EVERY {
             self.since_check = 0;
@@ -694,6 +735,13 @@ pub(crate) struct Account {
 }
 
 impl Account {
+    /// Adds increments of the external work, the damping and the contact dissipation, J.
+    fn add(&mut self, work: [f64; 3]) {
+        self.external_work += work[0];
+        self.damping_dissipated += work[1];
+        self.contact_dissipated += work[2];
+    }
+
     fn commit(&mut self, sys: &System, s0: &State, s1: &State) {
         for (l, load) in sys.loads.iter().enumerate() {
             let moved: f64 = load.dofs.iter().map(|&d| s1.x[d] - s0.x[d]).sum();

@@ -39,6 +39,36 @@ pub struct Adaptive {
     pub dt_max: f64,
 }
 
+impl Adaptive {
+    /// Checks the tolerances and limits against the run's duration; returns `dt_max`
+    /// shortened so that `t_end` is a whole number of largest steps.
+    pub(crate) fn checked_dt_max(&self, t_end: f64) -> Result<f64, SimError> {
+        for (name, v) in [("rtol", self.rtol), ("atol", self.atol)] {
+            if !(v.is_finite() && v >= 0.0) {
+                return invalid(format!(
+                    "solver.{name}: {v} is not valid; expected a tolerance >= 0"
+                ));
+            }
+        }
+        if self.rtol == 0.0 && self.atol == 0.0 {
+            return invalid("solver.rtol: 0 with atol = 0 is not valid; expected a tolerance > 0");
+        }
+        if !(self.dt_min.is_finite() && self.dt_min > 0.0) {
+            return invalid(format!(
+                "solver.dt_min: {} is not valid; expected a step > 0 in s",
+                self.dt_min
+            ));
+        }
+        if !(self.dt_max.is_finite() && self.dt_max >= self.dt_min && self.dt_max <= t_end) {
+            return invalid(format!(
+                    "solver.dt_max: {} is not valid; expected dt_min <= dt_max <= t_end ({} to {t_end} s)",
+                    self.dt_max, self.dt_min
+                ));
+        }
+        Ok(t_end / (t_end / self.dt_max - 1e-9).ceil())
+    }
+}
+
 /// Adaptive stepping, validated and resolved against the run's duration.
 pub(crate) struct StepControl {
     tol: Adaptive,
@@ -62,29 +92,7 @@ impl StepControl {
                  (adaptive stepping is available for the Newmark family)",
             );
         };
-        for (name, v) in [("rtol", tol.rtol), ("atol", tol.atol)] {
-            if !(v.is_finite() && v >= 0.0) {
-                return invalid(format!(
-                    "solver.{name}: {v} is not valid; expected a tolerance >= 0"
-                ));
-            }
-        }
-        if tol.rtol == 0.0 && tol.atol == 0.0 {
-            return invalid("solver.rtol: 0 with atol = 0 is not valid; expected a tolerance > 0");
-        }
-        if !(tol.dt_min.is_finite() && tol.dt_min > 0.0) {
-            return invalid(format!(
-                "solver.dt_min: {} is not valid; expected a step > 0 in s",
-                tol.dt_min
-            ));
-        }
-        if !(tol.dt_max.is_finite() && tol.dt_max >= tol.dt_min && tol.dt_max <= t_end) {
-            return invalid(format!(
-                "solver.dt_max: {} is not valid; expected dt_min <= dt_max <= t_end ({} to {t_end} s)",
-                tol.dt_max, tol.dt_min
-            ));
-        }
-        let dt_max = t_end / (t_end / tol.dt_max - 1e-9).ceil();
+        let dt_max = tol.checked_dt_max(t_end)?;
         let octaves = (dt_max / tol.dt_min).log2();
         if octaves > 60.0 {
             return invalid(format!(

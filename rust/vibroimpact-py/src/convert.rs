@@ -247,6 +247,7 @@ fn method(d: &Bound<'_, PyDict>) -> PyResult<Method> {
             scheme.validate().map_err(to_py_err)?;
             Ok(Method::EventDriven(scheme))
         }
+        "dop853" => Ok(Method::Dop853),
         "moreau-jean" => {
             let scheme = MoreauJean {
                 theta: opt(d, "theta", "solver")?.unwrap_or(0.5),

@@ -105,11 +105,13 @@ pub(crate) fn start(
     events: bool,
 ) -> PyResult<Running> {
     let job = convert::job_from_spec(spec)?;
-    let steps = if job.settings.adaptive.is_some() {
-        f64::INFINITY
-    } else {
-        job.settings.t_end / job.settings.dt
-    };
+    // an adaptive run's first step is `dt`: estimated at ten times the steps of that size
+    let steps = job.settings.t_end / job.settings.dt
+        * if job.settings.adaptive.is_some() {
+            10.0
+        } else {
+            1.0
+        };
     let n = job.system.n_dof() as f64;
     let work = steps * n.max(1.0).powi(2) * (job.system.gaps.len().max(1) as f64);
     let (tx, rx) = sync_channel(BLOCKS_IN_FLIGHT);

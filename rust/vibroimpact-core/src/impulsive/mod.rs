@@ -71,6 +71,7 @@ fn method_name(method: &Method) -> &'static str {
         Method::Bathe(_) => "bathe",
         Method::EventDriven(_) => "event-driven",
         Method::MoreauJean(_) => "moreau-jean",
+        Method::Dop853 => "dop853",
     }
 }
 

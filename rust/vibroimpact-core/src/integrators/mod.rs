@@ -2,6 +2,8 @@
 //! it (so a failed attempt is simply discarded and the step cut), behind the [`Stepper`] trait.
 
 mod bathe;
+pub(crate) mod dop853;
+mod dop853_tableau;
 pub mod expm;
 mod newmark;
 mod newton;

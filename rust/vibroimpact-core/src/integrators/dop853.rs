@@ -1,0 +1,688 @@
+//! DOP853 with located contact events: the explicit Runge–Kutta pair of order 8 (error
+//! estimators of orders 5 and 3) of Dormand & Prince (Hairer, Nørsett & Wanner, *Solving
+//! ODEs I*, 1993, §II.10) on `x' = v`, `M v' = F(t) − C v − K x − Σ φ_g b_gᵀ`, for small
+//! models and the short, stiff contacts of a few DOFs, where an eighth-order method needs tens
+//! of steps per impact instead of thousands.
+//!
+//! The contact set is fixed inside a step, so every step integrates a smooth equation: each
+//! wall's closing, opening and first penetration peak is located on the step's quintic
+//! Hermite interpolant of the penetration (value, rate and acceleration at both ends) and the
+//! step is retaken to end there, until the event lies within [`EVENT_TOL`]`· t_end` of the
+//! step's end; the wall is switched at the start of the next step. `v_imp`, `t_start`,
+//! `t_end`, `v_out` and the peak are therefore those of the integrated motion, to its
+//! tolerance. The work integrals of the energy account are integrated with the same stages
+//! (no trapezoidal rule), so the energy balance closes to the method's accuracy.
+//!
+//! Explicit: the step is bounded by the stiffest mode (`ω_max h ≲ 5`), so FE models with
+//! stiff high modes are better served by the implicit methods.
+
+use super::dop853_tableau::{A, B, C, E3, E5, STAGES};
+use crate::contact::{ContactLaw, MIN_IMPACT_SPEED};
+use crate::error::SimError;
+use crate::gap::WallState;
+use crate::interpolation::QuinticSegment;
+use crate::simulate::Run;
+use crate::step_control::Adaptive;
+use crate::system::System;
+
+/// Events closer than this fraction of the step (or of `t_end`) to a step's end are
+/// switched at the next step's start instead of being landed on: the force law is zero on
+/// the open side of the wall, so switching that early changes the motion by far less than
+/// the tolerance, and the impact table interpolates the crossing inside the step anyway.
+const EVENT_NEAR: f64 = 1e-5;
+const EVENT_TOL: f64 = 1e-14;
+
+/// Sub-intervals of a step on which a crossing of the penetration is searched.
+const EVENT_SAMPLES: usize = 32;
+
+/// Landings on one event before the step is kept as it is.
+const MAX_LANDINGS: usize = 8;
+
+/// Models up to this many DOFs apply a dense `M⁻¹` instead of solving with `M`'s factor.
+const MAX_DENSE_INVERSE: usize = 32;
+
+/// How the steps are sized.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum Steps {
+    /// Steps of this size (shortened to land on events, then back on the grid `k·dt`).
+    Fixed(f64),
+    /// The local error kept below the tolerances; `first` is the first step.
+    Adaptive {
+        tol: Adaptive,
+        dt_max: f64,
+        first: f64,
+    },
+}
+
+/// A wall's contact state, fixed during a step.
+#[derive(Debug, Clone, Copy, Default)]
+struct Contact {
+    active: bool,
+    impact_speed: f64,
+    max_penetration: f64,
+    /// Active and not yet past the first peak of the penetration.
+    peak_pending: bool,
+}
+
+/// The right-hand side: the acceleration and the power of the work integrals.
+struct Dynamics<'s> {
+    sys: &'s System,
+    cv: Vec<f64>,
+    /// `M⁻¹` (row-major) of a small model.
+    mass_inverse: Option<Vec<f64>>,
+    rhs: Vec<f64>,
+}
+
+impl<'s> Dynamics<'s> {
+    fn new(sys: &'s System) -> Self {
+        let n = sys.n_dof();
+        let mass_inverse = (n <= MAX_DENSE_INVERSE).then(|| {
+            let mut inverse = vec![0.0; n * n];
+            let mut column = vec![0.0; n];
+            for j in 0..n {
+                column.fill(0.0);
+                column[j] = 1.0;
+                sys.structure.solve_mass(&mut column);
+                for (i, &c) in column.iter().enumerate() {
+                    inverse[i * n + j] = c;
+                }
+            }
+            inverse
+        });
+        Self {
+            sys,
+            cv: vec![0.0; n],
+            mass_inverse,
+            rhs: vec![0.0; n],
+        }
+    }
+
+    /// `a = M⁻¹ (F(t) − C v − K x − Σ φ_g b_gᵀ)` with the forces of the active walls; returns
+    /// the power of the loads, of the damping and of the contact forces' dissipative part
+    /// (the integrands of the energy account, DESIGN.md §6).
+    fn accel(
+        &mut self,
+        contacts: &[Contact],
+        t: f64,
+        x: &[f64],
+        v: &[f64],
+        a: &mut [f64],
+    ) -> [f64; 3] {
+        let sys = self.sys;
+        let st = &sys.structure;
+        let f = &mut self.rhs;
+        f.fill(0.0);
+        let mut external = 0.0;
+        for load in &sys.loads {
+            let g = load.value(t);
+            for &d in &load.dofs {
+                f[d] += g;
+                external += g * v[d];
+            }
+        }
+        let mut contact = 0.0;
+        for (wall, c) in sys.walls.iter().zip(contacts) {
+            if !c.active {
+                continue;
+            }
+            let gap = &sys.gaps[wall.gap];
+            let (mut u, mut u_rate) = (0.0, 0.0);
+            for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
+                u += coef * x[d];
+                u_rate += coef * v[d];
+            }
+            let penetration = wall.sign * u - wall.clearance;
+            if penetration <= 0.0 {
+                continue;
+            }
+            let rate = wall.sign * u_rate;
+            let force = gap.law.force_in_contact(
+                penetration,
+                rate,
+                c.impact_speed,
+                c.max_penetration.max(penetration),
+            );
+            for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
+                f[d] -= wall.sign * coef * force.force;
+            }
+            contact += (force.force - force.elastic) * rate;
+        }
+        let mut damping = 0.0;
+        if sys.has_damping {
+            self.cv.fill(0.0);
+            st.damping.mul_add(1.0, v, &mut self.cv);
+            for ((fi, ci), vi) in f.iter_mut().zip(&self.cv).zip(v) {
+                *fi -= ci;
+                damping += ci * vi;
+            }
+        }
+        st.stiffness.mul_add(-1.0, x, f);
+        match &self.mass_inverse {
+            Some(inverse) => {
+                for (ai, row) in a.iter_mut().zip(inverse.chunks_exact(f.len())) {
+                    *ai = row.iter().zip(f.iter()).map(|(m, r)| m * r).sum();
+                }
+            }
+            None => {
+                a.copy_from_slice(f);
+                st.solve_mass(a);
+            }
+        }
+        [external, damping, contact]
+    }
+}
+
+/// Stage values of one step: `kx[i] = v_i`, `kv[i] = a_i`, `kp[i]` the powers, for the 12
+/// stages and the first stage of the next step (FSAL).
+struct Stages {
+    n: usize,
+    kx: Vec<f64>,
+    kv: Vec<f64>,
+    kp: [[f64; 3]; STAGES + 1],
+    xs: Vec<f64>,
+    vs: Vec<f64>,
+}
+
+/// The end of a step.
+struct StepEnd {
+    x: Vec<f64>,
+    v: Vec<f64>,
+    a: Vec<f64>,
+    power: [f64; 3],
+    /// Increments of the work integrals over the step, J.
+    work: [f64; 3],
+}
+
+impl Stages {
+    fn new(n: usize) -> Self {
+        Self {
+            n,
+            kx: vec![0.0; n * (STAGES + 1)],
+            kv: vec![0.0; n * (STAGES + 1)],
+            kp: [[0.0; 3]; STAGES + 1],
+            xs: vec![0.0; n],
+            vs: vec![0.0; n],
+        }
+    }
+
+    /// One step of `h` from `start` (its `a`, `power` the first stage) into `end`.
+    fn step(
+        &mut self,
+        dynamics: &mut Dynamics,
+        contacts: &[Contact],
+        t0: f64,
+        start: &StepEnd,
+        h: f64,
+        end: &mut StepEnd,
+    ) {
+        let n = self.n;
+        self.kx[..n].copy_from_slice(&start.v);
+        self.kv[..n].copy_from_slice(&start.a);
+        self.kp[0] = start.power;
+        for i in 1..STAGES {
+            self.xs.copy_from_slice(&start.x);
+            self.vs.copy_from_slice(&start.v);
+            combine(&mut self.xs, &mut self.vs, h, A[i], &self.kx, &self.kv);
+            let acc = &mut self.kv[i * n..(i + 1) * n];
+            self.kp[i] = dynamics.accel(contacts, t0 + C[i] * h, &self.xs, &self.vs, acc);
+            self.kx[i * n..(i + 1) * n].copy_from_slice(&self.vs);
+        }
+        end.x.copy_from_slice(&start.x);
+        end.v.copy_from_slice(&start.v);
+        combine(&mut end.x, &mut end.v, h, &B, &self.kx, &self.kv);
+        end.work = [0.0; 3];
+        for (&bj, p) in B.iter().zip(&self.kp) {
+            for (w, p) in end.work.iter_mut().zip(p) {
+                *w += h * bj * p;
+            }
+        }
+        end.power = dynamics.accel(contacts, t0 + h, &end.x, &end.v, &mut end.a);
+        self.kx[STAGES * n..].copy_from_slice(&end.v);
+        self.kv[STAGES * n..].copy_from_slice(&end.a);
+        self.kp[STAGES] = end.power;
+    }
+
+    /// Hairer's error norm of the last step (≤ 1 is acceptable): the fifth-order estimate
+    /// damped by the third-order one, `|h| ‖e₅‖² / √((‖e₅‖² + 0.01 ‖e₃‖²) N)`, with each
+    /// displacement scaled by `atol + rtol |x|` and each velocity by
+    /// `atol / dt_max + rtol v_max` (`v_max` the DOF's largest speed so far). A `rough` step
+    /// (the first of a contact, where a Hertzian force grows like `t^1.5` and no
+    /// expansion in `h` holds) takes the larger of the two estimates instead: there the
+    /// damped one can fall several times below the true error.
+    #[allow(clippy::too_many_arguments)]
+    fn error(
+        &self,
+        tol: &Adaptive,
+        dt_max: f64,
+        start: &StepEnd,
+        end: &StepEnd,
+        v_max: &[f64],
+        h: f64,
+        rough: bool,
+    ) -> f64 {
+        let n = self.n;
+        let (mut e5, mut e3) = (0.0, 0.0);
+        let ends = start.x.iter().zip(&end.x).zip(&end.v).zip(v_max);
+        for (d, (((&x0, &x1), &v1), &speed)) in ends.enumerate() {
+            let (mut x5, mut x3, mut v5, mut v3) = (0.0, 0.0, 0.0, 0.0);
+            let stages = self
+                .kx
+                .iter()
+                .skip(d)
+                .step_by(n)
+                .zip(self.kv.iter().skip(d).step_by(n));
+            for ((kx, kv), (e5, e3)) in stages.zip(E5.iter().zip(&E3)) {
+                x5 += e5 * kx;
+                x3 += e3 * kx;
+                v5 += e5 * kv;
+                v3 += e3 * kv;
+            }
+            let sx = tol.atol + tol.rtol * x0.abs().max(x1.abs());
+            let sv = tol.atol / dt_max + tol.rtol * speed.max(v1.abs());
+            e5 += (x5 / sx).powi(2) + (v5 / sv).powi(2);
+            e3 += (x3 / sx).powi(2) + (v3 / sv).powi(2);
+        }
+        if e5 == 0.0 && e3 == 0.0 {
+            return 0.0;
+        }
+        if rough {
+            return h.abs() * (e5.max(e3) / (2 * n) as f64).sqrt();
+        }
+        h.abs() * e5 / ((e5 + 0.01 * e3) * (2 * n) as f64).sqrt()
+    }
+}
+
+/// `x += h Σ_j w_j kx_j`, `v += h Σ_j w_j kv_j` over the stages `j` with weights `w`.
+#[inline]
+fn combine(x: &mut [f64], v: &mut [f64], h: f64, weights: &[f64], kx: &[f64], kv: &[f64]) {
+    let n = x.len();
+    for ((&w, kx), kv) in weights
+        .iter()
+        .zip(kx.chunks_exact(n))
+        .zip(kv.chunks_exact(n))
+    {
+        if w == 0.0 {
+            continue;
+        }
+        let c = h * w;
+        for (((x, v), kx), kv) in x.iter_mut().zip(v.iter_mut()).zip(kx).zip(kv) {
+            *x += c * kx;
+            *v += c * kv;
+        }
+    }
+}
+
+/// A wall's penetration, rate and acceleration at a state.
+fn wall_motion(sys: &System, j: usize, x: &[f64], v: &[f64], a: &[f64]) -> [f64; 3] {
+    let wall = &sys.walls[j];
+    let g = &sys.gaps[wall.gap];
+    let coordinate = |y: &[f64]| -> f64 {
+        g.dofs
+            .iter()
+            .zip(&g.coefficients)
+            .map(|(&d, &c)| c * y[d])
+            .sum()
+    };
+    [
+        wall.sign * coordinate(x) - wall.clearance,
+        wall.sign * coordinate(v),
+        wall.sign * coordinate(a),
+    ]
+}
+
+/// Switches the walls that close or open (or pass their first peak) at the state: a closing
+/// wall takes the approach speed as `v_imp`. Returns whether any wall switched.
+fn switch_walls(sys: &System, contacts: &mut [Contact], state: &StepEnd, tol_t: f64) -> bool {
+    let mut switched = false;
+    for (j, c) in contacts.iter_mut().enumerate() {
+        let [delta, rate, accel] = wall_motion(sys, j, &state.x, &state.v, &state.a);
+        if !c.active && rate > 0.0 && delta + rate * tol_t >= 0.0 {
+            *c = Contact {
+                active: true,
+                impact_speed: rate.max(MIN_IMPACT_SPEED),
+                max_penetration: delta.max(0.0),
+                peak_pending: true,
+            };
+            switched = true;
+        } else if c.active && rate < 0.0 && delta + rate * tol_t <= 0.0 {
+            *c = Contact::default();
+            switched = true;
+        } else if c.active && c.peak_pending && rate <= accel.abs() * tol_t {
+            c.peak_pending = false;
+        }
+    }
+    switched
+}
+
+/// Fraction of the step at which the first event happens (a wall closing, opening, or —
+/// with `peaks` — at its first peak), if one lies more than `tol_t` inside the step.
+fn first_event(
+    sys: &System,
+    contacts: &[Contact],
+    start: &StepEnd,
+    end: &StepEnd,
+    h: f64,
+    tol_t: f64,
+    peaks: bool,
+) -> Option<f64> {
+    let inside = |s: &f64| s * h > tol_t && (1.0 - s) * h > tol_t;
+    let mut first: Option<f64> = None;
+    for (j, c) in contacts.iter().enumerate() {
+        let seg = QuinticSegment::new(
+            wall_motion(sys, j, &start.x, &start.v, &start.a),
+            wall_motion(sys, j, &end.x, &end.v, &end.a),
+            h,
+        );
+        let crossing = seg
+            .first_crossing(false, !c.active, EVENT_SAMPLES)
+            .filter(inside);
+        let peak = if peaks && c.active && c.peak_pending {
+            seg.first_crossing(true, false, EVENT_SAMPLES)
+                .filter(inside)
+        } else {
+            None
+        };
+        for s in crossing.into_iter().chain(peak) {
+            first = Some(first.map_or(s, |f: f64| f.min(s)));
+        }
+    }
+    first
+}
+
+/// Runs to `t_end` from `run.cur`; returns the error that stopped the run, if any.
+pub(crate) fn run(
+    run: &mut Run,
+    sys: &System,
+    steps: Steps,
+    t_end: f64,
+    every: usize,
+) -> Option<SimError> {
+    let n = sys.n_dof();
+    let tol_t = EVENT_TOL * t_end;
+    let mut dynamics = Dynamics::new(sys);
+    let mut stages = Stages::new(n);
+    let mut contacts: Vec<Contact> = run
+        .cur
+        .walls
+        .iter()
+        .map(|w| Contact {
+            active: w.closed(),
+            impact_speed: w.impact_speed,
+            max_penetration: w.max_penetration,
+            peak_pending: w.closed() && w.rate > 0.0,
+        })
+        .collect();
+    let fresh = || StepEnd {
+        x: vec![0.0; n],
+        v: vec![0.0; n],
+        a: vec![0.0; n],
+        power: [0.0; 3],
+        work: [0.0; 3],
+    };
+    let mut start = fresh();
+    start.x.copy_from_slice(&run.cur.x);
+    start.v.copy_from_slice(&run.cur.v);
+    start.power = dynamics.accel(&contacts, run.cur.t, &start.x, &start.v, &mut start.a);
+    let mut end = fresh();
+    let mut v_max: Vec<f64> = start.v.iter().map(|v| v.abs()).collect();
+    let (mut h, dt_fixed) = match steps {
+        Steps::Fixed(dt) => (dt, Some(dt)),
+        Steps::Adaptive { first, dt_max, .. } => (first.min(dt_max), None),
+    };
+    let mut landing: Option<f64> = None;
+    let mut landings = 0usize;
+    // The last attempt was rejected for its error: the next accepted step does not grow.
+    let mut rejected = false;
+    // The first accepted step of the last contact: the first step of the next one.
+    let mut h_contact: Option<f64> = None;
+    // A wall closed at the start of the pending step (its size goes to `h_contact`).
+    let mut contact_started = false;
+    // Length and error of the last accepted step, for the predictive controller.
+    let mut last: Option<(f64, f64)> = None;
+    let mut accepted = 0usize;
+    let mut grid_step = 0usize;
+    // How close (s) to a wall's event the last step ended for the wall to be switched.
+    let mut near_switch = tol_t;
+    while t_end - run.cur.t > 1e-13 * t_end {
+        let t0 = run.cur.t;
+        if switch_walls(sys, &mut contacts, &start, near_switch) {
+            start.power = dynamics.accel(&contacts, t0, &start.x, &start.v, &mut start.a);
+            last = None;
+            contact_started = contacts.iter().any(|c| c.active && c.peak_pending);
+            if let (true, Some(hc)) = (contact_started, h_contact) {
+                h = h.min(hc);
+            }
+        }
+        let target = match dt_fixed {
+            Some(dt) => ((grid_step + 1) as f64 * dt).min(t_end) - t0,
+            None => h,
+        };
+        let landing_step = landing.is_some();
+        let mut h_try = landing.take().unwrap_or(target).min(t_end - t0);
+        if t_end - (t0 + h_try) < 1e-13 * t_end {
+            h_try = t_end - t0;
+        }
+        stages.step(&mut dynamics, &contacts, t0, &start, h_try, &mut end);
+        let mut err = 0.0;
+        if let Steps::Adaptive { tol, dt_max, .. } = steps {
+            // the first step of a contact and a step landed on an event (a contact's end)
+            // meet the force's δ^1.5 singularity
+            let rough = contact_started || landing_step;
+            err = stages.error(&tol, dt_max, &start, &end, &v_max, h_try, rough);
+            if err > 1.0 && h_try > tol.dt_min * (1.0 + 1e-12) {
+                run.stats.rejected_steps += 1;
+                // a wall closing or opening inside the step: the kink of the force there is
+                // what the error sees; the step that ends on it is checked next
+                let near = (EVENT_NEAR * h_try).max(tol_t);
+                if landings < MAX_LANDINGS {
+                    if let Some(s) = first_event(sys, &contacts, &start, &end, h_try, near, false) {
+                        landing = Some(s * h_try);
+                        landings += 1;
+                        last = None;
+                        continue;
+                    }
+                }
+                h = (h_try * (0.9 * err.powf(-1.0 / 8.0)).max(0.2)).max(tol.dt_min);
+                landings = 0;
+                rejected = true;
+                last = None;
+                continue;
+            }
+        }
+        let near = (EVENT_NEAR * h_try).max(tol_t);
+        if landings < MAX_LANDINGS {
+            if let Some(s) = first_event(sys, &contacts, &start, &end, h_try, near, true) {
+                run.stats.rejected_steps += 1;
+                landing = Some(s * h_try);
+                landings += 1;
+                continue;
+            }
+        }
+        landings = 0;
+        near_switch = 2.0 * near;
+        let landed = h_try < target * (1.0 - 1e-12);
+        if let Err(e) = commit(run, sys, &contacts, t0 + h_try, &end, h_try) {
+            return Some(e);
+        }
+        accepted += 1;
+        if accepted % every == 0 {
+            run.out.record(sys, &run.cur, &run.account);
+        }
+        if dt_fixed.is_some() && !landed {
+            grid_step += 1;
+        }
+        for (m, v) in v_max.iter_mut().zip(&end.v) {
+            *m = m.max(v.abs());
+        }
+        for (j, c) in contacts.iter_mut().enumerate() {
+            if c.active {
+                c.max_penetration = c.max_penetration.max(run.cur.walls[j].penetration);
+            }
+        }
+        std::mem::swap(&mut start, &mut end);
+        if let Steps::Adaptive { tol, dt_max, .. } = steps {
+            if contact_started {
+                h_contact = Some(h_try);
+                contact_started = false;
+            }
+            // a landed step is short for the event, not for its error: the next step is the
+            // one proposed before the landing; after a rejection the step does not grow
+            if !landed {
+                let max_growth = if rejected { 1.0 } else { 6.0 };
+                let mut grow = if err > 0.0 {
+                    0.9 * err.powf(-1.0 / 8.0)
+                } else {
+                    max_growth
+                };
+                // Gustafsson's predictive controller (as in Hairer's RADAU5): an error that
+                // grew from the last step is extrapolated, so that a steepening solution
+                // (the end of a Hertzian contact) shrinks the step before it is rejected
+                if let (Some((h_last, err_last)), true) = (last, err > 0.0) {
+                    grow = grow.min(
+                        0.9 * (h_try / h_last)
+                            * err.powf(-1.0 / 8.0)
+                            * (err_last / err).powf(1.0 / 8.0),
+                    );
+                }
+                h = (h_try * grow.clamp(0.2, max_growth)).clamp(tol.dt_min, dt_max);
+                last = (err > 0.0).then_some((h_try, err));
+            }
+            rejected = false;
+        }
+    }
+    if accepted % every != 0 {
+        run.out.record(sys, &run.cur, &run.account);
+    }
+    None
+}
+
+/// Makes the step's end the run's current state: wall states, gap coordinates, loads, and
+/// the integrated work increments into the energy account.
+fn commit(
+    run: &mut Run,
+    sys: &System,
+    contacts: &[Contact],
+    t: f64,
+    end: &StepEnd,
+    h: f64,
+) -> Result<(), SimError> {
+    let s = &mut run.trial;
+    s.t = t;
+    s.x.copy_from_slice(&end.x);
+    s.v.copy_from_slice(&end.v);
+    s.a.copy_from_slice(&end.a);
+    for (value, load) in s.load.iter_mut().zip(&sys.loads) {
+        *value = load.value(t);
+    }
+    sys.gap_coordinates(&end.x, &mut s.u);
+    sys.gap_coordinates(&end.v, &mut s.u_rate);
+    sys.gap_coordinates(&end.a, &mut s.u_accel);
+    s.phi.fill(0.0);
+    for ((wall, c), w) in sys.walls.iter().zip(contacts).zip(s.walls.iter_mut()) {
+        let penetration = wall.sign * s.u[wall.gap] - wall.clearance;
+        let rate = wall.sign * s.u_rate[wall.gap];
+        *w = WallState {
+            penetration,
+            rate,
+            impact_speed: if c.active {
+                c.impact_speed
+            } else {
+                rate.max(MIN_IMPACT_SPEED)
+            },
+            max_penetration: c.max_penetration.max(penetration),
+            ..WallState::default()
+        };
+        if c.active && penetration > 0.0 {
+            let f = sys.gaps[wall.gap].law.force_in_contact(
+                penetration,
+                rate,
+                c.impact_speed,
+                w.max_penetration,
+            );
+            s.phi[wall.gap] += wall.sign * f.force;
+            w.force = f.force;
+            w.d_penetration = f.d_penetration;
+            w.d_rate = f.d_rate;
+            w.elastic_force = f.elastic;
+            w.potential = f.potential;
+        }
+    }
+    run.commit_trial(sys, h, 0, Some(end.work))
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::{DMatrix, DVector};
+
+    use crate::contact::{Hertz, Law};
+    use crate::gap::{Gap, Side};
+    use crate::integrators::NewtonSettings;
+    use crate::simulate::{simulate, Method, RunSettings};
+    use crate::step_control::Adaptive;
+    use crate::structure::LinearStructure;
+    use crate::system::System;
+
+    /// A free mass onto a Hertz wall: the closing landed on (t = d/v, v_in = v), the peak
+    /// indentation from energy, `(5 m v² / 4K)^(2/5)`, restitution 1, energy conserved.
+    #[test]
+    fn hertz_impact_of_a_free_mass_matches_energy_closed_form() {
+        let (m, v, k, d) = (2.0, 1.5, 3e9, 1e-3);
+        let s = LinearStructure::new(
+            DMatrix::from_element(1, 1, m),
+            DMatrix::zeros(1, 1),
+            DMatrix::zeros(1, 1),
+        )
+        .unwrap();
+        let gap = Gap {
+            dofs: vec![0],
+            coefficients: vec![1.0],
+            clearance: d,
+            side: Side::Positive,
+            law: Law::Hertz(Hertz::new(k, 1.5).unwrap()),
+        };
+        let sys = System::new(s, vec![gap], vec![]).unwrap();
+        let settings = RunSettings {
+            t_end: 2e-3,
+            dt: 1e-5,
+            every: 1,
+            record_dofs: vec![0],
+            newton: NewtonSettings::default(),
+            adaptive: Some(Adaptive {
+                rtol: 1e-10,
+                atol: 1e-14,
+                dt_min: 1e-12,
+                dt_max: 4e-5,
+            }),
+        };
+        let out = simulate(
+            &sys,
+            Method::Dop853,
+            &settings,
+            DVector::zeros(1),
+            DVector::from_element(1, v),
+        )
+        .unwrap();
+        assert!(out.error.is_none());
+        assert_eq!(out.impacts.len(), 1);
+        let imp = &out.impacts[0];
+        assert!(
+            (imp.t_start / (d / v) - 1.0).abs() < 1e-13,
+            "{}",
+            imp.t_start
+        );
+        assert!((imp.v_in / v - 1.0).abs() < 1e-13);
+        let delta_max = (2.5 * m * v * v / (2.0 * k)).powf(0.4);
+        assert!(
+            (imp.delta_max / delta_max - 1.0).abs() < 2e-9,
+            "{}",
+            imp.delta_max
+        );
+        assert!((imp.v_out / v - 1.0).abs() < 1e-9, "{}", imp.v_out);
+        let e = &out.energy;
+        let e0 = e.kinetic[0];
+        for i in 0..e.kinetic.len() {
+            let total = e.kinetic[i] + e.contact_potential[i];
+            assert!((total / e0 - 1.0).abs() < 3e-9, "{i}: {total}");
+        }
+    }
+}
