@@ -397,13 +397,18 @@ class HuGuo(_RestitutionLaw):
     """Hu & Guo (2015, Multibody Syst. Dyn. 35:131): ``χ = 3(1 − ce)/(2 ce)``, Hunt–Crossley's
     factor divided by ce, for hard and soft materials.
 
-    Which factor: some reviews and codes print ``3(1 − ce)/(4 ce)``. The equation could not be
-    read in a stored copy of the paper (only its introduction is public), so it is settled by
-    what the paper claims, reproducing ce over the whole range: ``a(1 − ce)/ce`` agrees with
-    the exact Hunt–Crossley relation (``3(1 − ce)/2`` to first order) as ce → 1 only for
-    ``a = 3/2``. One impact with ``a = 3/2`` restitutes 0.074, 0.271, 0.488, 0.697, 0.900,
-    0.990 for ce = 0.1, 0.3, 0.5, 0.7, 0.9, 0.99; with ``a = 3/4`` it would restitute 0.148,
-    0.446, 0.663, 0.823, 0.947, 0.995."""
+    Which factor: the equation could not be read in a public copy of the paper (the public
+    copy found, doi 10.1007/s11044-015-9453-z, holds only its introduction). Public code disagrees:
+    a vehicle–track code (function ``hu_guo_normal_damping_force``, a port of the MATLAB
+    routine ``Multi_Con_250812.m``) computes ``3(1 − e)/(2e)``, the code that accompanies
+    the 2018 review of Skrinjar et al. (github.com/ladisk/DyS,
+    ``MBD_system/contact_model/contact_model.py``, ``_hysteresis_damping_factor_HG``)
+    computes ``(3/2)(1 − e)/(2e) = 3(1 − e)/(4e)``. Settled by what the paper claims,
+    reproducing ce over the whole range: ``a(1 − ce)/ce`` agrees with the exact
+    Hunt–Crossley relation (``3(1 − ce)/2`` to first order) as ce → 1 only for ``a = 3/2``.
+    One impact with ``a = 3/2`` restitutes 0.074, 0.271, 0.488, 0.697, 0.900, 0.990 for
+    ce = 0.1, 0.3, 0.5, 0.7, 0.9, 0.99; with ``a = 3/4`` it would restitute 0.148, 0.446,
+    0.663, 0.823, 0.947, 0.995."""
 
     kind: ClassVar[str] = "hu-guo"
 
@@ -411,20 +416,28 @@ class HuGuo(_RestitutionLaw):
 @dataclass(frozen=True)
 class GharibHurmuzlu(_RestitutionLaw):
     """Gharib & Hurmuzlu (2012, J. Appl. Mech. 79:064506), for low restitutions:
-    ``χ = 1/ce − 1``. Not checked against a copy of the paper (none was found); checked is the
-    property it is built for: with ``χ ≫ 1`` one impact restitutes ``e ≈ 1/χ``, so
-    ``e_eff = ce/(1 − ce) → ce`` as ce → 0 (0.111 at ce = 0.1)."""
+    ``χ = 1/ce − 1``, as the reviews list it. Not checked against the paper: no public copy,
+    quotation or implementation of its formula was found (searched: the stored web pages,
+    GitHub code and issues; the law's name appears in code only as a plot legend, in the
+    post-processing of github.com/lovcavil/MBD.jl). Checked is the property it is built for:
+    with ``χ ≫ 1`` one impact restitutes ``e ≈ 1/χ``, so ``e_eff = ce/(1 − ce) → ce`` as
+    ce → 0 (0.111 at ce = 0.1)."""
 
     kind: ClassVar[str] = "gharib-hurmuzlu"
 
 
 @dataclass(frozen=True)
 class Ye(_RestitutionLaw):
-    """Ye, Li & Zhu (2009, Earthq. Eng. Struct. Dyn. 38:1135; the "Hertzdamp"
-    pounding law): ``F = K δ^{3/2} + ξ δ^{3/2} δ̇``, ``ξ = 8K(1 − ce)/(5 ce v_imp)``, i.e.
-    ``χ = 8(1 − ce)/(5 ce)``, derived for ``n = 3/2`` (the factor Flores et al. 2011 reached
-    independently). Not their linear "modified Kelvin" model (2009, Earthq. Eng. Eng. Vib.
-    8:433), which is not provided."""
+    """Ye, Li & Zhu (2009, Earthq. Eng. Struct. Dyn. 38:1135, doi 10.1002/eqe.883; the
+    "Hertzdamp" pounding law): ``F = K δ^{3/2} + ξ δ^{3/2} δ̇``, ``ξ = 8K(1 − ce)/(5 ce v_imp)``,
+    i.e. ``χ = 8(1 − ce)/(5 ce)``, derived for ``n = 3/2`` (the factor Flores et al. 2011
+    reached independently). Checked against the OpenSees ``Hertzdamp`` material
+    documentation (github.com/OpenSees/OpenSeesDocumentation,
+    ``source/user/manual/material/uniaxialMaterials/HertzDamp.rst``), which recommends
+    ``ξ̄ = (8/5)(1 − e)/e`` in ``c_h = ξ̄ K δⁿ/δ̇₀`` citing this paper (whose abstract, in
+    the public copy scribd.com/document/332823130, announces a corrected formula for this
+    damping constant; the formula itself lies past the stored excerpt). Not their linear
+    "modified Kelvin" model (2009, Earthq. Eng. Eng. Vib. 8:433), which is not provided."""
 
     kind: ClassVar[str] = "ye"
 
@@ -440,9 +453,12 @@ class CarvalhoMartins(_RestitutionLaw):
 
 @dataclass(frozen=True)
 class SafaeifarKarimi(_RestitutionLaw):
-    """Safaeifar & Karimi (2020, Multibody Syst. Dyn. 50:233), a factor for the whole range of
-    ce. Their closed form could not be checked against a public copy; this law uses the exact
-    relation such factors approximate: ``χ`` is the root of
+    """Safaeifar & Karimi (2020, Multibody Syst. Dyn. 50:233, doi 10.1007/s11044-020-09732-2),
+    a factor for the whole range of ce. Their closed form could not be checked: the public
+    copies found hold only the paper's introduction, the abstract of a 2024 follow-up
+    (Int. J. Optim. Civil Eng. 14(1), "Optimal model of the contact force ... by ICACO")
+    stops before any formula, and no public code or issue found implements or quotes it.
+    This law uses the exact relation such factors approximate: ``χ`` is the root of
     ``χ − ln(1 + χ) = −χ ce − ln(1 − χ ce)``, so that one impact restitutes exactly ``ce``."""
 
     kind: ClassVar[str] = "safaeifar-karimi"
