@@ -230,6 +230,35 @@ def test_an_unreachable_gap_is_not_warned_about() -> None:
     assert contact_periods(model) == [None]
 
 
+def test_gap_flexibility_against_inverse_matrices_dense_and_sparse() -> None:
+    """``b M⁻¹ bᵀ`` and ``b K⁻¹ bᵀ`` of each gap against ``numpy.linalg.inv``, for a
+    consistent (non-lumped) mass; a dense structure's values are computed once, a sparse
+    one's at every call (its arrays stay writable)."""
+    import scipy.sparse as sp
+
+    mass = np.array([[2.0, 0.5], [0.5, 1.0]])
+    stiffness = np.array([[3e4, -1e4], [-1e4, 1e4]])
+    law = vi.contact.Hertz(stiffness=1e9)
+    gaps = [vi.Gap(dof=0, clearance=1e-3, law=law),
+            vi.Gap(dof=[0, 1], coefficients=[1.0, -2.0], clearance=1e-3, law=law)]
+    b = np.array([[1.0, 0.0], [1.0, -2.0]])
+    expected = [np.einsum("gi,ij,gj->g", b, np.linalg.inv(a), b) for a in (mass, stiffness)]
+    dense = vi.Model(vi.Structure(mass, stiffness), gaps=gaps)
+    first = dense.gap_flexibility()
+    for got, want in zip(first, expected, strict=True):
+        np.testing.assert_allclose(got, want, rtol=1e-12)
+        assert not got.flags.writeable
+    assert dense.gap_flexibility() is first
+    sparse = vi.Model(vi.Structure(sp.csr_array(mass), sp.csr_array(stiffness)), gaps=gaps)
+    for got, want in zip(sparse.gap_flexibility(), expected, strict=True):
+        np.testing.assert_allclose(got, want, rtol=1e-12)
+    sparse.structure.mass.data[:] *= 2.0  # in place: seen by the next call
+    np.testing.assert_allclose(sparse.gap_flexibility()[0], expected[0] / 2, rtol=1e-12)
+    # no stiffness: unbounded compliance
+    free = vi.Model(vi.Structure(mass), gaps=gaps)
+    assert np.all(np.isinf(free.gap_flexibility()[1]))
+
+
 # --------------------------------------------------------------------------------------------
 # Cut steps leave no trace
 # --------------------------------------------------------------------------------------------

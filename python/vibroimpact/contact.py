@@ -137,7 +137,8 @@ class Geometry:
             require(self.length is not None, "geometry.length", None, "a contact length in m")
             require(self.load is not None, "geometry.load", None,
                     "a reference force in N (the linearisation point)")
-        self.stiffness()  # validates radii and materials in the core
+        # computed (and the radii and materials validated) by the core once: fields are frozen
+        object.__setattr__(self, "_stiffness", self._core_stiffness())
 
     @property
     def exponent(self) -> float:
@@ -146,6 +147,9 @@ class Geometry:
 
     def stiffness(self) -> float:
         """Contact stiffness ``K``: N/m^1.5 for the point contacts, N/m for the others."""
+        return float(self.__dict__["_stiffness"])
+
+    def _core_stiffness(self) -> float:
         e2 = self.youngs_modulus if self.youngs_modulus2 is None else self.youngs_modulus2
         nu2 = self.poisson if self.poisson2 is None else self.poisson2
         opt = lambda v: None if v is None else float(v)  # noqa: E731

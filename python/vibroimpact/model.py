@@ -377,6 +377,39 @@ class Model:
     def n_dof(self) -> int:
         return self.structure.n_dof
 
+    def gap_flexibility(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Per gap, with ``b`` its coefficients on the DOFs: ``b M⁻¹ bᵀ`` (the inverse of its
+        effective mass) and ``b K⁻¹ bᵀ`` (its compliance; ``inf`` unless ``K`` is positive
+        definite). Read-only arrays, computed once for a dense structure (its matrices are
+        read-only) and at every call for a sparse one (SciPy leaves those writable)."""
+        cached: tuple[NDArray[np.float64], NDArray[np.float64]] | None = self.__dict__.get(
+            "_gap_flexibility")
+        if cached is not None:
+            return cached
+        st, n_gaps = self.structure, len(self.gaps)
+        b = np.zeros((self.n_dof, n_gaps))
+        for g, gap in enumerate(self.gaps):
+            for d, c in zip(gap.dofs, gap.coefficients or (1.0,) * len(gap.dofs), strict=True):
+                b[d, g] += c
+        mass = st.mass
+        diagonal = mass.diagonal()
+        nonzero = mass.count_nonzero() if sp.issparse(mass) else np.count_nonzero(mass)
+        if nonzero == np.count_nonzero(diagonal):  # lumped: no solve
+            flexibility = np.einsum("ig,ig->g", b, b / diagonal[:, None])
+        else:
+            solve_mass = spd_solver(mass)
+            assert solve_mass is not None  # checked by Structure
+            flexibility = np.einsum("ig,ig->g", b, solve_mass(b))
+        compliance = np.full(n_gaps, math.inf)
+        if abs(st.stiffness).max() > 0 and (solve_stiffness := spd_solver(st.stiffness)):
+            compliance = np.einsum("ig,ig->g", b, solve_stiffness(b))
+        out = (flexibility, compliance)
+        for a in out:
+            a.setflags(write=False)
+        if not st.is_sparse:
+            object.__setattr__(self, "_gap_flexibility", out)
+        return out
+
     def to_spec(self) -> dict[str, Any]:
         """Plain dict of arrays and numbers that the Rust core compiles."""
         s = self.structure

@@ -71,6 +71,10 @@ def _json_number(x: float) -> float | None:
     return None if math.isnan(x) else float(x)
 
 
+#: ``side`` of an impact, indexed by whether the core's sign of the wall is positive.
+_SIDES = np.array(["negative", "positive"])
+
+
 @dataclass(frozen=True)
 class ImpactTable:
     """One row per contact of one wall (columns: :data:`IMPACT_COLUMNS`)."""
@@ -88,10 +92,9 @@ class ImpactTable:
 
     @classmethod
     def from_core(cls, raw: dict[str, Any]) -> ImpactTable:
-        side = np.where(np.asarray(raw["side"]) > 0, "positive", "negative")
         return cls(
             gap=np.asarray(raw["gap"], dtype=np.int64),
-            side=side.astype(str),
+            side=_SIDES[(np.asarray(raw["side"]) > 0).astype(np.intp)],
             restitution_effective=np.asarray(raw["restitution"]),
             **{k: np.asarray(raw[k]) for k in (
                 "t_start", "t_end", "v_in", "v_out", "delta_max", "force_max", "impulse"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import _signal
 import logging
 import math
 import os
@@ -14,7 +15,6 @@ from collections.abc import Callable, Sequence
 from typing import IO, Any
 
 import numpy as np
-import scipy.sparse as sp
 
 from vibroimpact import _core
 from vibroimpact.errors import (
@@ -25,10 +25,13 @@ from vibroimpact.errors import (
     require,
 )
 from vibroimpact.integrators import Integrator, Newmark
-from vibroimpact.model import Model, spd_solver
+from vibroimpact.model import Model
 from vibroimpact.result import Result
 
 __all__ = ["ProgressBar", "contact_periods", "simulate"]
+
+#: The method of a run given none (integrators are immutable: one instance serves all runs).
+_DEFAULT_METHOD = Newmark()
 
 #: Fewer steps than this per estimated contact period draws a :class:`ContactResolutionWarning`.
 STEPS_PER_CONTACT_PERIOD = 10
@@ -57,23 +60,7 @@ def contact_periods(model: Model) -> list[float | None]:
             amplitude = float(np.max(np.abs(getattr(load, "force", (0.0,))))) * float(
                 getattr(load, "scale", 1.0))
         energy += abs(float(amplitude)) * len(load.dofs) * max(reach, 1e-3)
-    n_gaps = len(model.gaps)
-    b = np.zeros((model.n_dof, n_gaps))
-    for g, gap in enumerate(model.gaps):
-        for d, c in zip(gap.dofs, gap.coefficients or (1.0,) * len(gap.dofs), strict=True):
-            b[d, g] += c
-    mass = st.mass
-    diagonal = mass.diagonal()
-    if sp.csr_array(mass).count_nonzero() == np.count_nonzero(diagonal):  # lumped: no solve
-        flexibility = np.einsum("ig,ig->g", b, b / diagonal[:, None])
-    else:
-        solve_mass = spd_solver(mass)
-        assert solve_mass is not None  # checked by Structure
-        flexibility = np.einsum("ig,ig->g", b, solve_mass(b))
-    # compliance b K⁻¹ bᵀ of each gap when K is positive definite (else: unbounded)
-    compliance = np.full(n_gaps, math.inf)
-    if abs(st.stiffness).max() > 0 and (solve_stiffness := spd_solver(st.stiffness)):
-        compliance = np.einsum("ig,ig->g", b, solve_stiffness(b))
+    flexibility, compliance = model.gap_flexibility()
     periods: list[float | None] = []
     for g, gap in enumerate(model.gaps):
         try:
@@ -121,6 +108,11 @@ log = logging.getLogger("vibroimpact.solver")
 #: variable makes the process send itself that signal as soon as the core has finished,
 #: before the result is converted and written, so that a test can hit that moment exactly.
 SIGNAL_AFTER_RUN_ENV = "VIBROIMPACT_TEST_SIGNAL_AFTER_RUN"
+
+#: The signals that stop a run, as plain numbers for ``_signal.signal``: the C function that
+#: ``signal.signal`` wraps only to convert numbers and handlers to and from enums, at ~4 µs a
+#: call (a ``ValueError`` raised and caught for every handler that is a function).
+_RUN_SIGNALS = (int(signal.SIGINT), int(signal.SIGTERM))
 
 
 class ProgressBar:
@@ -218,8 +210,8 @@ def _run_core(
     previous: dict[int, Any] = {}
     if threading.current_thread() is threading.main_thread():
         try:
-            for sig in (signal.SIGINT, signal.SIGTERM):
-                previous[sig] = signal.signal(sig, on_signal)
+            for sig in _RUN_SIGNALS:
+                previous[sig] = _signal.signal(sig, on_signal)
         except (ValueError, OSError):  # pragma: no cover - no signals here
             pass
     _core.clear_interrupt()
@@ -245,7 +237,7 @@ def _run_core(
         raw = run.finish()
     finally:
         for sig, old in previous.items():
-            signal.signal(sig, old)
+            _signal.signal(sig, old)
         _core.clear_interrupt()
         if progress is not None:
             progress.close()
@@ -323,7 +315,7 @@ def simulate(
     require(
         isinstance(every, int) and every >= 1, "output.every", every, "an integer >= 1"
     )
-    method = Newmark() if method is None else method
+    method = _DEFAULT_METHOD if method is None else method
     require(isinstance(method, Integrator), "solver.method", method, "a vibroimpact integrator")
     n = model.n_dof
     record = list(range(n)) if dofs is None else [int(d) for d in dofs]
