@@ -74,13 +74,20 @@ def dof_variable_units(name: str, dof_units: Sequence[str]) -> tuple[list[str], 
     every DOF has it, else ``"m or rad per dof_unit"`` (a mixed set: the ``dof_unit``
     coordinate gives each DOF's displacement unit)."""
     per_dof = [f"{u}{DOF_VARIABLES[name]}" for u in dof_units]
-    distinct = list(dict.fromkeys(per_dof))
-    if len(distinct) == 1:
-        return per_dof, distinct[0]
+    distinct = unit_set(dof_units, DOF_VARIABLES[name])
     if not distinct:  # no DOF recorded
         return per_dof, TIME_VARIABLES[name][1]
-    kinds = " or ".join(dict.fromkeys(distinct))
-    return per_dof, f"{kinds} per dof_unit"
+    return per_dof, distinct if " or " not in distinct else f"{distinct} per dof_unit"
+
+
+def unit_set(dof_units: Sequence[str], per_time: str = "") -> str:
+    """The distinct units among ``dof_units`` with ``per_time`` appended, in the order of
+    :data:`vibroimpact.model.DOF_UNITS`, joined by ``" or "`` (``"m or rad"``)."""
+    from vibroimpact.model import DOF_UNITS
+
+    order = {u: i for i, u in enumerate(DOF_UNITS)}
+    distinct = sorted(set(dof_units), key=lambda u: (order.get(u, len(order)), u))
+    return " or ".join(f"{u}{per_time}" for u in distinct)
 
 
 def time_columns(raw: dict[str, Any]) -> dict[str, Array]:

@@ -31,13 +31,13 @@ def axis_label(ds: xr.Dataset, kind: str, positions: Sequence[int]) -> str:
     the DOFs at ``positions`` (``dof_unit``: ``[rad]`` for rotations; ``[m or rad]`` for a
     mixed selection), else the fixed label."""
     from vibroimpact.io.results_file import dof_units
+    from vibroimpact.result import unit_set
 
     var, ylabel, dim = TIME_HISTORIES[kind]
     if dim != "dof" or not positions:
         return ylabel
     units = dof_units(ds)
-    chosen = list(dict.fromkeys(units[p] + PER_TIME[var] for p in positions))
-    return f"{ylabel.split(' [')[0]} [{' or '.join(chosen)}]"
+    return f"{ylabel.split(' [')[0]} [{unit_set([units[p] for p in positions], PER_TIME[var])}]"
 
 
 def _name(dim: str, index: int) -> str:
