@@ -63,9 +63,12 @@ TIME_VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
 #: ``long_name`` of the ``dof_unit`` coordinate.
 DOF_UNIT_DESCRIPTION = "displacement unit of the DOF (velocity: per s, acceleration: per s^2)"
 
-#: The time-history variables on ``(time, dof)``: name → the power of ``s`` in the unit
-#: (displacement ``u``, velocity ``u/s``, acceleration ``u/s^2`` for a DOF of unit ``u``).
-DOF_VARIABLES: dict[str, str] = {"displacement": "", "velocity": "/s", "acceleration": "/s^2"}
+#: The time-history variables on ``(time, dof)``: name → (column prefix of tables and CSV
+#: files, the time derivative in the unit: displacement ``u``, velocity ``u/s``, acceleration
+#: ``u/s^2`` for a DOF of unit ``u``).
+DOF_VARIABLES: dict[str, tuple[str, str]] = {
+    "displacement": ("x", ""), "velocity": ("v", "/s"), "acceleration": ("a", "/s^2"),
+}
 
 
 def dof_variable_units(name: str, dof_units: Sequence[str]) -> tuple[list[str], str]:
@@ -73,11 +76,12 @@ def dof_variable_units(name: str, dof_units: Sequence[str]) -> tuple[list[str], 
     → ``"rad/s"`` for the velocity) and the ``units`` attribute of the variable: that unit if
     every DOF has it, else ``"m or rad per dof_unit"`` (a mixed set: the ``dof_unit``
     coordinate gives each DOF's displacement unit)."""
-    per_dof = [f"{u}{DOF_VARIABLES[name]}" for u in dof_units]
-    distinct = unit_set(dof_units, DOF_VARIABLES[name])
-    if not distinct:  # no DOF recorded
+    per_time = DOF_VARIABLES[name][1]
+    per_dof = [f"{u}{per_time}" for u in dof_units]
+    if not per_dof:  # no DOF recorded
         return per_dof, TIME_VARIABLES[name][1]
-    return per_dof, distinct if " or " not in distinct else f"{distinct} per dof_unit"
+    listed = unit_set(dof_units, per_time)
+    return per_dof, listed if len(set(dof_units)) == 1 else f"{listed} per dof_unit"
 
 
 def unit_set(dof_units: Sequence[str], per_time: str = "") -> str:
@@ -288,10 +292,10 @@ class Result:
         import pandas as pd
 
         cols: dict[str, Array] = {}
-        for j, (d, u) in enumerate(zip(self.dofs, self.dof_units, strict=True)):
-            cols[f"x{d} [{u}]"] = self.displacement[:, j]
-            cols[f"v{d} [{u}/s]"] = self.velocity[:, j]
-            cols[f"a{d} [{u}/s^2]"] = self.acceleration[:, j]
+        units = {name: dof_variable_units(name, self.dof_units)[0] for name in DOF_VARIABLES}
+        for j, d in enumerate(self.dofs):
+            for name, (prefix, _) in DOF_VARIABLES.items():
+                cols[f"{prefix}{d} [{units[name][j]}]"] = getattr(self, name)[:, j]
         for g in range(self.gap_force.shape[1]):
             cols[f"gap{g} penetration [m]"] = self.gap_penetration[:, g]
             cols[f"gap{g} force [N]"] = self.gap_force[:, g]

@@ -59,7 +59,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from vibroimpact.errors import ModelError, SolverError
-from vibroimpact.result import DOF_UNIT_DESCRIPTION, ENERGY_TERMS, dof_variable_units
+from vibroimpact.result import (
+    DOF_UNIT_DESCRIPTION,
+    DOF_VARIABLES,
+    ENERGY_TERMS,
+    dof_variable_units,
+)
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -94,9 +99,6 @@ SUFFIXES = (*NETCDF_SUFFIXES, ".csv")
 #: The files a ``.csv`` result consists of, by role: the name's suffix after the stem.
 CSV_TABLES = {"time_histories": ".csv", "impacts": "_impacts.csv", "energy": "_energy.csv",
               "metadata": "_meta.json"}
-#: Time-history variables on ``(time, dof)`` and their CSV column prefix (the unit is each
-#: DOF's, :func:`vibroimpact.result.dof_variable_units`).
-_DOF_VARIABLES = {"displacement": "x", "velocity": "v", "acceleration": "a"}
 #: Time-history variables on ``(time, gap)`` and their CSV column word and unit.
 _GAP_VARIABLES = {"penetration": ("penetration", "m"), "contact_force": ("force", "N")}
 #: Model matrices stored as variables (not JSON) so that large FE models stay compact.
@@ -496,9 +498,9 @@ def _time_histories_frame(ds: xr.Dataset) -> Any:
 
     cols: dict[str, Any] = {}
     dofs = ds["dof"].values if "dof" in ds.coords else []
-    units = {name: dof_variable_units(name, dof_units(ds))[0] for name in _DOF_VARIABLES}
+    units = {name: dof_variable_units(name, dof_units(ds))[0] for name in DOF_VARIABLES}
     for j, d in enumerate(dofs):
-        for name, prefix in _DOF_VARIABLES.items():
+        for name, (prefix, _) in DOF_VARIABLES.items():
             if name in ds:
                 cols[f"{prefix}{int(d)} [{units[name][j]}]"] = ds[name].values[:, j]
     gaps = ds["gap"].values if "gap" in ds.coords else []
@@ -595,7 +597,7 @@ def _load_csv(path: Path) -> xr.Dataset:
     meta: dict[str, Any] = {}
     if files["metadata"].exists():
         meta = json.loads(files["metadata"].read_text(encoding="utf-8"))
-    by_prefix = {prefix: name for name, prefix in _DOF_VARIABLES.items()}
+    by_prefix = {prefix: name for name, (prefix, _) in DOF_VARIABLES.items()}
     dof_cols: dict[str, dict[int, np.ndarray]] = {}
     gap_cols: dict[str, dict[int, np.ndarray]] = {}
     dof_unit: dict[int, str] = {}
@@ -745,7 +747,7 @@ class _NetcdfStream:
         ``displacement``, ``velocity``, ``acceleration``), then its every variable not on
         ``time`` (impact table, model matrices, ``dof``/``dof_unit``/``gap``) and its
         attributes, exactly as :func:`save` writes them; close the file."""
-        from vibroimpact.result import DOF_VARIABLES, TIME_VARIABLES
+        from vibroimpact.result import TIME_VARIABLES
 
         self.append({"time": result.time, "displacement": result.displacement,
                      "velocity": result.velocity, "acceleration": result.acceleration,
