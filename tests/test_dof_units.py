@@ -10,6 +10,7 @@ cubic elements): ``x = P L³ / 3EI`` (m) and ``θ = P L² / 2EI`` (rad, the slop
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
@@ -20,6 +21,7 @@ import scipy.sparse as sp
 import vibroimpact as vi
 import xarray as xr
 from vibroimpact import fe, plotting
+from vibroimpact.cli import main as cli_main
 from vibroimpact.errors import ModelError
 from vibroimpact.io import load_model
 from vibroimpact.io import results_file as rf
@@ -219,6 +221,16 @@ def test_a_calculix_model_file_labels_its_rotations_rad(tmp_path: Path) -> None:
     ds = rf.load(tmp_path / "cantilever.nc")
     assert ds["dof_unit"].values.tolist() == list(full.dof_units)
     assert ds["displacement"].attrs["units"] == "m or rad per dof_unit"
+
+
+def test_run_prints_each_peak_in_its_unit(capsys: pytest.CaptureFixture[str]) -> None:
+    model = ROOT / "examples" / "models" / "lumped_cantilever.toml"
+    assert cli_main(["run", str(model)]) == 0
+    peaks = [line.split() for line in capsys.readouterr().out.splitlines() if "peak |x" in line]
+    assert len(peaks) == 20  # every DOF of the file, the recovered rotations included
+    assert [p[-1] for p in peaks] == ["m", "rad"] * 10  # cantilever.dof: 1, 5, 1, 5, ...
+    assert cli_main(["run", str(model), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["dof_units"] == ["m", "rad"] * 10
 
 
 def test_craig_bampton_keeps_the_boundary_units(beam: fe.Beam) -> None:

@@ -369,7 +369,8 @@ def _initial(value: ArrayLike | None, n: int, field_name: str, unit: str) -> NDA
 
 @dataclass(frozen=True)
 class Model:
-    """Structure + gaps + loads + initial state (``x(0)`` in m, ``x'(0)`` in m/s)."""
+    """Structure + gaps + loads + initial state (``x(0)`` in m, ``x'(0)`` in m/s; rad and
+    rad/s on the rotations, see :attr:`Structure.dof_units`)."""
 
     structure: Structure
     gaps: Sequence[Gap] = ()
