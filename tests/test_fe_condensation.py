@@ -356,7 +356,8 @@ def test_results_label_the_files_dofs_and_recover_rotations(files: Path) -> None
 
 def test_result_files_carry_the_files_dof_numbers(files: Path, tmp_path: Path) -> None:
     """NetCDF (in memory and streamed by the CLI) and CSV label the DOFs by the file's
-    numbers; the CSV headers carry the number and the unit."""
+    numbers; the CSV headers carry the number and each DOF's unit (9 and 3 are rotations ry
+    of the file's DOF map: rad), as does the ``dof_unit`` coordinate."""
     model = with_output(write_model(files, NPZ), [9, 8, 3], every=10)
     r = load_model(model).simulate()
     r.save(tmp_path / "mem.nc")
@@ -368,11 +369,15 @@ def test_result_files_carry_the_files_dof_numbers(files: Path, tmp_path: Path) -
     np.testing.assert_array_equal(streamed["dof"].values, [9, 8, 3])
     for name in ("displacement", "velocity", "acceleration"):
         np.testing.assert_array_equal(streamed[name].values, mem[name].values)
+    for ds in (mem, streamed):
+        assert ds["dof_unit"].values.tolist() == ["rad", "m", "rad"]
+        assert ds["velocity"].attrs["units"] == "m/s or rad/s per dof_unit"
     assert cli_main(["run", str(model), "-q", "-o", str(tmp_path / "run.csv")]) == 0
     header = (tmp_path / "run.csv").read_text(encoding="utf-8").splitlines()[0].split(",")
-    assert header[:4] == ["time [s]", "x9 [m]", "v9 [m/s]", "a9 [m/s^2]"]
-    assert [h for h in header if h.startswith("x")] == ["x9 [m]", "x8 [m]", "x3 [m]"]
+    assert header[:4] == ["time [s]", "x9 [rad]", "v9 [rad/s]", "a9 [rad/s^2]"]
+    assert [h for h in header if h.startswith("x")] == ["x9 [rad]", "x8 [m]", "x3 [rad]"]
     back = results_file.load(tmp_path / "run.csv")
     np.testing.assert_array_equal(back["dof"].values, [3, 8, 9])
+    assert back["dof_unit"].values.tolist() == ["rad", "m", "rad"]
     np.testing.assert_allclose(back["displacement"].sel(dof=9).values,
                                mem["displacement"].sel(dof=9).values, rtol=1e-15)

@@ -93,7 +93,7 @@ def test_netcdf_holds_only_types_matlab_reads(sdof: vi.Result, tmp_path: Path) -
         assert nc.file_format == "NETCDF4"  # HDF5 underneath: h5read works too
         for name, var in nc.variables.items():
             assert var.dtype in (np.dtype("f8"), np.dtype("i8"), np.dtype("S1")), name
-            assert "units" in var.ncattrs() or name in ("dof", "gap"), name
+            assert "units" in var.ncattrs() or name in ("dof", "dof_unit", "gap"), name
         assert nc.variables["impact_side"].dimensions == ("impact", "string8")
         for key in nc.ncattrs():
             value = nc.getncattr(key)

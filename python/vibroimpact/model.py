@@ -29,6 +29,7 @@ from vibroimpact.contact import ContactLaw
 from vibroimpact.errors import ModelError, require
 
 __all__ = [
+    "DOF_UNITS",
     "ConstantLoad",
     "Gap",
     "HarmonicLoad",
@@ -40,6 +41,11 @@ __all__ = [
 ]
 
 Side = Literal["positive", "negative", "both"]
+
+#: The units a DOF's displacement can have (velocity: per s, acceleration: per s²): ``"m"``
+#: (a translation), ``"rad"`` (a rotation) or ``"kg^0.5 m"`` (the coordinate of a
+#: mass-normalised mode, ``φᵀMφ = 1``: a Craig–Bampton interior mode).
+DOF_UNITS: tuple[str, ...] = ("m", "rad", "kg^0.5 m")
 
 #: A structure matrix: a dense array, or a SciPy CSR array for large (e.g. FE) models.
 Matrix: TypeAlias = "NDArray[np.float64] | sp.csr_array"
@@ -111,17 +117,23 @@ class Structure:
     """Linear structure: mass ``M`` (kg), damping ``C`` (N·s/m) and stiffness ``K`` (N/m),
     symmetric n×n matrices; ``M`` positive definite. Dense arrays stay dense; if any of the
     three is a SciPy sparse matrix all three are kept as CSR arrays (``scipy.sparse.csr_array``)
-    and stay sparse through validation and the core (issue 6: large FE models)."""
+    and stay sparse through validation and the core (issue 6: large FE models).
+
+    ``dof_units``: the unit of each DOF's displacement, one of :data:`DOF_UNITS` per DOF
+    (default ``"m"`` for all; a rotation is ``"rad"``, its rows of ``M`` and ``K`` then in
+    kg·m² and N·m/rad). Results label each DOF with it (``dof_unit`` coordinate)."""
 
     mass: Matrix
     stiffness: Matrix
     damping: Matrix
+    dof_units: tuple[str, ...]
 
     def __init__(
         self,
         mass: ArrayLike | sp.sparray | sp.spmatrix,
         stiffness: ArrayLike | sp.sparray | sp.spmatrix | None = None,
         damping: ArrayLike | sp.sparray | sp.spmatrix | None = None,
+        dof_units: Sequence[str] | None = None,
     ) -> None:
         m = _matrix(mass, "structure.mass")
         n = m.shape[0]
@@ -141,6 +153,7 @@ class Structure:
         object.__setattr__(self, "mass", m)
         object.__setattr__(self, "stiffness", k)
         object.__setattr__(self, "damping", c)
+        object.__setattr__(self, "dof_units", _dof_units(dof_units, n))
 
     @classmethod
     def sdof(cls, mass: float, stiffness: float = 0.0, damping: float = 0.0) -> Structure:
@@ -169,6 +182,17 @@ class Structure:
         m, k, c = (a.toarray() if sp.issparse(a) else a for a in (self.mass, self.stiffness,
                                                                    self.damping))
         return m, k, c
+
+
+def _dof_units(value: Sequence[str] | None, n: int) -> tuple[str, ...]:
+    """``value`` checked as one of :data:`DOF_UNITS` per DOF (None: ``"m"`` for all)."""
+    if value is None:
+        return ("m",) * n
+    units = (value,) if isinstance(value, str) else tuple(value)
+    require(len(units) == n, "structure.dof_units", list(units), f"{n} units (one per DOF)")
+    for u in units:
+        require(u in DOF_UNITS, "structure.dof_units", u, " or ".join(map(repr, DOF_UNITS)))
+    return units
 
 
 def _dofs(value: int | Sequence[int], field_name: str) -> tuple[int, ...]:
@@ -345,7 +369,8 @@ def _initial(value: ArrayLike | None, n: int, field_name: str, unit: str) -> NDA
 
 @dataclass(frozen=True)
 class Model:
-    """Structure + gaps + loads + initial state (``x(0)`` in m, ``x'(0)`` in m/s)."""
+    """Structure + gaps + loads + initial state (``x(0)`` in m, ``x'(0)`` in m/s; rad and
+    rad/s on the rotations, see :attr:`Structure.dof_units`)."""
 
     structure: Structure
     gaps: Sequence[Gap] = ()

@@ -4,11 +4,14 @@ and solver statistics, as numpy arrays with pandas/xarray views."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
+
+from vibroimpact.errors import ModelError
 
 if TYPE_CHECKING:
     import os
@@ -55,6 +58,40 @@ TIME_VARIABLES: dict[str, tuple[tuple[str, ...], str, str, str]] = {
     "contact_force": (("time", "gap"), "N", "contact force", "gap_force"),
     **{f"energy_{t}": (("time",), "J", t, f"energy.{t}") for t in ENERGY_TERMS},
 }
+
+
+#: ``long_name`` of the ``dof_unit`` coordinate.
+DOF_UNIT_DESCRIPTION = "displacement unit of the DOF (velocity: per s, acceleration: per s^2)"
+
+#: The time-history variables on ``(time, dof)``: name → (column prefix of tables and CSV
+#: files, the time derivative in the unit: displacement ``u``, velocity ``u/s``, acceleration
+#: ``u/s^2`` for a DOF of unit ``u``).
+DOF_VARIABLES: dict[str, tuple[str, str]] = {
+    "displacement": ("x", ""), "velocity": ("v", "/s"), "acceleration": ("a", "/s^2"),
+}
+
+
+def dof_variable_units(name: str, dof_units: Sequence[str]) -> tuple[list[str], str]:
+    """The units of the :data:`DOF_VARIABLES` ``name`` per DOF of ``dof_units`` (``"rad"``
+    → ``"rad/s"`` for the velocity) and the ``units`` attribute of the variable: that unit if
+    every DOF has it, else ``"m or rad per dof_unit"`` (a mixed set: the ``dof_unit``
+    coordinate gives each DOF's displacement unit)."""
+    per_time = DOF_VARIABLES[name][1]
+    per_dof = [f"{u}{per_time}" for u in dof_units]
+    if not per_dof:  # no DOF recorded
+        return per_dof, TIME_VARIABLES[name][1]
+    listed = unit_set(dof_units, per_time)
+    return per_dof, listed if len(set(dof_units)) == 1 else f"{listed} per dof_unit"
+
+
+def unit_set(dof_units: Sequence[str], per_time: str = "") -> str:
+    """The distinct units among ``dof_units`` with ``per_time`` appended, in the order of
+    :data:`vibroimpact.model.DOF_UNITS`, joined by ``" or "`` (``"m or rad"``)."""
+    from vibroimpact.model import DOF_UNITS
+
+    order = {u: i for i, u in enumerate(DOF_UNITS)}
+    distinct = sorted(set(dof_units), key=lambda u: (order.get(u, len(order)), u))
+    return " or ".join(f"{u}{per_time}" for u in distinct)
 
 
 def time_columns(raw: dict[str, Any]) -> dict[str, Array]:
@@ -164,7 +201,9 @@ class SolverStats:
 class Result:
     """A run: time histories of the recorded DOFs (rows: time), per-gap penetration (m,
     negative = open) and contact force (N), the impact table, the energy account and solver
-    statistics. ``complete`` is False (and ``message`` says why) if the solver stopped early."""
+    statistics. ``complete`` is False (and ``message`` says why) if the solver stopped early.
+    ``dof_units``: the displacement unit of each recorded DOF (``"m"``, ``"rad"``, ...: the
+    structure's :attr:`~vibroimpact.Structure.dof_units`; default ``"m"`` for all)."""
 
     time: Array
     dofs: NDArray[np.int64]
@@ -183,6 +222,14 @@ class Result:
     message: str
     model: Model | None = None
     method: Integrator | None = None
+    dof_units: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        units = tuple(self.dof_units) or ("m",) * len(self.dofs)
+        if len(units) != len(self.dofs):
+            raise ModelError(f"dof_units: {list(units)} is not valid; expected "
+                             f"{len(self.dofs)} units (one per recorded DOF)")
+        object.__setattr__(self, "dof_units", units)
 
     @classmethod
     def from_core(
@@ -195,9 +242,11 @@ class Result:
     ) -> Result:
         s = raw["stats"]
         error = raw["error"]
+        dofs = np.asarray(raw["dofs"], dtype=np.int64)
+        units = () if model is None else tuple(model.structure.dof_units[d] for d in dofs)
         return cls(
             time=raw["time"],
-            dofs=np.asarray(raw["dofs"], dtype=np.int64),
+            dofs=dofs,
             displacement=raw["displacement"],
             velocity=raw["velocity"],
             acceleration=raw["acceleration"],
@@ -219,6 +268,7 @@ class Result:
             message="completed" if error is None else str(error),
             model=model,
             method=method,
+            dof_units=units,
         )
 
     def summary(self) -> dict[str, Any]:
@@ -227,6 +277,7 @@ class Result:
             "complete": self.complete,
             "message": self.message,
             "dofs": [int(d) for d in self.dofs],
+            "dof_units": list(self.dof_units),
             "max_abs_displacement": [float(x) for x in self.max_abs_displacement],
             "impacts": self.impacts.to_records(),
             "steps": self.stats.steps,
@@ -244,10 +295,10 @@ class Result:
         import pandas as pd
 
         cols: dict[str, Array] = {}
+        units = {name: dof_variable_units(name, self.dof_units)[0] for name in DOF_VARIABLES}
         for j, d in enumerate(self.dofs):
-            cols[f"x{d} [m]"] = self.displacement[:, j]
-            cols[f"v{d} [m/s]"] = self.velocity[:, j]
-            cols[f"a{d} [m/s^2]"] = self.acceleration[:, j]
+            for name, (prefix, _) in DOF_VARIABLES.items():
+                cols[f"{prefix}{d} [{units[name][j]}]"] = getattr(self, name)[:, j]
         for g in range(self.gap_force.shape[1]):
             cols[f"gap{g} penetration [m]"] = self.gap_penetration[:, g]
             cols[f"gap{g} force [N]"] = self.gap_force[:, g]
@@ -257,7 +308,10 @@ class Result:
 
     def to_xarray(self) -> xr.Dataset:
         """An ``xarray.Dataset`` with dims ``time``, ``dof``, ``gap`` and ``impact``; units and
-        descriptions as attributes."""
+        descriptions as attributes. The coordinate ``dof_unit`` (on ``dof``) is each DOF's
+        displacement unit (``"m"``, ``"rad"``); the ``units`` of ``displacement``,
+        ``velocity`` and ``acceleration`` are the common one, or for a mixed set e.g.
+        ``"m or rad per dof_unit"`` (:func:`dof_variable_units`)."""
         import xarray as xr
 
         def var(dims: tuple[str, ...], data: Any, units: str, desc: str) -> xr.Variable:
@@ -271,6 +325,8 @@ class Result:
         }
         data = {name: var(dims, columns[name], units, desc)
                 for name, (dims, units, desc, _) in TIME_VARIABLES.items()}
+        for name in DOF_VARIABLES:
+            data[name].attrs["units"] = dof_variable_units(name, self.dof_units)[1]
         imp = self.impacts
         for name, (units, desc) in IMPACT_COLUMNS.items():
             data[f"impact_{name}"] = var(("impact",), getattr(imp, name), units, desc)
@@ -279,6 +335,8 @@ class Result:
             coords={
                 "time": xr.Variable(("time",), self.time, {"units": "s"}),
                 "dof": self.dofs,
+                "dof_unit": xr.Variable(("dof",), np.array(self.dof_units, dtype=str),
+                                        {"long_name": DOF_UNIT_DESCRIPTION}),
                 "gap": np.arange(self.gap_force.shape[1]),
             },
         )

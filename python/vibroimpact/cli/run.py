@@ -130,8 +130,9 @@ def _print_summary(mf: ModelFile, summary: dict[str, Any]) -> None:
         f"{n_gaps} gap{'s' * (n_gaps != 1)}, {len(model.loads)} load(s), "
         f"method {mf.method.name}, dt = {summary['dt']:g} s, t_end = {summary['t_end']:g} s"
     )
-    for dof, peak in zip(summary["dofs"], summary["max_abs_displacement"], strict=True):
-        print(f"  peak |x{dof}|           {peak:.6e} m")
+    for dof, unit, peak in zip(summary["dofs"], summary["dof_units"],
+                               summary["max_abs_displacement"], strict=True):
+        print(f"  peak |x{dof}|           {peak:.6e} {unit}")
     print(f"  impacts              {len(summary['impacts'])}")
     print(f"  steps                {summary['steps']}")
     print(f"  Newton iterations    {summary['newton_iterations']}")

@@ -67,10 +67,11 @@ class StaticCondensation:
     """The result of :func:`condense_massless`.
 
     ``structure``: the reduced :class:`~vibroimpact.fe.FEStructure` on the retained DOFs (its
-    DOF map is the full map's retained rows); ``retained``/``condensed``: DOF indices of the
-    full structure (retained DOF ``k`` of the reduced model is full DOF ``retained[k]``);
-    ``transform``: ``T`` (n × n_retained, sparse), ``x = T x_r``; ``damping_residual``:
-    ``‖C_s· T‖ / ‖C‖`` (max-abs norms; 0 when the condensation is exact).
+    DOF map, hence its ``dof_units``, is the full map's retained rows);
+    ``retained``/``condensed``: DOF indices of the full structure (retained DOF ``k`` of the
+    reduced model is full DOF ``retained[k]``); ``transform``: ``T`` (n × n_retained,
+    sparse), ``x = T x_r``; ``damping_residual``: ``‖C_s· T‖ / ‖C‖`` (max-abs norms; 0 when
+    the condensation is exact).
     """
 
     full: FEStructure
@@ -112,8 +113,9 @@ class DofRecovery:
     ``x_s = T_s x_m`` (module docstring) is linear and time-independent, so velocities and
     accelerations follow by the same matrix: ``v_s = T_s v_m``, ``a_s = T_s a_m`` (exact when
     the condensation is, see :attr:`StaticCondensation.damping_residual`). ``labels``: the full
-    DOFs reported (the ``dof`` coordinate of the results); ``record``: the retained (run) DOFs
-    the run must record, those the reported rows of ``T`` touch; ``matrix``: ``T[labels,
+    DOFs reported (the ``dof`` coordinate of the results; ``units``: their units, the full
+    structure's ``dof_units``); ``record``: the retained (run) DOFs the run must record, those
+    the reported rows of ``T`` touch; ``matrix``: ``T[labels,
     record]``, reported = recorded ``@ matrix.T``. One object per run: :meth:`rows` keeps the
     recovered DOFs' peak ``|x|`` over the rows it sees (every recorded row; the retained DOFs
     keep the core's peak over every step).
@@ -135,6 +137,9 @@ class DofRecovery:
         self._direct = np.array([position[retained[int(d)]] if int(d) in retained else -1
                                  for d in self.labels], dtype=np.int64)
         self._peak = np.zeros(len(self.labels))
+        full_units = condensation.full.dof_units
+        #: the unit of each reported DOF (``dof_units`` of the result)
+        self.units: tuple[str, ...] = tuple(full_units[int(d)] for d in self.labels)
 
     def rows(self, raw: Mapping[str, object]) -> dict[str, object]:
         """A block of rows in the core's layout (``on_rows`` of :func:`vibroimpact.simulate`)
@@ -160,7 +165,8 @@ class DofRecovery:
         direct = self._direct >= 0
         peak = self._peak.copy()
         peak[direct] = np.asarray(result.max_abs_displacement, dtype=float)[self._direct[direct]]
-        return dataclasses.replace(result, dofs=self.labels, max_abs_displacement=peak, **rows)
+        return dataclasses.replace(result, dofs=self.labels, dof_units=self.units,
+                                   max_abs_displacement=peak, **rows)
 
 
 def _label(fe: FEStructure, dof: int) -> str:

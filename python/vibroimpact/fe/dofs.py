@@ -39,6 +39,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "DIRECTIONS",
+    "ROTATIONS",
     "DofMap",
     "FEStructure",
     "as_sparse",
@@ -47,6 +48,8 @@ __all__ = [
 
 #: Direction names in the order of the ABAQUS/CalculiX DOF numbers 1–6.
 DIRECTIONS: tuple[str, ...] = ("x", "y", "z", "rx", "ry", "rz")
+#: The rotations among :data:`DIRECTIONS` (unit rad).
+ROTATIONS: tuple[str, ...] = DIRECTIONS[3:]
 
 def direction_name(direction: str | int) -> str:
     """Canonical name of a direction: ``"x"``…``"rz"`` or the ABAQUS/CalculiX number 1–6 of
@@ -132,6 +135,11 @@ class DofMap:
     def take(self, dofs: Sequence[int]) -> DofMap:
         """The map of the DOFs ``dofs`` (in that order), e.g. after a reduction."""
         return DofMap([self.nodes[i] for i in dofs], [self.directions[i] for i in dofs])
+
+    def units(self) -> tuple[str, ...]:
+        """The unit of each DOF's displacement: ``"rad"`` for the rotations ``rx, ry, rz``
+        (ABAQUS/CalculiX 4–6), ``"m"`` for the others (:attr:`vibroimpact.Structure.dof_units`)."""
+        return tuple("rad" if d in ROTATIONS else "m" for d in self.directions)
 
     def labels(self) -> list[str]:
         """``"node.direction"`` per DOF (``"12.x"``)."""
@@ -241,6 +249,11 @@ class FEStructure:
     def n_dof(self) -> int:
         return int(self.mass.shape[0])
 
+    @property
+    def dof_units(self) -> tuple[str, ...]:
+        """The unit of each DOF (:meth:`DofMap.units`; ``"m"`` for all without a DOF map)."""
+        return ("m",) * self.n_dof if self.dof_map is None else self.dof_map.units()
+
     def with_damping(self, damping: Damping | Any) -> FEStructure:
         """A copy with damping ``C``: a :class:`~vibroimpact.fe.Rayleigh` or
         :class:`~vibroimpact.fe.ModalDamping` rule, or a matrix."""
@@ -272,7 +285,7 @@ class FEStructure:
                 f"structure.mass: {len(massless)} massless DOFs (first: {massless[0]}); expected "
                 "every DOF to carry mass (condense them with FEStructure.condense_massless())"
             )
-        return Structure(self.mass, self.stiffness, self.damping)
+        return Structure(self.mass, self.stiffness, self.damping, self.dof_units)
 
     # ---- addressing by node and direction ----
 

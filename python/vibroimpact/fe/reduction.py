@@ -56,7 +56,7 @@ __all__ = [
 DENSE_REDUCTION_LIMIT = 600
 
 
-def _parts(structure: Any) -> tuple[Any, Any, Any, DofMap | None]:
+def _parts(structure: Any) -> tuple[Any, Any, Any, DofMap | None, tuple[str, ...]]:
     from vibroimpact.fe.beam import Beam
 
     if isinstance(structure, Beam):
@@ -69,12 +69,13 @@ def _parts(structure: Any) -> tuple[Any, Any, Any, DofMap | None]:
                 "every DOF to carry mass (condense them first: FEStructure.condense_massless(), "
                 "then reduce its .structure)"
             )
-        return structure.mass, structure.stiffness, structure.damping, structure.dof_map
+        return (structure.mass, structure.stiffness, structure.damping, structure.dof_map,
+                structure.dof_units)
     if isinstance(structure, Model):
         structure = structure.structure
     if isinstance(structure, Structure):
         c = structure.damping if abs(structure.damping).max() > 0 else None
-        return structure.mass, structure.stiffness, c, None
+        return structure.mass, structure.stiffness, c, None, structure.dof_units
     raise ModelError(
         f"structure: {type(structure).__name__} is not valid; expected a Structure, Model, "
         "FEStructure or Beam"
@@ -86,8 +87,9 @@ class CraigBampton:
     """A Craig–Bampton reduced structure: ``transform`` T (n × r, ``x = T q``), the full DOF
     indices kept physical (``boundary``; reduced DOFs ``0 … b−1`` in that order), ``n_modes``
     fixed-interface modes (reduced DOFs ``b …``) with ``interior_frequencies_hz``, the
-    reduced ``mass``, ``stiffness``, ``damping`` (r × r) and ``mass_projection`` ``TᵀM``
-    (r × n, to reduce initial states)."""
+    reduced ``mass``, ``stiffness``, ``damping`` (r × r), ``mass_projection`` ``TᵀM``
+    (r × n, to reduce initial states) and ``dof_units`` (r: the boundary DOFs' own units, then
+    ``"kg^0.5 m"`` for the coordinates of the mass-normalised modes, ``φᵀ M φ = 1``)."""
 
     transform: NDArray[np.float64]
     boundary: tuple[int, ...]
@@ -98,6 +100,7 @@ class CraigBampton:
     damping: NDArray[np.float64] | None
     dof_map: DofMap | None = None
     mass_projection: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
+    dof_units: tuple[str, ...] | None = None
 
     @property
     def n_dof(self) -> int:
@@ -111,7 +114,7 @@ class CraigBampton:
     @property
     def structure(self) -> Structure:
         """The reduced :class:`~vibroimpact.Structure`."""
-        return Structure(self.mass, self.stiffness, self.damping)
+        return Structure(self.mass, self.stiffness, self.damping, self.dof_units)
 
     def reduced_dof(self, dof: int) -> int:
         """The reduced index of a boundary DOF (its full index ``dof``)."""
@@ -221,7 +224,7 @@ def craig_bampton(
 
     The interior stiffness ``K_ii`` must be non-singular: the boundary DOFs must hold the
     structure against rigid-body motion (add boundary DOFs otherwise)."""
-    m, k, c, dof_map = _parts(structure)
+    m, k, c, dof_map, units = _parts(structure)
     n = int(m.shape[0])
     b = list(dict.fromkeys(int(d) for d in boundary))
     if not b or any(not 0 <= d < n for d in b):
@@ -290,6 +293,7 @@ def craig_bampton(
         damping=sym[2],
         dof_map=dof_map,
         mass_projection=tm,
+        dof_units=tuple(units[d] for d in b) + ("kg^0.5 m",) * n_modes,
     )
     return cb
 

@@ -12,10 +12,14 @@
   structure's matrices are stored as their entries (``structure_mass`` on
   ``structure_mass_entry``, with ``structure_mass_row`` and ``structure_mass_col``), never
   densified; :func:`structure_matrix` reads either form.
-* ``.csv``: ``NAME.csv`` holds the time histories (column names carry units:
-  ``time [s]``, ``x0 [m]``, ``v0 [m/s]``, ``a0 [m/s^2]``, ``gap0 penetration [m]``,
-  ``gap0 force [N]``), ``NAME_impacts.csv`` the impact table, ``NAME_energy.csv`` the energy
-  account and ``NAME_meta.json`` the attributes and the model.
+* Each DOF's displacement unit is the coordinate ``dof_unit`` on ``dof`` (``"m"``, ``"rad"``
+  for a rotation of a beam or FE model; velocity per s, acceleration per s²); the ``units``
+  attribute of ``displacement``, ``velocity`` and ``acceleration`` is the common unit, or for
+  a mixed set ``"m or rad per dof_unit"`` (``"m/s or rad/s per dof_unit"``, ...).
+* ``.csv``: ``NAME.csv`` holds the time histories (column names carry each column's unit:
+  ``time [s]``, ``x0 [m]``, ``v0 [m/s]``, ``a0 [m/s^2]``, ``x1 [rad]``, ``v1 [rad/s]``,
+  ``gap0 penetration [m]``, ``gap0 force [N]``), ``NAME_impacts.csv`` the impact table,
+  ``NAME_energy.csv`` the energy account and ``NAME_meta.json`` the attributes and the model.
 
 Every file is first written to a hidden temporary file in the target's folder and then moved
 into place with :func:`os.replace`, so a crash leaves either the previous complete file or
@@ -55,7 +59,12 @@ import numpy as np
 import scipy.sparse as sp
 
 from vibroimpact.errors import ModelError, SolverError
-from vibroimpact.result import ENERGY_TERMS
+from vibroimpact.result import (
+    DOF_UNIT_DESCRIPTION,
+    DOF_VARIABLES,
+    ENERGY_TERMS,
+    dof_variable_units,
+)
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -72,6 +81,7 @@ __all__ = [
     "SUFFIXES",
     "atomic_write",
     "csv_paths",
+    "dof_units",
     "hold_signals",
     "load",
     "model_from_dataset",
@@ -89,9 +99,6 @@ SUFFIXES = (*NETCDF_SUFFIXES, ".csv")
 #: The files a ``.csv`` result consists of, by role: the name's suffix after the stem.
 CSV_TABLES = {"time_histories": ".csv", "impacts": "_impacts.csv", "energy": "_energy.csv",
               "metadata": "_meta.json"}
-#: Time-history variables on ``(time, dof)`` and their CSV column prefix and unit.
-_DOF_VARIABLES = {"displacement": ("x", "m"), "velocity": ("v", "m/s"),
-                  "acceleration": ("a", "m/s^2")}
 #: Time-history variables on ``(time, gap)`` and their CSV column word and unit.
 _GAP_VARIABLES = {"penetration": ("penetration", "m"), "contact_force": ("force", "N")}
 #: Model matrices stored as variables (not JSON) so that large FE models stay compact.
@@ -200,6 +207,7 @@ def run_metadata(result: Result) -> tuple[dict[str, Any], dict[str, tuple[tuple[
         model = {k: v for k, v in spec.items() if k not in ("mass", "damping", "stiffness",
                                                             "x0", "v0")}
         model["n_dof"] = result.model.n_dof
+        model["dof_units"] = list(result.model.structure.dof_units)
         for g, gap in zip(model["gaps"], result.model.gaps, strict=True):
             g["name"] = gap.name
         attrs["model_spec"] = json.dumps(_jsonable(model))
@@ -264,7 +272,8 @@ def model_from_dataset(ds: xr.Dataset) -> tuple[Model, Integrator]:
     if not spec or "structure_mass" not in ds:
         raise ModelError("result file: no model stored; expected a file written by vibroimpact")
     structure = Structure(*(structure_matrix(ds, f"structure_{key}")
-                            for key in ("mass", "stiffness", "damping")))
+                            for key in ("mass", "stiffness", "damping")),
+                          dof_units=spec.get("dof_units"))
     gaps = []
     for g in spec["gaps"]:
         law_spec = {k: v for k, v in g["law"].items() if k != "kind" and v is not None}
@@ -475,15 +484,25 @@ def _column(name: str, unit: str) -> str:
     return f"{name} [{unit}]" if unit else name
 
 
+def dof_units(ds: xr.Dataset) -> list[str]:
+    """The displacement unit of each DOF of a result Dataset: its ``dof_unit`` coordinate
+    (``"m"`` for every DOF in a file written before it existed)."""
+    n = ds.sizes.get("dof", 0)
+    if "dof_unit" not in ds.coords:
+        return ["m"] * n
+    return [str(u) for u in np.asarray(ds["dof_unit"].values).astype(str)]
+
+
 def _time_histories_frame(ds: xr.Dataset) -> Any:
     import pandas as pd
 
     cols: dict[str, Any] = {}
     dofs = ds["dof"].values if "dof" in ds.coords else []
+    units = {name: dof_variable_units(name, dof_units(ds))[0] for name in DOF_VARIABLES}
     for j, d in enumerate(dofs):
-        for name, (prefix, unit) in _DOF_VARIABLES.items():
+        for name, (prefix, _) in DOF_VARIABLES.items():
             if name in ds:
-                cols[f"{prefix}{int(d)} [{unit}]"] = ds[name].values[:, j]
+                cols[f"{prefix}{int(d)} [{units[name][j]}]"] = ds[name].values[:, j]
     gaps = ds["gap"].values if "gap" in ds.coords else []
     for g_index, g in enumerate(gaps):
         for name, (word, unit) in _GAP_VARIABLES.items():
@@ -578,23 +597,27 @@ def _load_csv(path: Path) -> xr.Dataset:
     meta: dict[str, Any] = {}
     if files["metadata"].exists():
         meta = json.loads(files["metadata"].read_text(encoding="utf-8"))
-    by_prefix = {prefix: (name, unit) for name, (prefix, unit) in _DOF_VARIABLES.items()}
+    by_prefix = {prefix: name for name, (prefix, _) in DOF_VARIABLES.items()}
     dof_cols: dict[str, dict[int, np.ndarray]] = {}
     gap_cols: dict[str, dict[int, np.ndarray]] = {}
+    dof_unit: dict[int, str] = {}
     for col in hist.columns:
-        label, _ = _split_unit(col)
+        label, unit = _split_unit(col)
         if label.startswith("gap") and " " in label:
             g, word = label[3:].split(" ", 1)
             name = next(n for n, (w, _) in _GAP_VARIABLES.items() if w == word)
             gap_cols.setdefault(name, {})[int(g)] = hist[col].to_numpy(dtype=float)
         elif label[:1] in by_prefix and label[1:].isdigit():
-            name = by_prefix[label[:1]][0]
+            name = by_prefix[label[:1]]
             dof_cols.setdefault(name, {})[int(label[1:])] = hist[col].to_numpy(dtype=float)
+            if name == "displacement":
+                dof_unit[int(label[1:])] = unit
     data: dict[str, Any] = {}
     dofs = sorted(next(iter(dof_cols.values()), {}))
     gaps = sorted(next(iter(gap_cols.values()), {}))
+    units = [dof_unit.get(d, "m") for d in dofs]
     for name, cols in dof_cols.items():
-        unit = _DOF_VARIABLES[name][1]
+        unit = dof_variable_units(name, units)[1]
         data[name] = (("time", "dof"), np.column_stack([cols[d] for d in dofs]),
                       {"units": unit, "long_name": name})
     for name, cols in gap_cols.items():
@@ -623,6 +646,8 @@ def _load_csv(path: Path) -> xr.Dataset:
     coords: dict[str, Any] = {"time": ("time", time, {"units": "s", "long_name": "time"})}
     if dofs:
         coords["dof"] = np.asarray(dofs, dtype=np.int64)
+        coords["dof_unit"] = ("dof", np.array(units, dtype=str),
+                              {"long_name": DOF_UNIT_DESCRIPTION})
     if gaps:
         coords["gap"] = np.asarray(gaps, dtype=np.int64)
     for name, (key, unit) in _MODEL_MATRICES.items():
@@ -718,17 +743,21 @@ class _NetcdfStream:
             self.n += m
 
     def finish(self, result: Result) -> None:
-        """Write ``result``'s remaining rows, then its every variable not on ``time`` (impact
-        table, model matrices, ``dof``/``gap``) and its attributes, exactly as :func:`save`
-        writes them; close the file."""
+        """Write ``result``'s remaining rows and the units of its DOFs (the ``units`` of
+        ``displacement``, ``velocity``, ``acceleration``), then its every variable not on
+        ``time`` (impact table, model matrices, ``dof``/``dof_unit``/``gap``) and its
+        attributes, exactly as :func:`save` writes them; close the file."""
         from vibroimpact.result import TIME_VARIABLES
 
         self.append({"time": result.time, "displacement": result.displacement,
                      "velocity": result.velocity, "acceleration": result.acceleration,
                      "gap_penetration": result.gap_penetration, "gap_force": result.gap_force,
                      "energy": {t: getattr(result.energy, t) for t in ENERGY_TERMS}})
+        ds = result.to_xarray()
+        for name in DOF_VARIABLES:
+            self.vars[name].units = ds[name].attrs["units"]
         self.nc.close()
-        rest = result.to_xarray().drop_vars(["time", *TIME_VARIABLES])
+        rest = ds.drop_vars(["time", *TIME_VARIABLES])
         ready, encoding = _netcdf_ready(rest)
         ready.to_netcdf(self.path, mode="a", engine="netcdf4", format="NETCDF4",
                         encoding=encoding)

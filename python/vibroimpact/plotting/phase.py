@@ -6,7 +6,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 from vibroimpact.plotting._data import select, time_mask
-from vibroimpact.plotting.time_history import line_label
+from vibroimpact.plotting.time_history import axis_label, line_label
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -30,5 +30,6 @@ def phase_portrait(
     for pos, index in chosen:
         ax.plot(x[mask, pos], v[mask, pos], label=line_label(label, "dof", index,
                                                              len(chosen) > 1), **style)
-    ax.set_xlabel("displacement [m]")
-    ax.set_ylabel("velocity [m/s]")
+    positions = [pos for pos, _ in chosen]
+    ax.set_xlabel(axis_label(ds, "displacement", positions))
+    ax.set_ylabel(axis_label(ds, "velocity", positions))

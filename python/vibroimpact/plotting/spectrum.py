@@ -9,7 +9,7 @@ import numpy as np
 
 from vibroimpact.errors import ModelError
 from vibroimpact.plotting._data import select, time_mask
-from vibroimpact.plotting.time_history import TIME_HISTORIES, line_label
+from vibroimpact.plotting.time_history import TIME_HISTORIES, axis_label, line_label
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -53,7 +53,7 @@ def spectrum(
     if quantity not in TIME_HISTORIES:
         raise ModelError(f"--quantity: {quantity!r} is not valid; expected one of "
                          f"{', '.join(TIME_HISTORIES)}")
-    var, ylabel, dim = TIME_HISTORIES[quantity]
+    var, _, dim = TIME_HISTORIES[quantity]
     mask = time_mask(ds, t_min, t_max)
     t = ds["time"].values[mask]
     chosen = select(ds, dim, dofs if dim == "dof" else gaps)
@@ -63,5 +63,5 @@ def spectrum(
             a, f = a[f <= f_max], f[f <= f_max]
         ax.semilogy(f[1:], a[1:], label=line_label(label, dim, index, len(chosen) > 1), **style)
     ax.set_xlabel("frequency [Hz]")
-    name, unit = ylabel.split(" [", 1)
+    name, unit = axis_label(ds, quantity, [pos for pos, _ in chosen]).split(" [", 1)
     ax.set_ylabel(f"{name.split(' (')[0]} amplitude [{unit.split(']')[0]}]")

@@ -22,6 +22,24 @@ TIME_HISTORIES = {
 }
 
 
+#: The time derivative in the unit of a DOF variable, in a plot's notation.
+PER_TIME = {"displacement": "", "velocity": "/s", "acceleration": "/s²"}
+
+
+def axis_label(ds: xr.Dataset, kind: str, positions: Sequence[int]) -> str:
+    """The axis label of a :data:`TIME_HISTORIES` kind: for the DOF variables the unit of
+    the DOFs at ``positions`` (``dof_unit``: ``[rad]`` for rotations; ``[m or rad]`` for a
+    mixed selection), else the fixed label."""
+    from vibroimpact.io.results_file import dof_units
+    from vibroimpact.result import unit_set
+
+    var, ylabel, dim = TIME_HISTORIES[kind]
+    if dim != "dof" or not positions:
+        return ylabel
+    units = dof_units(ds)
+    return f"{ylabel.split(' [')[0]} [{unit_set([units[p] for p in positions], PER_TIME[var])}]"
+
+
 def _name(dim: str, index: int) -> str:
     return f"x{index}" if dim == "dof" else f"gap {index}"
 
@@ -47,7 +65,7 @@ def time_history(
 ) -> None:
     """One line per selected DOF (displacement, velocity, acceleration) or gap (contact
     force, penetration) against time."""
-    var, ylabel, dim = TIME_HISTORIES[kind]
+    var, _, dim = TIME_HISTORIES[kind]
     mask = time_mask(ds, t_min, t_max)
     t = ds["time"].values[mask]
     chosen = select(ds, dim, dofs if dim == "dof" else gaps)
@@ -56,4 +74,4 @@ def time_history(
         ax.plot(t, values[mask, pos], label=line_label(label, dim, index, len(chosen) > 1),
                 **style)
     ax.set_xlabel("time [s]")
-    ax.set_ylabel(ylabel)
+    ax.set_ylabel(axis_label(ds, kind, [pos for pos, _ in chosen]))
