@@ -23,11 +23,15 @@ def _sdof_reference() -> dict:
                                     K=reference.paper_stiffness(), restitution=0.9)
 
 
+def _sdof_run(rtol: float) -> vi.Result:
+    method = vi.Dop853(adaptive=vi.Adaptive(rtol=rtol, atol=1e-12, dt_max=1e-3))
+    return vi.simulate(cases.sdof_model("lankarani-nikravesh", 0.9), t_end=cases.SDOF_T_END,
+                       dt=1e-5, method=method)
+
+
 def _sdof_errors(rtol: float) -> dict[str, float]:
     """Largest errors of a DOP853 run of the paper's SDOF case against the SciPy reference."""
-    method = vi.Dop853(adaptive=vi.Adaptive(rtol=rtol, atol=1e-12, dt_max=1e-3))
-    r = vi.simulate(cases.sdof_model("lankarani-nikravesh", 0.9), t_end=cases.SDOF_T_END,
-                    dt=1e-5, method=method)
+    r = _sdof_run(rtol)
     assert r.complete
     ref = _sdof_reference()
     imp = ref["impacts"]
@@ -48,10 +52,15 @@ def test_paper_sdof_case_reaches_the_benchmark_accuracy() -> None:
     and end (the benchmark's target: 1e-8 m / 1e-9 s), in under 450 steps solved (accepted
     and discarded); every error falls at least 5× from rtol 1e-6."""
     loose, tight = _sdof_errors(1e-6), _sdof_errors(1e-8)
+    tight_run = _sdof_run(1e-8)
     assert tight["peak"] < 1e-11
     assert max(tight["t_start"], tight["t_end"]) < 1e-9
     assert tight["v_out"] < 3e-7  # of 5.6 to 7.2 m/s
     assert tight["solved"] < 450
+    # momentum: each complete impact's impulse is m (v_in + v_out) of the free mass
+    done = ~np.isnan(tight_run.impacts.v_out)
+    momentum = 100.0 * (tight_run.impacts.v_in + tight_run.impacts.v_out)[done]
+    assert np.allclose(tight_run.impacts.impulse[done], momentum, rtol=1e-9)
     for key in ("peak", "t_start", "t_end", "v_out"):
         assert tight[key] < loose[key] / 5, (key, tight[key], loose[key])
 
@@ -75,6 +84,9 @@ def test_hertz_impact_matches_the_closed_form() -> None:
     assert r.impacts.t_end[0] - r.impacts.t_start[0] == pytest.approx(exact["duration"],
                                                                        rel=1e-9)
     assert r.impacts.v_out[0] == pytest.approx(v, rel=1e-9)
+    # the impact table's force peak and impulse come from inside the steps, not their ends
+    assert r.impacts.force_max[0] == pytest.approx(exact["force_max"], rel=3e-9)
+    assert r.impacts.impulse[0] == pytest.approx(2 * m * v, rel=1e-9)
     # conservative: the mechanical energy stays within 3e-9 of its initial value
     assert np.max(np.abs(r.energy.total / r.energy.total[0] - 1)) < 3e-9
 

@@ -231,7 +231,9 @@ impl ImpactLog {
         }
     }
 
-    /// Updates the table for a committed step `[t, t + h]`.
+    /// Updates the table for a committed step `[t, t + h]`. `interior`: per wall, the impulse
+    /// over the step and the largest force inside it, when the integrator knows them (else the
+    /// trapezoidal rule and the parabola through the last force samples).
     pub fn commit(
         &mut self,
         walls: &[Wall],
@@ -239,6 +241,7 @@ impl ImpactLog {
         after: &[WallState],
         t: f64,
         h: f64,
+        interior: Option<(&[f64], &[f64])>,
     ) {
         for (j, wall) in walls.iter().enumerate() {
             let (s0, s1) = (&before[j], &after[j]);
@@ -252,6 +255,7 @@ impl ImpactLog {
                 dy1: s1.rate,
                 h,
             };
+            let known = interior.map(|(impulse, force_max)| (impulse[j], force_max[j]));
             match (s0.closed(), s1.closed()) {
                 (false, true) => {
                     let theta = seg.crossing();
@@ -267,27 +271,29 @@ impl ImpactLog {
                         v_out: f64::NAN,
                         delta_max: 0.0,
                         force_max: 0.0,
-                        impulse: 0.5 * (1.0 - theta) * h * s1.force,
+                        impulse: known.map_or(0.5 * (1.0 - theta) * h * s1.force, |k| k.0),
                     });
-                    self.update_peaks(j, &seg, s0, s1, t + h);
+                    self.update_peaks(j, &seg, s0, s1, t + h, known);
                 }
                 (true, true) => {
                     if let Some(r) = self.open[j] {
-                        self.records[r].impulse += 0.5 * h * (s0.force + s1.force);
+                        self.records[r].impulse +=
+                            known.map_or(0.5 * h * (s0.force + s1.force), |k| k.0);
                     }
-                    self.update_peaks(j, &seg, s0, s1, t + h);
+                    self.update_peaks(j, &seg, s0, s1, t + h, known);
                 }
                 (true, false) => {
                     let theta = seg.crossing();
                     if let Some(r) = self.open[j].take() {
                         let rec = &mut self.records[r];
-                        rec.impulse += 0.5 * theta * h * s0.force;
+                        rec.impulse += known.map_or(0.5 * theta * h * s0.force, |k| k.0);
                         rec.t_end = t + theta * h;
                         rec.v_out = -seg.rate(theta);
                         let [(ta, fa), (tb, fb)] = self.history[j];
-                        rec.force_max = rec
-                            .force_max
-                            .max(parabola_peak([ta, tb, rec.t_end], [fa, fb, 0.0]));
+                        rec.force_max = rec.force_max.max(known.map_or_else(
+                            || parabola_peak([ta, tb, rec.t_end], [fa, fb, 0.0]),
+                            |k| k.1,
+                        ));
                     }
                 }
                 (false, false) => unreachable!(),
@@ -295,6 +301,7 @@ impl ImpactLog {
         }
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn update_peaks(
         &mut self,
         j: usize,
@@ -302,6 +309,7 @@ impl ImpactLog {
         s0: &WallState,
         s1: &WallState,
         t1: f64,
+        known: Option<(f64, f64)>,
     ) {
         let Some(r) = self.open[j] else { return };
         let rec = &mut self.records[r];
@@ -313,12 +321,12 @@ impl ImpactLog {
             delta = delta.max(seg.value(s));
         }
         rec.delta_max = rec.delta_max.max(delta);
-        // Force peaks: parabola through the last three samples.
+        // Force peaks: known inside the step, or the parabola through the last three samples.
         let [(ta, fa), (tb, fb)] = self.history[j];
         rec.force_max = rec
             .force_max
             .max(s1.force)
-            .max(parabola_peak([ta, tb, t1], [fa, fb, s1.force]));
+            .max(known.map_or_else(|| parabola_peak([ta, tb, t1], [fa, fb, s1.force]), |k| k.1));
         self.history[j] = [(tb, fb), (t1, s1.force)];
     }
 }

@@ -483,6 +483,15 @@ fn stepper(
     })
 }
 
+/// What an integrator computed over a step beyond its ends, for the run's accounts.
+pub(crate) struct StepIntegrals<'a> {
+    /// Increments of the external work and of the damping and contact dissipation, J.
+    pub work: [f64; 3],
+    /// Per wall: the impulse `∫F dt` over the step, N·s, and the largest force inside it, N.
+    pub impulse: &'a [f64],
+    pub force_max: &'a [f64],
+}
+
 /// The state of a run and everything accumulated from its accepted steps.
 pub(crate) struct Run<'o> {
     pub cur: State,
@@ -611,15 +620,15 @@ impl<'o> Run<'o> {
         Ok(())
     }
 
-    /// [`Self::accept`] for any integrator: `work` holds the increments of the external work
-    /// and of the damping and contact dissipation over the step when the integrator computed
-    /// them itself; without it they are accumulated with the trapezoidal rule.
+    /// [`Self::accept`] for any integrator: `integrals` holds what the integrator computed
+    /// itself over the step (work increments, impulses, largest forces); without it they come
+    /// from the step's ends (trapezoidal rule, parabola through the force samples).
     pub(crate) fn commit_trial(
         &mut self,
         sys: &System,
         h: f64,
         iterations: usize,
-        work: Option<[f64; 3]>,
+        integrals: Option<&StepIntegrals>,
     ) -> Result<(), SimError> {
         self.stats.newton_iterations += iterations;
         self.stats.steps += 1;
@@ -630,15 +639,22 @@ impl<'o> Run<'o> {
                 gap: busiest_gap(sys, &self.cur),
             });
         }
-        match work {
-            Some(w) => self.account.add(w),
+        match integrals {
+            Some(i) => self.account.add(i.work),
             None => self.account.commit(sys, &self.cur, trial),
         }
         for (m, &d) in self.out.max_abs.iter_mut().zip(&self.out.dofs) {
             *m = m.max(trial.x[d].abs());
         }
-        self.log
-            .commit(&sys.walls, &self.cur.walls, &trial.walls, self.cur.t, h);
+        let interior = integrals.map(|i| (i.impulse, i.force_max));
+        self.log.commit(
+            &sys.walls,
+            &self.cur.walls,
+            &trial.walls,
+            self.cur.t,
+            h,
+            interior,
+        );
         self.contact_events(sys, iterations);
         if let Some(observer) = self.observer.as_deref_mut() {
             observer.accepted(sys, &self.cur, &self.trial, h);

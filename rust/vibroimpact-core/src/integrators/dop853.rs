@@ -20,8 +20,8 @@ use super::dop853_tableau::{A, B, C, E3, E5, STAGES};
 use crate::contact::{ContactLaw, MIN_IMPACT_SPEED};
 use crate::error::SimError;
 use crate::gap::WallState;
-use crate::interpolation::QuinticSegment;
-use crate::simulate::Run;
+use crate::interpolation::{parabola_peak, QuinticSegment};
+use crate::simulate::{Run, StepIntegrals};
 use crate::step_control::Adaptive;
 use crate::system::System;
 
@@ -71,6 +71,8 @@ struct Dynamics<'s> {
     /// `M⁻¹` (row-major) of a small model.
     mass_inverse: Option<Vec<f64>>,
     rhs: Vec<f64>,
+    /// Each wall's force at the last evaluation, N.
+    forces: Vec<f64>,
 }
 
 impl<'s> Dynamics<'s> {
@@ -94,6 +96,7 @@ impl<'s> Dynamics<'s> {
             cv: vec![0.0; n],
             mass_inverse,
             rhs: vec![0.0; n],
+            forces: vec![0.0; sys.walls.len()],
         }
     }
 
@@ -121,7 +124,8 @@ impl<'s> Dynamics<'s> {
             }
         }
         let mut contact = 0.0;
-        for (wall, c) in sys.walls.iter().zip(contacts) {
+        self.forces.fill(0.0);
+        for ((wall, c), wall_force) in sys.walls.iter().zip(contacts).zip(&mut self.forces) {
             if !c.active {
                 continue;
             }
@@ -145,6 +149,7 @@ impl<'s> Dynamics<'s> {
             for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
                 f[d] -= wall.sign * coef * force.force;
             }
+            *wall_force = force.force;
             contact += (force.force - force.elastic) * rate;
         }
         let mut damping = 0.0;
@@ -170,6 +175,12 @@ impl<'s> Dynamics<'s> {
         }
         [external, damping, contact]
     }
+
+    /// Evaluates the right-hand side at a step's end: its acceleration, powers and forces.
+    fn at(&mut self, contacts: &[Contact], t: f64, end: &mut StepEnd) {
+        end.power = self.accel(contacts, t, &end.x, &end.v, &mut end.a);
+        end.forces.copy_from_slice(&self.forces);
+    }
 }
 
 /// Stage values of one step: `kx[i] = v_i`, `kv[i] = a_i`, `kp[i]` the powers, for the 12
@@ -179,6 +190,7 @@ struct Stages {
     kx: Vec<f64>,
     kv: Vec<f64>,
     kp: [[f64; 3]; STAGES + 1],
+    kf: Vec<f64>,
     xs: Vec<f64>,
     vs: Vec<f64>,
 }
@@ -189,17 +201,21 @@ struct StepEnd {
     v: Vec<f64>,
     a: Vec<f64>,
     power: [f64; 3],
-    /// Increments of the work integrals over the step, J.
+    /// Each wall's force, N.
+    forces: Vec<f64>,
+    /// Increments over the step of the work integrals, J, and of each wall's impulse, N·s.
     work: [f64; 3],
+    impulse: Vec<f64>,
 }
 
 impl Stages {
-    fn new(n: usize) -> Self {
+    fn new(n: usize, n_walls: usize) -> Self {
         Self {
             n,
             kx: vec![0.0; n * (STAGES + 1)],
             kv: vec![0.0; n * (STAGES + 1)],
             kp: [[0.0; 3]; STAGES + 1],
+            kf: vec![0.0; n_walls * (STAGES + 1)],
             xs: vec![0.0; n],
             vs: vec![0.0; n],
         }
@@ -219,6 +235,8 @@ impl Stages {
         self.kx[..n].copy_from_slice(&start.v);
         self.kv[..n].copy_from_slice(&start.a);
         self.kp[0] = start.power;
+        let nw = start.forces.len();
+        self.kf[..nw].copy_from_slice(&start.forces);
         for i in 1..STAGES {
             self.xs.copy_from_slice(&start.x);
             self.vs.copy_from_slice(&start.v);
@@ -226,17 +244,22 @@ impl Stages {
             let acc = &mut self.kv[i * n..(i + 1) * n];
             self.kp[i] = dynamics.accel(contacts, t0 + C[i] * h, &self.xs, &self.vs, acc);
             self.kx[i * n..(i + 1) * n].copy_from_slice(&self.vs);
+            self.kf[i * nw..(i + 1) * nw].copy_from_slice(&dynamics.forces);
         }
         end.x.copy_from_slice(&start.x);
         end.v.copy_from_slice(&start.v);
         combine(&mut end.x, &mut end.v, h, &B, &self.kx, &self.kv);
         end.work = [0.0; 3];
-        for (&bj, p) in B.iter().zip(&self.kp) {
+        end.impulse.fill(0.0);
+        for ((&bj, p), f) in B.iter().zip(&self.kp).zip(self.kf.chunks_exact(nw.max(1))) {
             for (w, p) in end.work.iter_mut().zip(p) {
                 *w += h * bj * p;
             }
+            for (impulse, f) in end.impulse.iter_mut().zip(f) {
+                *impulse += h * bj * f;
+            }
         }
-        end.power = dynamics.accel(contacts, t0 + h, &end.x, &end.v, &mut end.a);
+        dynamics.at(contacts, t0 + h, end);
         self.kx[STAGES * n..].copy_from_slice(&end.v);
         self.kv[STAGES * n..].copy_from_slice(&end.a);
         self.kp[STAGES] = end.power;
@@ -400,7 +423,7 @@ pub(crate) fn run(
     let n = sys.n_dof();
     let tol_t = EVENT_TOL * t_end;
     let mut dynamics = Dynamics::new(sys);
-    let mut stages = Stages::new(n);
+    let mut stages = Stages::new(n, sys.walls.len());
     let mut contacts: Vec<Contact> = run
         .cur
         .walls
@@ -417,12 +440,14 @@ pub(crate) fn run(
         v: vec![0.0; n],
         a: vec![0.0; n],
         power: [0.0; 3],
+        forces: vec![0.0; sys.walls.len()],
         work: [0.0; 3],
+        impulse: vec![0.0; sys.walls.len()],
     };
     let mut start = fresh();
     start.x.copy_from_slice(&run.cur.x);
     start.v.copy_from_slice(&run.cur.v);
-    start.power = dynamics.accel(&contacts, run.cur.t, &start.x, &start.v, &mut start.a);
+    dynamics.at(&contacts, run.cur.t, &mut start);
     let mut end = fresh();
     let mut v_max: Vec<f64> = start.v.iter().map(|v| v.abs()).collect();
     let (mut h, dt_fixed) = match steps {
@@ -446,7 +471,7 @@ pub(crate) fn run(
     while t_end - run.cur.t > 1e-13 * t_end {
         let t0 = run.cur.t;
         if switch_walls(sys, &mut contacts, &start, near_switch) {
-            start.power = dynamics.accel(&contacts, t0, &start.x, &start.v, &mut start.a);
+            dynamics.at(&contacts, t0, &mut start);
             last = None;
             contact_started = contacts.iter().any(|c| c.active && c.peak_pending);
             if let (true, Some(hc)) = (contact_started, h_contact) {
@@ -501,7 +526,7 @@ pub(crate) fn run(
         landings = 0;
         near_switch = 2.0 * near;
         let landed = h_try < target * (1.0 - 1e-12);
-        if let Err(e) = commit(run, sys, &contacts, t0 + h_try, &end, h_try) {
+        if let Err(e) = commit(run, sys, &contacts, t0 + h_try, &start, &end, h_try) {
             return Some(e);
         }
         accepted += 1;
@@ -556,16 +581,21 @@ pub(crate) fn run(
     None
 }
 
-/// Makes the step's end the run's current state: wall states, gap coordinates, loads, and
-/// the integrated work increments into the energy account.
+/// Makes the step's end the run's current state: wall states, gap coordinates, loads; the
+/// integrated work increments go to the energy account, the impulses and the largest force
+/// inside the step to the impact table.
 fn commit(
     run: &mut Run,
     sys: &System,
     contacts: &[Contact],
     t: f64,
+    start: &StepEnd,
     end: &StepEnd,
     h: f64,
 ) -> Result<(), SimError> {
+    let force_max: Vec<f64> = (0..sys.walls.len())
+        .map(|j| largest_force(sys, &contacts[j], j, start, end, h))
+        .collect();
     let s = &mut run.trial;
     s.t = t;
     s.x.copy_from_slice(&end.x);
@@ -607,7 +637,61 @@ fn commit(
             w.potential = f.potential;
         }
     }
-    run.commit_trial(sys, h, 0, Some(end.work))
+    let integrals = StepIntegrals {
+        work: end.work,
+        impulse: &end.impulse,
+        force_max: &force_max,
+    };
+    run.commit_trial(sys, h, 0, Some(&integrals))
+}
+
+/// Samples per step of a wall's force along its interpolated penetration.
+const FORCE_SAMPLES: usize = 8;
+
+/// The largest force of wall `j` inside a step, from the law along the quintic interpolant
+/// of the penetration: the largest of [`FORCE_SAMPLES`] samples, refined by the vertex of the
+/// parabola through it and its neighbours.
+fn largest_force(
+    sys: &System,
+    c: &Contact,
+    j: usize,
+    start: &StepEnd,
+    end: &StepEnd,
+    h: f64,
+) -> f64 {
+    if !c.active {
+        return 0.0;
+    }
+    let seg = QuinticSegment::new(
+        wall_motion(sys, j, &start.x, &start.v, &start.a),
+        wall_motion(sys, j, &end.x, &end.v, &end.a),
+        h,
+    );
+    let law = &sys.gaps[sys.walls[j].gap].law;
+    let force = |s: f64| {
+        let penetration = seg.value(s);
+        law.force_in_contact(
+            penetration,
+            seg.slope(s) / h,
+            c.impact_speed,
+            c.max_penetration.max(penetration),
+        )
+        .force
+    };
+    let samples: Vec<f64> = (0..=FORCE_SAMPLES)
+        .map(|k| force(k as f64 / FORCE_SAMPLES as f64))
+        .collect();
+    let (k, &best) = samples
+        .iter()
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .expect("samples");
+    if k == 0 || k == FORCE_SAMPLES {
+        return best;
+    }
+    let ds = 1.0 / FORCE_SAMPLES as f64;
+    let s = [k - 1, k, k + 1].map(|i| i as f64 * ds);
+    parabola_peak(s, [samples[k - 1], best, samples[k + 1]])
 }
 
 #[cfg(test)]
