@@ -183,16 +183,21 @@ impl<'s> Dynamics<'s> {
     }
 }
 
-/// Stage values of one step: `kx[i] = v_i`, `kv[i] = a_i`, `kp[i]` the powers, for the 12
-/// stages and the first stage of the next step (FSAL).
+/// Values per stage (the 12 of a step and the next step's first, FSAL).
+const K: usize = STAGES + 1;
+
+/// Stage values of one step, stored per component so that each combination of stages is a
+/// contiguous dot product: `kx[d·K + i]` is DOF `d`'s velocity at stage `i`, `kv` its
+/// acceleration, `kp[p·K + i]` the power `p` of the energy account, `kf[w·K + i]` wall `w`'s
+/// force.
 struct Stages {
-    n: usize,
     kx: Vec<f64>,
     kv: Vec<f64>,
-    kp: [[f64; 3]; STAGES + 1],
+    kp: [f64; 3 * K],
     kf: Vec<f64>,
     xs: Vec<f64>,
     vs: Vec<f64>,
+    acc: Vec<f64>,
 }
 
 /// The end of a step.
@@ -208,20 +213,34 @@ struct StepEnd {
     impulse: Vec<f64>,
 }
 
+/// `Σ_j w_j k_j` over the first `w.len()` stage values `k`.
+#[inline]
+fn dot(w: &[f64], k: &[f64]) -> f64 {
+    w.iter().zip(k).map(|(w, k)| w * k).sum()
+}
+
+/// Stores stage `i`'s values `values` (one per component) into `k` (stride [`K`]).
+#[inline]
+fn store(k: &mut [f64], i: usize, values: &[f64]) {
+    for (row, &v) in k.chunks_exact_mut(K).zip(values) {
+        row[i] = v;
+    }
+}
+
 impl Stages {
     fn new(n: usize, n_walls: usize) -> Self {
         Self {
-            n,
-            kx: vec![0.0; n * (STAGES + 1)],
-            kv: vec![0.0; n * (STAGES + 1)],
-            kp: [[0.0; 3]; STAGES + 1],
-            kf: vec![0.0; n_walls * (STAGES + 1)],
+            kx: vec![0.0; n * K],
+            kv: vec![0.0; n * K],
+            kp: [0.0; 3 * K],
+            kf: vec![0.0; n_walls * K],
             xs: vec![0.0; n],
             vs: vec![0.0; n],
+            acc: vec![0.0; n],
         }
     }
 
-    /// One step of `h` from `start` (its `a`, `power` the first stage) into `end`.
+    /// One step of `h` from `start` (its `a`, `power` and forces the first stage) into `end`.
     fn step(
         &mut self,
         dynamics: &mut Dynamics,
@@ -231,38 +250,49 @@ impl Stages {
         h: f64,
         end: &mut StepEnd,
     ) {
-        let n = self.n;
-        self.kx[..n].copy_from_slice(&start.v);
-        self.kv[..n].copy_from_slice(&start.a);
-        self.kp[0] = start.power;
-        let nw = start.forces.len();
-        self.kf[..nw].copy_from_slice(&start.forces);
+        store(&mut self.kx, 0, &start.v);
+        store(&mut self.kv, 0, &start.a);
+        store(&mut self.kp, 0, &start.power);
+        store(&mut self.kf, 0, &start.forces);
         for i in 1..STAGES {
-            self.xs.copy_from_slice(&start.x);
-            self.vs.copy_from_slice(&start.v);
-            combine(&mut self.xs, &mut self.vs, h, A[i], &self.kx, &self.kv);
-            let acc = &mut self.kv[i * n..(i + 1) * n];
-            self.kp[i] = dynamics.accel(contacts, t0 + C[i] * h, &self.xs, &self.vs, acc);
-            self.kx[i * n..(i + 1) * n].copy_from_slice(&self.vs);
-            self.kf[i * nw..(i + 1) * nw].copy_from_slice(&dynamics.forces);
+            let a = A[i];
+            for ((((xs, vs), kx), kv), (x0, v0)) in self
+                .xs
+                .iter_mut()
+                .zip(self.vs.iter_mut())
+                .zip(self.kx.chunks_exact(K))
+                .zip(self.kv.chunks_exact(K))
+                .zip(start.x.iter().zip(&start.v))
+            {
+                *xs = x0 + h * dot(a, kx);
+                *vs = v0 + h * dot(a, kv);
+            }
+            let power = dynamics.accel(contacts, t0 + C[i] * h, &self.xs, &self.vs, &mut self.acc);
+            store(&mut self.kx, i, &self.vs);
+            store(&mut self.kv, i, &self.acc);
+            store(&mut self.kp, i, &power);
+            store(&mut self.kf, i, &dynamics.forces);
         }
-        end.x.copy_from_slice(&start.x);
-        end.v.copy_from_slice(&start.v);
-        combine(&mut end.x, &mut end.v, h, &B, &self.kx, &self.kv);
-        end.work = [0.0; 3];
-        end.impulse.fill(0.0);
-        for ((&bj, p), f) in B.iter().zip(&self.kp).zip(self.kf.chunks_exact(nw.max(1))) {
-            for (w, p) in end.work.iter_mut().zip(p) {
-                *w += h * bj * p;
-            }
-            for (impulse, f) in end.impulse.iter_mut().zip(f) {
-                *impulse += h * bj * f;
-            }
+        for ((((x1, v1), kx), kv), (x0, v0)) in end
+            .x
+            .iter_mut()
+            .zip(end.v.iter_mut())
+            .zip(self.kx.chunks_exact(K))
+            .zip(self.kv.chunks_exact(K))
+            .zip(start.x.iter().zip(&start.v))
+        {
+            *x1 = x0 + h * dot(&B, kx);
+            *v1 = v0 + h * dot(&B, kv);
+        }
+        for (w, kp) in end.work.iter_mut().zip(self.kp.chunks_exact(K)) {
+            *w = h * dot(&B, kp);
+        }
+        for (impulse, kf) in end.impulse.iter_mut().zip(self.kf.chunks_exact(K)) {
+            *impulse = h * dot(&B, kf);
         }
         dynamics.at(contacts, t0 + h, end);
-        self.kx[STAGES * n..].copy_from_slice(&end.v);
-        self.kv[STAGES * n..].copy_from_slice(&end.a);
-        self.kp[STAGES] = end.power;
+        store(&mut self.kx, STAGES, &end.v);
+        store(&mut self.kv, STAGES, &end.a);
     }
 
     /// Hairer's error norm of the last step (≤ 1 is acceptable): the fifth-order estimate
@@ -283,55 +313,23 @@ impl Stages {
         h: f64,
         rough: bool,
     ) -> f64 {
-        let n = self.n;
         let (mut e5, mut e3) = (0.0, 0.0);
         let ends = start.x.iter().zip(&end.x).zip(&end.v).zip(v_max);
-        for (d, (((&x0, &x1), &v1), &speed)) in ends.enumerate() {
-            let (mut x5, mut x3, mut v5, mut v3) = (0.0, 0.0, 0.0, 0.0);
-            let stages = self
-                .kx
-                .iter()
-                .skip(d)
-                .step_by(n)
-                .zip(self.kv.iter().skip(d).step_by(n));
-            for ((kx, kv), (e5, e3)) in stages.zip(E5.iter().zip(&E3)) {
-                x5 += e5 * kx;
-                x3 += e3 * kx;
-                v5 += e5 * kv;
-                v3 += e3 * kv;
-            }
+        let stages = self.kx.chunks_exact(K).zip(self.kv.chunks_exact(K));
+        for ((((&x0, &x1), &v1), &speed), (kx, kv)) in ends.zip(stages) {
             let sx = tol.atol + tol.rtol * x0.abs().max(x1.abs());
             let sv = tol.atol / dt_max + tol.rtol * speed.max(v1.abs());
-            e5 += (x5 / sx).powi(2) + (v5 / sv).powi(2);
-            e3 += (x3 / sx).powi(2) + (v3 / sv).powi(2);
+            e5 += (dot(&E5, kx) / sx).powi(2) + (dot(&E5, kv) / sv).powi(2);
+            e3 += (dot(&E3, kx) / sx).powi(2) + (dot(&E3, kv) / sv).powi(2);
         }
         if e5 == 0.0 && e3 == 0.0 {
             return 0.0;
         }
+        let components = (2 * start.x.len()) as f64;
         if rough {
-            return h.abs() * (e5.max(e3) / (2 * n) as f64).sqrt();
+            return h.abs() * (e5.max(e3) / components).sqrt();
         }
-        h.abs() * e5 / ((e5 + 0.01 * e3) * (2 * n) as f64).sqrt()
-    }
-}
-
-/// `x += h Σ_j w_j kx_j`, `v += h Σ_j w_j kv_j` over the stages `j` with weights `w`.
-#[inline]
-fn combine(x: &mut [f64], v: &mut [f64], h: f64, weights: &[f64], kx: &[f64], kv: &[f64]) {
-    let n = x.len();
-    for ((&w, kx), kv) in weights
-        .iter()
-        .zip(kx.chunks_exact(n))
-        .zip(kv.chunks_exact(n))
-    {
-        if w == 0.0 {
-            continue;
-        }
-        let c = h * w;
-        for (((x, v), kx), kv) in x.iter_mut().zip(v.iter_mut()).zip(kx).zip(kv) {
-            *x += c * kx;
-            *v += c * kv;
-        }
+        h.abs() * e5 / ((e5 + 0.01 * e3) * components).sqrt()
     }
 }
 
@@ -378,7 +376,8 @@ fn switch_walls(sys: &System, contacts: &mut [Contact], state: &StepEnd, tol_t: 
 }
 
 /// Fraction of the step at which the first event happens (a wall closing, opening, or —
-/// with `peaks` — at its first peak), if one lies more than `tol_t` inside the step.
+/// with `peaks` — at its first peak), if one lies more than `tol_t` inside the step, and
+/// whether it is a closing or opening (where the force is singular) rather than a peak.
 fn first_event(
     sys: &System,
     contacts: &[Contact],
@@ -387,9 +386,9 @@ fn first_event(
     h: f64,
     tol_t: f64,
     peaks: bool,
-) -> Option<f64> {
+) -> Option<(f64, bool)> {
     let inside = |s: &f64| s * h > tol_t && (1.0 - s) * h > tol_t;
-    let mut first: Option<f64> = None;
+    let mut first: Option<(f64, bool)> = None;
     for (j, c) in contacts.iter().enumerate() {
         let seg = QuinticSegment::new(
             wall_motion(sys, j, &start.x, &start.v, &start.a),
@@ -405,8 +404,11 @@ fn first_event(
         } else {
             None
         };
-        for s in crossing.into_iter().chain(peak) {
-            first = Some(first.map_or(s, |f: f64| f.min(s)));
+        let events = crossing.map(|s| (s, true)).into_iter();
+        for (s, singular) in events.chain(peak.map(|s| (s, false))) {
+            if first.is_none_or(|(f, _)| s < f) {
+                first = Some((s, singular));
+            }
         }
     }
     first
@@ -454,7 +456,8 @@ pub(crate) fn run(
         Steps::Fixed(dt) => (dt, Some(dt)),
         Steps::Adaptive { first, dt_max, .. } => (first.min(dt_max), None),
     };
-    let mut landing: Option<f64> = None;
+    // A step to retake ending on an event: its length and whether the event is singular.
+    let mut landing: Option<(f64, bool)> = None;
     let mut landings = 0usize;
     // The last attempt was rejected for its error: the next accepted step does not grow.
     let mut rejected = false;
@@ -482,8 +485,9 @@ pub(crate) fn run(
             Some(dt) => ((grid_step + 1) as f64 * dt).min(t_end) - t0,
             None => h,
         };
-        let landing_step = landing.is_some();
-        let mut h_try = landing.take().unwrap_or(target).min(t_end - t0);
+        // a step landed on a closing or opening meets the force's singularity at its end
+        let (h_landing, singular_end) = landing.take().map_or((None, false), |(h, s)| (Some(h), s));
+        let mut h_try = h_landing.unwrap_or(target).min(t_end - t0);
         if t_end - (t0 + h_try) < 1e-13 * t_end {
             h_try = t_end - t0;
         }
@@ -492,7 +496,7 @@ pub(crate) fn run(
         if let Steps::Adaptive { tol, dt_max, .. } = steps {
             // the first step of a contact and a step landed on an event (a contact's end)
             // meet the force's δ^1.5 singularity
-            let rough = contact_started || landing_step;
+            let rough = contact_started || singular_end;
             err = stages.error(&tol, dt_max, &start, &end, &v_max, h_try, rough);
             if err > 1.0 && h_try > tol.dt_min * (1.0 + 1e-12) {
                 run.stats.rejected_steps += 1;
@@ -500,8 +504,10 @@ pub(crate) fn run(
                 // what the error sees; the step that ends on it is checked next
                 let near = (EVENT_NEAR * h_try).max(tol_t);
                 if landings < MAX_LANDINGS {
-                    if let Some(s) = first_event(sys, &contacts, &start, &end, h_try, near, false) {
-                        landing = Some(s * h_try);
+                    if let Some((s, _)) =
+                        first_event(sys, &contacts, &start, &end, h_try, near, false)
+                    {
+                        landing = Some((s * h_try, true));
                         landings += 1;
                         last = None;
                         continue;
@@ -516,9 +522,11 @@ pub(crate) fn run(
         }
         let near = (EVENT_NEAR * h_try).max(tol_t);
         if landings < MAX_LANDINGS {
-            if let Some(s) = first_event(sys, &contacts, &start, &end, h_try, near, true) {
+            if let Some((s, singular)) =
+                first_event(sys, &contacts, &start, &end, h_try, near, true)
+            {
                 run.stats.rejected_steps += 1;
-                landing = Some(s * h_try);
+                landing = Some((s * h_try, singular));
                 landings += 1;
                 continue;
             }
