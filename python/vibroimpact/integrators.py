@@ -619,7 +619,10 @@ trapezoidal account of the implicit methods is exact only for average accelerati
 
 Small models (a few DOFs) where impact times, peaks and rebound speeds must be accurate to
 many digits, and parameter sweeps of such models: an eighth-order method needs tens of
-steps per impact where a second-order one needs thousands. Not for FE models with stiff
+steps per impact where a second-order one needs thousands. On the sweep benchmark's impact
+oscillator (6 frequencies, 70 periods each) DOP853 at its default tolerance takes 0.05 s
+against 1.0 s for adaptive Newmark at rtol 1e-6, and its peaks are 1000× closer to the
+converged values (1e-8 against 5e-5 relative). Not for FE models with stiff
 high modes: as an explicit method its step is bounded by the stiffest mode (`ω_max·h ≲ 5`);
 use `newmark`, `generalized-alpha` or `bathe` there. No Newton iterations
 (`newton_iterations` is 0); `adaptive = false` takes fixed steps `dt` (still landing on
