@@ -71,17 +71,18 @@ DOF_VARIABLES: dict[str, tuple[str, str]] = {
 }
 
 
-def dof_variable_units(name: str, dof_units: Sequence[str]) -> tuple[list[str], str]:
+def dof_variable_units(name: str, dof_units: Sequence[str], coord: str = "dof_unit"
+                       ) -> tuple[list[str], str]:
     """The units of the :data:`DOF_VARIABLES` ``name`` per DOF of ``dof_units`` (``"rad"``
     → ``"rad/s"`` for the velocity) and the ``units`` attribute of the variable: that unit if
-    every DOF has it, else ``"m or rad per dof_unit"`` (a mixed set: the ``dof_unit``
-    coordinate gives each DOF's displacement unit)."""
+    every DOF has it, else ``"m or rad per dof_unit"`` (a mixed set: the coordinate ``coord``
+    gives each DOF's displacement unit). Also the sweeps' variables on ``dof``/``model_dof``."""
     per_time = DOF_VARIABLES[name][1]
     per_dof = [f"{u}{per_time}" for u in dof_units]
     if not per_dof:  # no DOF recorded
         return per_dof, TIME_VARIABLES[name][1]
     listed = unit_set(dof_units, per_time)
-    return per_dof, listed if len(set(dof_units)) == 1 else f"{listed} per dof_unit"
+    return per_dof, listed if len(set(dof_units)) == 1 else f"{listed} per {coord}"
 
 
 def unit_set(dof_units: Sequence[str], per_time: str = "") -> str:

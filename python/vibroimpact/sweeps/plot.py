@@ -27,9 +27,11 @@ SWEEP_KINDS = {
     "response": "sweep: amplitude against the swept parameter, up- and down-sweeps",
 }
 
+#: Bifurcation quantities: variable, axis text, unit (None: the sampled DOF's, see
+#: :func:`_dof_unit`).
 _QUANTITIES = {
-    "displacement": ("poincare_displacement", "displacement at the forcing phase", "m"),
-    "velocity": ("poincare_velocity", "velocity at the forcing phase", "m/s"),
+    "displacement": ("poincare_displacement", "displacement at the forcing phase", None),
+    "velocity": ("poincare_velocity", "velocity at the forcing phase", None),
     "impact-velocity": ("impact_velocity", "approach speed at impact", "m/s"),
 }
 
@@ -80,6 +82,16 @@ def _axis(ds: xr.Dataset, param: str | None, select: Mapping[str, float] | None
 def _label(ds: xr.Dataset, name: str) -> str:
     units = ds[name].attrs.get("units", "")
     return f"{name} [{units}]" if units and units != "1" else name
+
+
+def _dof_unit(ds: xr.Dataset, dof: int, quantity: str) -> str:
+    """The unit of ``quantity`` (``displacement``, ``velocity``) of the sampled DOF ``dof``:
+    ``rad``, ``rad/s`` for a rotation (its ``dof_unit``; ``m`` in files written before it)."""
+    from vibroimpact.io.results_file import dof_units
+    from vibroimpact.result import dof_variable_units
+
+    unit = dof_units(ds)[list(ds["dof"].values).index(dof)]
+    return dof_variable_units(quantity, [unit])[1]
 
 
 def _new(ax: Axes | None) -> tuple[Figure, Axes]:
@@ -139,8 +151,11 @@ def plot_bifurcation(
         ax.scatter(x[ok], y[ok], s=1.5, color=f"C{k}", linewidths=0,
                    label=f"{direction}-sweep" if direction else None, rasterized=True)
     ax.set_xlabel(_label(ds, param))
-    what = f"gap {gap}" if quantity == "impact-velocity" else \
-        f"DOF {int(sub['dof'].values[0]) if dof is None else dof}"
+    if units is None:
+        dd = int(sub["dof"].values[0]) if dof is None else dof
+        what, units = f"DOF {dd}", _dof_unit(sub, dd, quantity)
+    else:
+        what = f"gap {gap}"
     ax.set_ylabel(f"{text}, {what} [{units}]")
     if len(_directions(sub)) > 1:
         ax.legend(fontsize="small", markerscale=6)
@@ -194,7 +209,7 @@ def plot_response(
         ax.plot(x[impacting], yv[impacting], ".", color=f"C{k}", ms=3,
                 label="_impacting")
     ax.set_xlabel(_label(ds, param))
-    ax.set_ylabel(f"{_RESPONSES[quantity]}, DOF {dd} [m]")
+    ax.set_ylabel(f"{_RESPONSES[quantity]}, DOF {dd} [{_dof_unit(sub, dd, 'displacement')}]")
     if len(_directions(sub)) > 1:
         ax.legend(fontsize="small")
     ax.grid(True, alpha=0.3)

@@ -44,12 +44,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+import scipy.sparse as sp
 
 from vibroimpact import _core
 from vibroimpact.errors import ModelError, require
 from vibroimpact.integrators import Adaptive, Integrator, Newmark
 from vibroimpact.io.results_file import atomic_write, netcdf_engine
 from vibroimpact.model import Model
+from vibroimpact.result import DOF_UNIT_DESCRIPTION, dof_variable_units
 from vibroimpact.sweeps.grid import Param, apply
 
 if TYPE_CHECKING:
@@ -59,6 +61,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "CONTINUATIONS",
+    "DOF_QUANTITIES",
     "SUFFIXES",
     "VARIABLES",
     "ChunkEvent",
@@ -280,6 +283,11 @@ class _Plan:
         def plain(x: Any) -> Any:
             if isinstance(x, np.ndarray):
                 return x.tolist()
+            if sp.issparse(x):  # the CSR matrices of FE models
+                x = sp.csr_array(x)
+                x.sum_duplicates()
+                return {"shape": list(x.shape), "indptr": x.indptr.tolist(),
+                        "indices": x.indices.tolist(), "data": x.data.tolist()}
             if isinstance(x, dict):
                 return {str(k): plain(v) for k, v in x.items()}
             if isinstance(x, (list, tuple)):
@@ -651,7 +659,8 @@ def run_sweep(
 # The Dataset
 # --------------------------------------------------------------------------------------------
 
-#: Data variables: (dims after the grid's, unit, description).
+#: Data variables: (dims after the grid's, unit, description). The unit of those on ``dof``
+#: and ``model_dof`` is that of translations; see :data:`DOF_QUANTITIES`.
 VARIABLES: dict[str, tuple[tuple[str, ...], str, str]] = {
     "poincare_displacement": (("sample", "dof"), "m",
                               "displacement at t = (transient + sample) * forcing_period"),
@@ -671,6 +680,18 @@ VARIABLES: dict[str, tuple[tuple[str, ...], str, str]] = {
     "steps": ((), "1", "accepted steps"),
     "newton_iterations": ((), "1", "Newton iterations"),
     "rejected_steps": ((), "1", "rejected step attempts"),
+}
+
+#: The :data:`VARIABLES` on ``dof`` or ``model_dof`` → their quantity in
+#: :data:`vibroimpact.result.DOF_VARIABLES`: their ``units`` follow the DOFs' units (the
+#: coordinates ``dof_unit`` and ``model_dof_unit``) as in a single run's Dataset
+#: (:func:`vibroimpact.result.dof_variable_units`): ``"rad"`` for rotations, ``"m or rad per
+#: dof_unit"`` for a mixed set.
+DOF_QUANTITIES: dict[str, str] = {
+    "poincare_displacement": "displacement", "poincare_velocity": "velocity",
+    "displacement_max": "displacement", "displacement_min": "displacement",
+    "displacement_rms": "displacement",
+    "final_displacement": "displacement", "final_velocity": "velocity",
 }
 
 
@@ -699,8 +720,13 @@ def _dataset(sweep: Sweep, plan: _Plan, chunks: Sequence[_Chunk],
         lead, lead_shape = ("direction",), (2,)
     dims = (*lead, *grid_dims)
     full_shape = (*lead_shape, *shape)
+    model_units = sweep.model.structure.dof_units
+    units = {"dof": [model_units[d] for d in plan.dofs], "model_dof": list(model_units)}
     data_vars: dict[str, Any] = {}
     for key, (extra, unit, text) in VARIABLES.items():
+        if key in DOF_QUANTITIES:
+            unit = dof_variable_units(DOF_QUANTITIES[key], units[extra[-1]],
+                                      f"{extra[-1]}_unit")[1]
         a = rows[key].reshape(*full_shape, *rows[key].shape[1:])
         data_vars[key] = ((*dims, *extra), a, {"units": unit, "long_name": text})
     periods = np.array([plan.period(plan.point_spec(j)) for j in range(plan.n_grid)])
@@ -722,6 +748,9 @@ def _dataset(sweep: Sweep, plan: _Plan, chunks: Sequence[_Chunk],
     coords["gap"] = ("gap", np.arange(n_gaps))
     coords["impact"] = ("impact", np.arange(rows["impact_velocity"].shape[2]))
     coords["model_dof"] = ("model_dof", np.arange(rows["final_displacement"].shape[1]))
+    for dim, per_dof in units.items():
+        coords[f"{dim}_unit"] = (dim, np.array(per_dof, dtype=str),
+                                 {"long_name": DOF_UNIT_DESCRIPTION})
     listed = []
     for j in np.flatnonzero(errors != ""):
         listed.append({"point": _describe(plan, int(j)), "message": str(errors[j])})
@@ -796,9 +825,9 @@ def load_sweep(path: str | os.PathLike[str]) -> xr.Dataset:
         raise ModelError(f"RESULT: {str(path)!r} is not a sweep; expected a file written by "
                          "vibroimpact sweep")
     for name in list(ds.variables):
-        if ds[name].attrs.get("flag") == "bool":
-            attrs = {k: v for k, v in ds[name].attrs.items() if k != "flag"}
-            ds[name] = ds[name].astype(bool)
-            ds[name].attrs.update(attrs)
+        var = ds[name].variable
+        if var.attrs.get("flag") == "bool":
+            ds[name] = xr.Variable(var.dims, var.values.astype(bool),
+                                   {k: v for k, v in var.attrs.items() if k != "flag"})
     return ds
 
