@@ -156,18 +156,11 @@ impl BalanceError {
 /// Everything a run returns. Arrays are row-major with time as the first axis.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct RunOutput {
-    pub time: Vec<f64>,
+    /// The recorded rows (those not already handed to a streaming sink).
+    pub rows: Rows,
     pub record_dofs: Vec<usize>,
     /// Largest |x| of each recorded DOF over every step (not only the recorded ones), m.
     pub max_abs_displacement: Vec<f64>,
-    pub displacement: Vec<f64>,
-    pub velocity: Vec<f64>,
-    pub acceleration: Vec<f64>,
-    /// Per gap: largest penetration over its walls (negative: open by that much), m.
-    pub gap_penetration: Vec<f64>,
-    /// Per gap: contact force magnitude, N.
-    pub gap_force: Vec<f64>,
-    pub energy: EnergyHistory,
     pub impacts: Vec<ImpactRecord>,
     pub stats: Stats,
     /// Step size actually used, s.
@@ -183,15 +176,18 @@ pub trait StepObserver {
     fn accepted(&mut self, sys: &System, s0: &State, s1: &State, h: f64);
 }
 
-/// Consecutive recorded rows: the time-history columns of [`RunOutput`] for a block of
-/// recorded instants (row-major, time first).
+/// Consecutive recorded rows: the time histories of a run (or of a block of it) at the
+/// recorded instants, row-major with time first.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Rows {
     pub time: Vec<f64>,
+    /// Per recorded DOF, m (rad on rotations) and its rates.
     pub displacement: Vec<f64>,
     pub velocity: Vec<f64>,
     pub acceleration: Vec<f64>,
+    /// Per gap: largest penetration over its walls (negative: open by that much), m.
     pub gap_penetration: Vec<f64>,
+    /// Per gap: contact force magnitude, N.
     pub gap_force: Vec<f64>,
     pub energy: EnergyHistory,
 }
@@ -436,17 +432,10 @@ fn run_watched<'o>(
     }
     run.stats.wall_time_s = started.elapsed().as_secs_f64();
     let out = run.out;
-    let rows = out.rows;
     Ok(RunOutput {
-        time: rows.time,
+        rows: out.rows,
         record_dofs: record_dofs.clone(),
         max_abs_displacement: out.max_abs,
-        displacement: rows.displacement,
-        velocity: rows.velocity,
-        acceleration: rows.acceleration,
-        gap_penetration: rows.gap_penetration,
-        gap_force: rows.gap_force,
-        energy: rows.energy,
         impacts: run.log.records,
         stats: run.stats,
         dt: h0,
@@ -963,49 +952,49 @@ mod tests {
             };
             let rest = simulate_streamed(&sys, method, &s, x0, v0, &mut sink).unwrap();
             assert!(
-                sink.blocks.len() >= 3 && (1..=chunk).contains(&rest.time.len()),
+                sink.blocks.len() >= 3 && (1..=chunk).contains(&rest.rows.time.len()),
                 "{} blocks, {} rows left, {} rows",
                 sink.blocks.len(),
-                rest.time.len(),
-                whole.time.len()
+                rest.rows.time.len(),
+                whole.rows.time.len()
             );
             let mut all = sink.blocks.clone();
             all.push(Rows {
-                time: rest.time.clone(),
-                displacement: rest.displacement.clone(),
-                velocity: rest.velocity.clone(),
-                acceleration: rest.acceleration.clone(),
-                gap_penetration: rest.gap_penetration.clone(),
-                gap_force: rest.gap_force.clone(),
-                energy: rest.energy.clone(),
+                time: rest.rows.time.clone(),
+                displacement: rest.rows.displacement.clone(),
+                velocity: rest.rows.velocity.clone(),
+                acceleration: rest.rows.acceleration.clone(),
+                gap_penetration: rest.rows.gap_penetration.clone(),
+                gap_force: rest.rows.gap_force.clone(),
+                energy: rest.rows.energy.clone(),
             });
             let cat = |f: &dyn Fn(&Rows) -> &Vec<f64>| -> Vec<f64> {
                 all.iter().flat_map(|r| f(r).iter().copied()).collect()
             };
             assert!(all[..all.len() - 1].iter().all(|r| r.time.len() == chunk));
             if chunk == 1667 {
-                assert_eq!((whole.time.len(), rest.time.len()), (6668, 1667));
+                assert_eq!((whole.rows.time.len(), rest.rows.time.len()), (6668, 1667));
             }
-            assert_eq!(cat(&|r| &r.time), whole.time);
-            assert_eq!(cat(&|r| &r.displacement), whole.displacement);
-            assert_eq!(cat(&|r| &r.acceleration), whole.acceleration);
-            assert_eq!(cat(&|r| &r.gap_force), whole.gap_force);
+            assert_eq!(cat(&|r| &r.time), whole.rows.time);
+            assert_eq!(cat(&|r| &r.displacement), whole.rows.displacement);
+            assert_eq!(cat(&|r| &r.acceleration), whole.rows.acceleration);
+            assert_eq!(cat(&|r| &r.gap_force), whole.rows.gap_force);
             assert_eq!(
                 cat(&|r| &r.energy.external_work),
-                whole.energy.external_work
+                whole.rows.energy.external_work
             );
             let mut balance = BalanceError::default();
             for r in &all {
                 balance.add(&r.energy);
             }
-            assert_eq!(balance.value(), whole.energy.relative_balance_error());
+            assert_eq!(balance.value(), whole.rows.energy.relative_balance_error());
             assert_eq!(rest.impacts, whole.impacts);
             assert_eq!(rest.max_abs_displacement, whole.max_abs_displacement);
             // progress: increasing, every 64 steps, ending at t_end
             assert!(sink.progress.windows(2).all(|w| w[0] <= w[1]));
             // every = 3: at least 3 accepted steps between recorded rows (stats.steps of an
             // adaptive run also counts the halves of its doubled steps, so it is not used here)
-            let accepted = 3 * (whole.time.len() - 2);
+            let accepted = 3 * (whole.rows.time.len() - 2);
             assert!(sink.progress.len() >= accepted / interrupt::CHECK_EVERY);
             assert!((sink.progress.last().unwrap() - 0.02).abs() < 1e-12);
             assert!(sink.seen.is_empty(), "events were not asked for");

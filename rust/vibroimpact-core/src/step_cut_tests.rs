@@ -128,9 +128,9 @@ fn cut_steps_equal_a_run_at_the_cut_step_size() {
 
     // the same trajectory, bit for bit, and the same impact table (times, and the peaks
     // interpolated in time, to the last bits of the step instants)
-    let last = reference.time.len() - 1;
-    assert_eq!(run.cur.x[..], reference.displacement[2 * last..]);
-    assert_eq!(run.cur.v[..], reference.velocity[2 * last..]);
+    let last = reference.rows.time.len() - 1;
+    assert_eq!(run.cur.x[..], reference.rows.displacement[2 * last..]);
+    assert_eq!(run.cur.v[..], reference.rows.velocity[2 * last..]);
     let ours = &run.log.records;
     assert!(ours.len() >= 4, "{} impacts", ours.len());
     assert_eq!(ours.len(), reference.impacts.len());

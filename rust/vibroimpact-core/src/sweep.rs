@@ -560,13 +560,13 @@ mod tests {
         let m = (period / dt).round() as usize;
         for k in 1..=4 {
             let i = (5 + k) * m;
-            assert_eq!(p.poincare_displacement[k - 1], full.displacement[i]);
-            assert_eq!(p.poincare_velocity[k - 1], full.velocity[i]);
+            assert_eq!(p.poincare_displacement[k - 1], full.rows.displacement[i]);
+            assert_eq!(p.poincare_velocity[k - 1], full.rows.velocity[i]);
         }
-        let last = full.time.len() - 1;
-        assert_eq!(p.final_displacement[0], full.displacement[last]);
-        assert_eq!(p.final_velocity[0], full.velocity[last]);
-        let kept = &full.displacement[5 * m..];
+        let last = full.rows.time.len() - 1;
+        assert_eq!(p.final_displacement[0], full.rows.displacement[last]);
+        assert_eq!(p.final_velocity[0], full.rows.velocity[last]);
+        let kept = &full.rows.displacement[5 * m..];
         let step_max = kept.iter().copied().fold(f64::MIN, f64::max);
         let step_min = kept.iter().copied().fold(f64::MAX, f64::min);
         assert!(p.displacement_max[0] >= step_max && p.displacement_max[0] < step_max + 1e-4);

@@ -78,7 +78,7 @@ fn hertz_impact_matches_closed_form() {
         imp.restitution()
     );
     assert!(rel(imp.impulse, 2.0 * m * v0) < 1e-5);
-    assert!(out.energy.relative_balance_error() < 1e-6);
+    assert!(out.rows.energy.relative_balance_error() < 1e-6);
 }
 
 /// Undamped and damped free vibration against the exact solution; second-order convergence.
@@ -98,9 +98,10 @@ fn newmark_free_vibration_converges_at_second_order() {
     for &dt in &[2e-3, 1e-3, 5e-4] {
         let out = run(&sys, t_end, dt, x0, v0);
         let err = out
+            .rows
             .time
             .iter()
-            .zip(&out.displacement)
+            .zip(&out.rows.displacement)
             .map(|(&t, &x)| (x - exact(t)).abs())
             .fold(0.0, f64::max);
         errors.push(err);
@@ -142,5 +143,5 @@ fn bilateral_clearance_energy_account_balances() {
     let first = &out.impacts[0];
     assert!((first.t_start - 0.005 / 8.0).abs() < 1e-12);
     assert!(first.restitution() < 0.95 && first.restitution() > 0.85);
-    assert!(out.energy.relative_balance_error() < 1e-4);
+    assert!(out.rows.energy.relative_balance_error() < 1e-4);
 }

@@ -246,18 +246,18 @@ fn run_case(c: &Case) -> Result<(), TestCaseError> {
         Err(e) => return Err(TestCaseError::fail(format!("simulate: Err({e:?})"))),
         Ok(out) => {
             RAN.fetch_add(1, Ordering::Relaxed);
-            let nt = out.time.len();
+            let nt = out.rows.time.len();
             prop_assert!(nt >= 1);
-            prop_assert_eq!(out.displacement.len(), nt * n);
-            prop_assert_eq!(out.gap_force.len(), nt * sys.gaps.len());
-            prop_assert!(out.time.windows(2).all(|w| w[0] <= w[1]));
-            prop_assert!(out.displacement.iter().all(|v| v.is_finite()));
+            prop_assert_eq!(out.rows.displacement.len(), nt * n);
+            prop_assert_eq!(out.rows.gap_force.len(), nt * sys.gaps.len());
+            prop_assert!(out.rows.time.windows(2).all(|w| w[0] <= w[1]));
+            prop_assert!(out.rows.displacement.iter().all(|v| v.is_finite()));
             prop_assert!(
-                out.gap_force.iter().all(|&f| f >= 0.0),
+                out.rows.gap_force.iter().all(|&f| f >= 0.0),
                 "a tensile contact force"
             );
             match &out.error {
-                None => prop_assert!((out.time[nt - 1] - c.t_end).abs() <= 1e-9 * c.t_end),
+                None => prop_assert!((out.rows.time[nt - 1] - c.t_end).abs() <= 1e-9 * c.t_end),
                 Some(e) => prop_assert!(!e.to_string().contains('\n')),
             }
         }

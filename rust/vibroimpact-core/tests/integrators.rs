@@ -75,9 +75,10 @@ fn precise_free_vibration_is_exact_at_any_step() {
         for dt in [1e-3, 0.025, 0.1, 0.25] {
             let out = run(&sys, method, 2.0, dt, x0, v0);
             let worst = out
+                .rows
                 .time
                 .iter()
-                .zip(out.displacement.iter().zip(&out.velocity))
+                .zip(out.rows.displacement.iter().zip(&out.rows.velocity))
                 .map(|(&t, (&x, &v))| {
                     let (xe, ve) = free_damped(m, c, k, x0, v0, t);
                     ((x - xe) / x0.hypot(v0 / 20.0))
@@ -133,9 +134,10 @@ fn forced_response_orders() {
             .iter()
             .map(|&dt| {
                 let out = run(&sys, method, 1.0, dt, 0.0, 0.0);
-                out.time
+                out.rows
+                    .time
                     .iter()
-                    .zip(&out.displacement)
+                    .zip(&out.rows.displacement)
                     .map(|(&t, &x)| (x - forced(m, c, k, f, w, t)).abs())
                     .fold(0.0, f64::max)
             })
@@ -225,19 +227,21 @@ fn bathe_damps_unresolved_frequencies_and_keeps_resolved_ones() {
     let (m, k) = (1.0, 1e4); // ω = 100
     let sys = sdof(m, 0.0, k, vec![], vec![]);
     let out = run(&sys, BATHE, 20.0, 1.0, 1.0, 0.0);
-    assert!(out.displacement.last().unwrap().abs() < 1e-10);
+    assert!(out.rows.displacement.last().unwrap().abs() < 1e-10);
     let out = run(&sys, BATHE, 0.1, 1e-4, 1.0, 0.0);
     let amp = out
+        .rows
         .displacement
         .iter()
-        .zip(&out.velocity)
+        .zip(&out.rows.velocity)
         .map(|(x, v)| x.hypot(v / 100.0))
         .fold(0.0, f64::max);
     let last = out
+        .rows
         .displacement
         .last()
         .unwrap()
-        .hypot(out.velocity.last().unwrap() / 100.0);
+        .hypot(out.rows.velocity.last().unwrap() / 100.0);
     assert!(
         (amp - 1.0).abs() < 1e-6 && (last - 1.0).abs() < 1e-6,
         "{amp} {last}"

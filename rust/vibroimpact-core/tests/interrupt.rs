@@ -61,8 +61,8 @@ fn a_requested_interrupt_stops_the_run_with_its_results_up_to_then() {
         .to_string()
         .contains("interrupted at t = "));
     assert_eq!(out.stats.steps, interrupt::CHECK_EVERY);
-    assert!((out.time.last().unwrap() - t_stop).abs() < 1e-12);
-    assert_eq!(out.displacement.len(), out.time.len());
+    assert!((out.rows.time.last().unwrap() - t_stop).abs() < 1e-12);
+    assert_eq!(out.rows.displacement.len(), out.rows.time.len());
     // the recorded samples are those of an uninterrupted run
     let short = RunSettings {
         t_end: t_stop,
@@ -70,8 +70,8 @@ fn a_requested_interrupt_stops_the_run_with_its_results_up_to_then() {
     };
     let full = simulate(&sys, method, &short, x0, v0).unwrap();
     assert!(full.error.is_none());
-    assert_eq!(full.time.len(), out.time.len());
-    assert_eq!(full.displacement, out.displacement);
+    assert_eq!(full.rows.time.len(), out.rows.time.len());
+    assert_eq!(full.rows.displacement, out.rows.displacement);
 }
 
 /// The impulsive methods poll the flag once per step too.
@@ -120,6 +120,6 @@ fn impulsive_methods_stop_on_an_interrupt() {
             Some(SimError::Interrupted { t }) => assert!((t - 1e-3).abs() < 1e-12, "{t}"),
             ref other => panic!("expected an interrupt, got {other:?}"),
         }
-        assert!(*out.time.last().unwrap() <= 1e-3 + 1e-12);
+        assert!(*out.rows.time.last().unwrap() <= 1e-3 + 1e-12);
     }
 }

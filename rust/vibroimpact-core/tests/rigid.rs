@@ -114,12 +114,12 @@ fn event_driven_bouncing_mass_matches_closed_form_and_sticks_at_accumulation_poi
         (last.force_max - G).abs() < 1e-9,
         "contact force while stuck = weight"
     );
-    let k = out.time.len() - 1;
-    assert!(out.displacement[k].abs() < 1e-12 && out.velocity[k].abs() < 1e-12);
+    let k = out.rows.time.len() - 1;
+    assert!(out.rows.displacement[k].abs() < 1e-12 && out.rows.velocity[k].abs() < 1e-12);
     // Energy: what the impacts dissipate balances the work of gravity.
-    let balance = out.energy.relative_balance_error();
+    let balance = out.rows.energy.relative_balance_error();
     assert!(balance < 1e-9, "energy balance {balance}");
-    assert!(out.gap_penetration.iter().all(|&p| p <= 1e-12));
+    assert!(out.rows.gap_penetration.iter().all(|&p| p <= 1e-12));
 }
 
 #[test]
@@ -155,14 +155,15 @@ fn moreau_jean_converges_to_the_closed_form() {
         );
         assert!(out.error.is_none());
         let err = out
+            .rows
             .time
             .iter()
-            .zip(&out.displacement)
+            .zip(&out.rows.displacement)
             .map(|(&t, &x)| (x - exact(t)).abs())
             .fold(0.0, f64::max);
         errors.push(err);
         // Energy identity of θ = 1/2.
-        assert!(out.energy.relative_balance_error() < 1e-9);
+        assert!(out.rows.energy.relative_balance_error() < 1e-9);
     }
     let slope = (errors[0] / errors[4]).ln() / (dts[0] / dts[4]).ln();
     eprintln!("Moreau-Jean errors {errors:?}, order {slope:.3}");
@@ -176,12 +177,12 @@ fn moreau_jean_converges_to_the_closed_form() {
         1e-3,
         h,
     );
-    let k = out.time.len() - 1;
+    let k = out.rows.time.len() - 1;
     assert!(
-        out.displacement[k].abs() < 1e-5 && out.velocity[k].abs() < 1e-9,
+        out.rows.displacement[k].abs() < 1e-5 && out.rows.velocity[k].abs() < 1e-9,
         "{} {}",
-        out.displacement[k],
-        out.velocity[k]
+        out.rows.displacement[k],
+        out.rows.velocity[k]
     );
     let last = out.impacts.last().unwrap();
     assert!(last.t_end.is_nan(), "still in contact at the end");
@@ -253,9 +254,16 @@ fn simultaneous_impacts_of_two_gaps() {
         } else {
             2e-4
         };
-        for i in 0..out.time.len() {
-            let (a, b) = (out.displacement[2 * i], out.displacement[2 * i + 1]);
-            assert!((a + b).abs() < 1e-9, "antisymmetric at {}", out.time[i]);
+        for i in 0..out.rows.time.len() {
+            let (a, b) = (
+                out.rows.displacement[2 * i],
+                out.rows.displacement[2 * i + 1],
+            );
+            assert!(
+                (a + b).abs() < 1e-9,
+                "antisymmetric at {}",
+                out.rows.time[i]
+            );
             assert!(a <= 0.01 + tol && b >= -0.01 - tol, "{a} {b}");
         }
     }
@@ -312,8 +320,8 @@ fn coupled_simultaneous_impact_leaves_no_wall_approaching() {
     assert!((first.t_start - 0.01).abs() < 1e-12);
     assert!((first.impulse - 1.5).abs() < 1e-9 && (first.v_out - 0.75).abs() < 1e-9);
     // No penetration later.
-    assert!(out.gap_penetration.iter().all(|&p| p <= 1e-9));
-    assert!(out.energy.relative_balance_error() < 1e-9);
+    assert!(out.rows.gap_penetration.iter().all(|&p| p <= 1e-9));
+    assert!(out.rows.energy.relative_balance_error() < 1e-9);
 }
 
 #[test]

@@ -296,15 +296,7 @@ impl Running {
         };
         let mut out = out.map_err(to_py_err)?;
         let mut blocks: Vec<Rows> = std::mem::take(&mut self.pending);
-        blocks.push(Rows {
-            time: std::mem::take(&mut out.time),
-            displacement: std::mem::take(&mut out.displacement),
-            velocity: std::mem::take(&mut out.velocity),
-            acceleration: std::mem::take(&mut out.acceleration),
-            gap_penetration: std::mem::take(&mut out.gap_penetration),
-            gap_force: std::mem::take(&mut out.gap_force),
-            energy: std::mem::take(&mut out.energy),
-        });
+        blocks.push(std::mem::take(&mut out.rows));
         let rows = concat(blocks);
         self.balance.add(&rows.energy);
         output_to_dict(py, out, rows, self.n_gaps, self.balance.value())

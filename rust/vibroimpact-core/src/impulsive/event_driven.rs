@@ -757,7 +757,7 @@ pub(crate) fn run(
             out.record(sys, &d.rig, p.t, &p.x, &p.v, &a, &forces, &d.work);
         }
     }
-    if error.is_some() && out.time.last() != Some(&p.t) {
+    if error.is_some() && out.rows.time.last() != Some(&p.t) {
         let (_, a) = d.accel(&p);
         let forces = d.wall_forces(&p);
         out.record(sys, &d.rig, p.t, &p.x, &p.v, &a, &forces, &d.work);

@@ -31,7 +31,7 @@ use nalgebra::{DMatrix, DVector};
 
 use crate::error::{invalid, SimError};
 use crate::gap::ImpactRecord;
-use crate::simulate::{EnergyHistory, Method, RunOutput, RunSettings, Stats};
+use crate::simulate::{Method, Rows, RunOutput, RunSettings, Stats};
 use crate::structure::DenseStructure;
 use crate::system::System;
 
@@ -239,13 +239,7 @@ impl Work {
 /// Decimated output of the impulsive methods.
 pub(crate) struct Output {
     pub record_dofs: Vec<usize>,
-    pub time: Vec<f64>,
-    pub x: Vec<f64>,
-    pub v: Vec<f64>,
-    pub a: Vec<f64>,
-    pub penetration: Vec<f64>,
-    pub force: Vec<f64>,
-    pub energy: EnergyHistory,
+    pub rows: Rows,
     pub max_abs: Vec<f64>,
 }
 
@@ -254,13 +248,7 @@ impl Output {
         let nd = record_dofs.len();
         Self {
             record_dofs,
-            time: Vec::new(),
-            x: Vec::new(),
-            v: Vec::new(),
-            a: Vec::new(),
-            penetration: Vec::new(),
-            force: Vec::new(),
-            energy: EnergyHistory::default(),
+            rows: Rows::default(),
             max_abs: vec![0.0; nd],
         }
     }
@@ -285,11 +273,12 @@ impl Output {
         work: &Work,
     ) {
         self.peaks(x);
-        self.time.push(t);
+        let rows = &mut self.rows;
+        rows.time.push(t);
         for &d in &self.record_dofs {
-            self.x.push(x[d]);
-            self.v.push(v[d]);
-            self.a.push(a[d]);
+            rows.displacement.push(x[d]);
+            rows.velocity.push(v[d]);
+            rows.acceleration.push(a[d]);
         }
         let ng = sys.gaps.len();
         let mut pen = vec![f64::NEG_INFINITY; ng];
@@ -298,10 +287,10 @@ impl Output {
             pen[wall.gap] = pen[wall.gap].max(rig.penetration(j, x));
             force[wall.gap] += wall_force[j];
         }
-        self.penetration.extend_from_slice(&pen);
-        self.force.extend_from_slice(&force);
+        rows.gap_penetration.extend_from_slice(&pen);
+        rows.gap_force.extend_from_slice(&force);
         let (kinetic, strain) = rig.energies(sys, x, v);
-        let e = &mut self.energy;
+        let e = &mut rows.energy;
         e.kinetic.push(kinetic);
         e.strain.push(strain);
         e.contact_potential.push(0.0);
@@ -318,15 +307,9 @@ impl Output {
         error: Option<SimError>,
     ) -> RunOutput {
         RunOutput {
-            time: self.time,
+            rows: self.rows,
             record_dofs: self.record_dofs,
             max_abs_displacement: self.max_abs,
-            displacement: self.x,
-            velocity: self.v,
-            acceleration: self.a,
-            gap_penetration: self.penetration,
-            gap_force: self.force,
-            energy: self.energy,
             impacts,
             stats,
             dt,

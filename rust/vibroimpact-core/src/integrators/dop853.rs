@@ -770,7 +770,7 @@ mod tests {
             imp.delta_max
         );
         assert!((imp.v_out / v - 1.0).abs() < 1e-9, "{}", imp.v_out);
-        let e = &out.energy;
+        let e = &out.rows.energy;
         let e0 = e.kinetic[0];
         for i in 0..e.kinetic.len() {
             let total = e.kinetic[i] + e.contact_potential[i];
