@@ -284,3 +284,14 @@ def test_mutated_beam_files_give_only_model_file_errors(data: st.DataObject,
         assert e.errors
         for line in e.errors:
             assert line and "\n" not in line and ": " in line and "expected" in line
+
+
+def test_an_absurd_beam_length_is_a_model_error_not_an_overflow() -> None:
+    """A length whose L³ overflows (found by the mutation test above) is reported on
+    structure.length with what was expected, not as Python's OverflowError."""
+    from vibroimpact.fe import Beam, Material, Section
+
+    with pytest.raises(vi.ModelError, match=r"^structure\.length: 1\.1e\+104 m .*expected"):
+        Beam(length=1.1e104, elements=4,
+             section=Section.tube(outer_diameter=0.19, wall_thickness=0.005),
+             material=Material(youngs_modulus=207e9, poisson=0.3, density=7800.0))

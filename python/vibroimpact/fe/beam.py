@@ -738,15 +738,24 @@ class Beam:
     def _assemble(self) -> None:
         ndpn = self.dofs_per_node
         n_full = self.n_nodes * ndpn
-        ke, me = element_matrices(
-            self.section,
-            self.material,
-            self.element_length,
-            theory=self.theory,
-            rotary_inertia=bool(self.rotary_inertia),
-            lumped=self.lumped_mass,
-            dofs_per_node=ndpn,
-        )
+        try:
+            ke, me = element_matrices(
+                self.section,
+                self.material,
+                self.element_length,
+                theory=self.theory,
+                rotary_inertia=bool(self.rotary_inertia),
+                lumped=self.lumped_mass,
+                dofs_per_node=ndpn,
+            )
+        except (OverflowError, ZeroDivisionError):
+            ke = me = np.array([np.inf])
+        if not (np.all(np.isfinite(ke)) and np.all(np.isfinite(me))):
+            raise ModelError(
+                f"structure.length: {self.length!r} m over {self.elements} elements gives "
+                "non-finite element matrices; expected a length, section and material whose "
+                "E·I/L³ and ρ·A·L are finite in floating point"
+            )
         nel = self.elements
         local = np.arange(2 * ndpn)
         rows, cols, kv, mv = [], [], [], []
