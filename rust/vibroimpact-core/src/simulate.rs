@@ -663,6 +663,12 @@ impl<'o> Run<'o> {
         Ok(())
     }
 
+    /// The scale of the run's energies, J: the initial mechanical energy or the external work
+    /// done so far, whichever is larger.
+    pub(crate) fn energy_scale(&self) -> f64 {
+        self.e0.max(self.account.external_work.abs())
+    }
+
     /// [`SimError::EnergyGrowth`] if the mechanical energy exceeds
     /// [`ENERGY_GROWTH_LIMIT`] times the largest energy that entered the system (the initial
     /// energy plus the external work, or the initial energy alone).
