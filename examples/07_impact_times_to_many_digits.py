@@ -12,7 +12,6 @@ import sys
 from pathlib import Path
 
 import numpy as np
-
 import vibroimpact as vi
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "example-output")
