@@ -6,5 +6,5 @@ cd "$(dirname "$0")/.."
 cargo fmt --all -- --check
 cargo clippy --workspace --all-targets -- -D warnings
 cargo test -p vibroimpact-core
-ruff check python tests benchmarks
+ruff check python tests benchmarks examples
 python -m pytest -q
