@@ -7,11 +7,14 @@
 //! The contact set is fixed inside a step, so every step integrates a smooth equation: each
 //! wall's closing, opening and first penetration peak is located on the step's quintic
 //! Hermite interpolant of the penetration (value, rate and acceleration at both ends) and the
-//! step is retaken to end there, until the event lies within [`EVENT_TOL`]`· t_end` of the
-//! step's end; the wall is switched at the start of the next step. `v_imp`, `t_start`,
-//! `t_end`, `v_out` and the peak are therefore those of the integrated motion, to its
-//! tolerance. The work integrals of the energy account are integrated with the same stages
-//! (no trapezoidal rule), so the energy balance closes to the method's accuracy.
+//! step is retaken to end there, until the event lies within [`EVENT_NEAR`] of a step (or
+//! [`EVENT_TOL`] of `t_end`) of the step's end; the wall is switched at the start of the next
+//! step. `v_imp`, `t_start`, `t_end`, `v_out` and the peak are therefore those of the
+//! integrated motion, to its tolerance. A Hertzian force starts and ends like `t^1.5`: the
+//! first step of a contact and a step landed on a closing or opening take the larger, third-
+//! order error estimate. The work integrals of the energy account and each wall's impulse
+//! are integrated with the same stages (no trapezoidal rule) and the work integrals are
+//! error-controlled too, so the energy balance closes to the method's accuracy.
 //!
 //! Explicit: the step is bounded by the stiffest mode (`ω_max h ≲ 5`), so FE models with
 //! stiff high modes are better served by the implicit methods.
@@ -30,6 +33,7 @@ use crate::system::System;
 /// the open side of the wall, so switching that early changes the motion by far less than
 /// the tolerance, and the impact table interpolates the crossing inside the step anyway.
 const EVENT_NEAR: f64 = 1e-5;
+/// The smallest such distance, as a fraction of `t_end`.
 const EVENT_TOL: f64 = 1e-14;
 
 /// Sub-intervals of a step on which a crossing of the penetration is searched.
