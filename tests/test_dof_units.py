@@ -263,3 +263,48 @@ def test_plots_label_rotation_axes_in_rad(beam_result: vi.Result, kind: str,
 def test_phase_portrait_of_a_rotation(beam_result: vi.Result) -> None:
     ax = beam_result.plot("phase", dofs=[7]).axes[0]
     assert (ax.get_xlabel(), ax.get_ylabel()) == ("displacement [rad]", "velocity [rad/s]")
+
+
+def _matrices_file(tmp_path: Path, extra: str) -> Path:
+    """A 3-DOF ``kind = "matrices"`` model (translation, rotation, massless translation)."""
+    text = f"""
+[structure]
+kind = "matrices"
+mass = [[2.0, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.0]]
+stiffness = [[3e4, 1e3, -1e4], [1e3, 500.0, 0.0], [-1e4, 0.0, 2e4]]
+{extra}
+
+[[gaps]]
+dof = 0
+clearance = 1e-3
+side = "both"
+law = {{ kind = "hertz", stiffness = 1e9 }}
+
+[initial]
+velocity = [0.5, 0.0, 0.0]
+
+[solver]
+dt = 1e-5
+t_end = 0.01
+"""
+    path = tmp_path / "model.toml"
+    path.write_text(text)
+    return path
+
+
+def test_matrices_model_file_declares_dof_units(tmp_path: Path) -> None:
+    """``structure.dof_units`` for matrices without a DOF map: kept through the static
+    condensation of the massless DOF (the run's DOFs are the retained ones) and recovered on
+    the full model's DOFs; given with a DOF map, or with a unit that is not m or rad, it is a
+    one-line model-file error."""
+    mf = load_model(_matrices_file(tmp_path, 'dof_units = ["m", "rad", "m"]'))
+    assert mf.condensation.full.dof_units == ("m", "rad", "m")
+    assert mf.model.structure.dof_units == ("m", "rad")
+    r = mf.recovery().result(vi.simulate(mf.model, 0.01, 1e-5,
+                                         dofs=mf.recovery().record.tolist()))
+    assert r.dof_units == ("m", "rad", "m")
+    with pytest.raises(ModelError, match=r"structure\.dof_units: .*expected one of them"):
+        load_model(_matrices_file(tmp_path, 'dof_units = ["m", "rad", "m"]\n'
+                                            'dof_map = ["1.x", "1.ry", "2.x"]'))
+    with pytest.raises(ModelError, match=r"structure\.dof_units.*'deg'"):
+        load_model(_matrices_file(tmp_path, 'dof_units = ["m", "deg", "m"]'))

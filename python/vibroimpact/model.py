@@ -153,7 +153,7 @@ class Structure:
         object.__setattr__(self, "mass", m)
         object.__setattr__(self, "stiffness", k)
         object.__setattr__(self, "damping", c)
-        object.__setattr__(self, "dof_units", _dof_units(dof_units, n))
+        object.__setattr__(self, "dof_units", check_dof_units(dof_units, n))
 
     @classmethod
     def sdof(cls, mass: float, stiffness: float = 0.0, damping: float = 0.0) -> Structure:
@@ -184,7 +184,7 @@ class Structure:
         return m, k, c
 
 
-def _dof_units(value: Sequence[str] | None, n: int) -> tuple[str, ...]:
+def check_dof_units(value: Sequence[str] | None, n: int) -> tuple[str, ...]:
     """``value`` checked as one of :data:`DOF_UNITS` per DOF (None: ``"m"`` for all)."""
     if value is None:
         return ("m",) * n

@@ -230,7 +230,9 @@ def condense_massless(fe: FEStructure, keep: Iterable[int] = ()) -> StaticConden
             stacklevel=2,
         )
     dof_map = None if fe.dof_map is None else fe.dof_map.take(m_idx.tolist())
-    reduced = FEStructure(m_r, k_r, c_r, dof_map)
+    declared = (None if fe.declared_units is None
+                else tuple(fe.declared_units[i] for i in m_idx.tolist()))
+    reduced = FEStructure(m_r, k_r, c_r, dof_map, declared)
     return StaticCondensation(fe, reduced, m_idx, s, t, residual)
 
 

@@ -30,7 +30,7 @@ from numpy.typing import ArrayLike
 
 from vibroimpact.contact import ContactLaw
 from vibroimpact.errors import ModelError
-from vibroimpact.model import Gap, Model, Structure
+from vibroimpact.model import Gap, Model, Structure, check_dof_units
 
 if TYPE_CHECKING:
     from vibroimpact.fe.condensation import StaticCondensation
@@ -208,12 +208,15 @@ def as_sparse(value: Any, name: str, n: int | None = None) -> sp.csr_array:
 class FEStructure:
     """A linear structure kept sparse (``M`` kg, ``C`` N·s/m, ``K`` N/m as CSR arrays) with an
     optional :class:`DofMap`. Build the (sparse) :class:`~vibroimpact.Structure` the core runs
-    with :meth:`to_structure`, or reduce it first (:func:`vibroimpact.fe.craig_bampton`)."""
+    with :meth:`to_structure`, or reduce it first (:func:`vibroimpact.fe.craig_bampton`).
+    ``declared_units``: each DOF's unit ("m" or "rad") for a structure without a DOF map
+    (a map's directions give them)."""
 
     mass: sp.csr_array
     stiffness: sp.csr_array
     damping: sp.csr_array | None = None
     dof_map: DofMap | None = None
+    declared_units: tuple[str, ...] | None = None
 
     def __init__(
         self,
@@ -221,6 +224,7 @@ class FEStructure:
         stiffness: Any,
         damping: Any = None,
         dof_map: DofMap | None = None,
+        declared_units: Sequence[str] | None = None,
     ) -> None:
         m = as_sparse(mass, "structure.mass")
         n = m.shape[0]
@@ -244,6 +248,14 @@ class FEStructure:
         object.__setattr__(self, "stiffness", k)
         object.__setattr__(self, "damping", c)
         object.__setattr__(self, "dof_map", dof_map)
+        if declared_units is not None:
+            if dof_map is not None:
+                raise ModelError(
+                    "structure.dof_units: given with a DOF map; expected one of them (the map's "
+                    "directions give each DOF's unit)"
+                )
+            declared_units = check_dof_units(declared_units, n)
+        object.__setattr__(self, "declared_units", declared_units)
 
     @property
     def n_dof(self) -> int:
@@ -251,8 +263,11 @@ class FEStructure:
 
     @property
     def dof_units(self) -> tuple[str, ...]:
-        """The unit of each DOF (:meth:`DofMap.units`; ``"m"`` for all without a DOF map)."""
-        return ("m",) * self.n_dof if self.dof_map is None else self.dof_map.units()
+        """The unit of each DOF (:meth:`DofMap.units`; else the declared units, or ``"m"`` for
+        all)."""
+        if self.dof_map is not None:
+            return self.dof_map.units()
+        return self.declared_units or ("m",) * self.n_dof
 
     def with_damping(self, damping: Damping | Any) -> FEStructure:
         """A copy with damping ``C``: a :class:`~vibroimpact.fe.Rayleigh` or
@@ -260,7 +275,7 @@ class FEStructure:
         from vibroimpact.fe.damping import Damping
 
         c = damping.matrix(self.mass, self.stiffness) if isinstance(damping, Damping) else damping
-        return FEStructure(self.mass, self.stiffness, c, self.dof_map)
+        return FEStructure(self.mass, self.stiffness, c, self.dof_map, self.declared_units)
 
     @property
     def massless_dofs(self) -> list[int]:

@@ -314,6 +314,10 @@ SCHEMA: tuple[Field, ...] = (
           default_text="from the files: job.dof beside a CalculiX .sti/.mas, the node/DOF entries "
           "of ABAQUS files, dof_nodes/dof_directions of an .npz; else none",
           rule="one entry per DOF", when=_MATRICES),
+    Field("structure.dof_units", "strings", "the unit of each DOF's displacement, \"m\" or "
+          "\"rad\" (results, files and plots label each DOF with it)",
+          default_text="from the DOF map's directions (4-6, rx-rz: rad); without a map all m",
+          rule="one entry per DOF; not with a DOF map", when=_MATRICES),
     Field("structure.length", "number", "beam length (the beam lies on z from 0)", unit="m",
           default=REQUIRED, minimum=0, minimum_inclusive=False, when=_BEAM),
     Field("structure.elements", "integer", "number of equal elements", default=REQUIRED,
@@ -1089,7 +1093,7 @@ def _build_matrices(ck: _Checker, s: Mapping[str, Any]) -> Structure | None:
     m = got.matrices
     try:
         fe = FEStructure(m["mass"], m.get("stiffness", 0 * m["mass"]), m.get("damping"),
-                         got.dof_map)
+                         got.dof_map, s.get("dof_units"))
         massless = fe.massless_dofs
         retained = np.setdiff1d(np.arange(fe.n_dof), massless)
         if spd_solver(fe.mass[retained][:, retained]) is None:
