@@ -221,3 +221,11 @@ def test_tabulated_law_energy_account_converges() -> None:
               for rtol in (1e-8, 1e-10)]
     assert errors[0] < 1e-6
     assert errors[1] < errors[0] / 20
+
+
+def test_newton_options_are_refused() -> None:
+    """DOP853 is explicit: Newton options given to it are an error, not silently ignored."""
+    with pytest.raises(vi.ModelError, match=r"solver\.newton: .*no Newton iterations"):
+        vi.Dop853(newton=vi.NewtonOptions(rtol=1e-6))
+    with pytest.raises(vi.ModelError, match=r"solver\.max_iterations: not an option"):
+        method_from_options("dop853", {"max_iterations": 5})

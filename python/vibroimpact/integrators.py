@@ -321,6 +321,11 @@ class Dop853(Integrator):
     adaptive_defaults: ClassVar[dict[str, float] | None] = {"rtol": 1e-8, "atol": 1e-12}
     adaptive: Adaptive | None = field(default_factory=lambda: Adaptive(rtol=1e-8, atol=1e-12))
 
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        require(self.newton == NewtonOptions(), "solver.newton", self.newton,
+                "the defaults: dop853 is explicit and runs no Newton iterations")
+
     def to_spec(self) -> dict[str, Any]:
         return {"kind": "dop853"}
 
