@@ -77,6 +77,8 @@ struct Dynamics<'s> {
     rhs: Vec<f64>,
     /// Each wall's force at the last evaluation, N.
     forces: Vec<f64>,
+    /// `K` has a nonzero entry (a free body has none).
+    has_stiffness: bool,
 }
 
 impl<'s> Dynamics<'s> {
@@ -101,6 +103,7 @@ impl<'s> Dynamics<'s> {
             mass_inverse,
             rhs: vec![0.0; n],
             forces: vec![0.0; sys.walls.len()],
+            has_stiffness: sys.structure.stiffness.values().iter().any(|&k| k != 0.0),
         }
     }
 
@@ -165,7 +168,9 @@ impl<'s> Dynamics<'s> {
                 damping += ci * vi;
             }
         }
-        st.stiffness.mul_add(-1.0, x, f);
+        if self.has_stiffness {
+            st.stiffness.mul_add(-1.0, x, f);
+        }
         match &self.mass_inverse {
             Some(inverse) => {
                 for (ai, row) in a.iter_mut().zip(inverse.chunks_exact(f.len())) {
