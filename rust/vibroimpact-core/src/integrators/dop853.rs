@@ -479,6 +479,8 @@ pub(crate) fn run(
     start.v.copy_from_slice(&run.cur.v);
     dynamics.at(&contacts, run.cur.t, &mut start);
     let mut end = fresh();
+    // each wall's largest force inside the accepted step (for the impact table)
+    let mut force_max = vec![0.0; sys.walls.len()];
     let mut v_max: Vec<f64> = start.v.iter().map(|v| v.abs()).collect();
     let (mut h, dt_fixed) = match steps {
         Steps::Fixed(dt) => (dt, Some(dt)),
@@ -571,7 +573,7 @@ pub(crate) fn run(
         landings = 0;
         near_switch = 2.0 * near;
         let landed = h_try < target * (1.0 - 1e-12);
-        if let Err(e) = commit(run, sys, &contacts, t0 + h_try, &start, &end, h_try) {
+        if let Err(e) = commit(run, sys, &contacts, &start, &end, h_try, &mut force_max) {
             return Some(e);
         }
         accepted += 1;
@@ -633,14 +635,15 @@ fn commit(
     run: &mut Run,
     sys: &System,
     contacts: &[Contact],
-    t: f64,
     start: &StepEnd,
     end: &StepEnd,
     h: f64,
+    force_max: &mut [f64],
 ) -> Result<(), SimError> {
-    let force_max: Vec<f64> = (0..sys.walls.len())
-        .map(|j| largest_force(sys, &contacts[j], j, start, end, h))
-        .collect();
+    let t = run.cur.t + h;
+    for (j, (c, f)) in contacts.iter().zip(force_max.iter_mut()).enumerate() {
+        *f = largest_force(sys, c, j, start, end, h);
+    }
     let s = &mut run.trial;
     s.t = t;
     s.x.copy_from_slice(&end.x);
@@ -685,7 +688,7 @@ fn commit(
     let integrals = StepIntegrals {
         work: end.work,
         impulse: &end.impulse,
-        force_max: &force_max,
+        force_max,
     };
     run.commit_trial(sys, h, 0, Some(&integrals))
 }
@@ -723,9 +726,8 @@ fn largest_force(
         )
         .force
     };
-    let samples: Vec<f64> = (0..=FORCE_SAMPLES)
-        .map(|k| force(k as f64 / FORCE_SAMPLES as f64))
-        .collect();
+    let samples: [f64; FORCE_SAMPLES + 1] =
+        std::array::from_fn(|k| force(k as f64 / FORCE_SAMPLES as f64));
     let (k, &best) = samples
         .iter()
         .enumerate()
