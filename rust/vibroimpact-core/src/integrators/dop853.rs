@@ -20,7 +20,7 @@
 //! stiff high modes are better served by the implicit methods.
 
 use super::dop853_tableau::{A, B, C, E3, E5, STAGES};
-use crate::contact::{ContactLaw, MIN_IMPACT_SPEED};
+use crate::contact::{ContactLaw, Law, MIN_IMPACT_SPEED};
 use crate::error::SimError;
 use crate::gap::WallState;
 use crate::interpolation::{parabola_peak, QuinticSegment};
@@ -66,6 +66,9 @@ struct Contact {
     max_penetration: f64,
     /// Active and not yet past the first peak of the penetration.
     peak_pending: bool,
+    /// Integrated in time to its end: a step in `ζ` ([`Clock::Root`]) failed in this
+    /// contact, or its law does not suit one.
+    in_time: bool,
 }
 
 /// The right-hand side: the acceleration and the power of the work integrals.
@@ -109,10 +112,12 @@ impl<'s> Dynamics<'s> {
 
     /// `a = M⁻¹ (F(t) − C v − K x − Σ φ_g b_gᵀ)` with the forces of the active walls; returns
     /// the power of the loads, of the damping and of the contact forces' dissipative part
-    /// (the integrands of the energy account, DESIGN.md §6).
+    /// (the integrands of the energy account, DESIGN.md §6). `root`: a wall whose
+    /// penetration is given (`ζ²` of a [`Clock::Root`] step) instead of taken from `x`.
     fn accel(
         &mut self,
         contacts: &[Contact],
+        root: Option<(usize, f64)>,
         t: f64,
         x: &[f64],
         v: &[f64],
@@ -132,7 +137,8 @@ impl<'s> Dynamics<'s> {
         }
         let mut contact = 0.0;
         self.forces.fill(0.0);
-        for ((wall, c), wall_force) in sys.walls.iter().zip(contacts).zip(&mut self.forces) {
+        let walls = sys.walls.iter().zip(contacts).zip(&mut self.forces);
+        for (j, ((wall, c), wall_force)) in walls.enumerate() {
             if !c.active {
                 continue;
             }
@@ -142,7 +148,10 @@ impl<'s> Dynamics<'s> {
                 u += coef * x[d];
                 u_rate += coef * v[d];
             }
-            let penetration = wall.sign * u - wall.clearance;
+            let penetration = match root {
+                Some((w, p)) if w == j => p,
+                _ => wall.sign * u - wall.clearance,
+            };
             if penetration <= 0.0 {
                 continue;
             }
@@ -186,8 +195,8 @@ impl<'s> Dynamics<'s> {
     }
 
     /// Evaluates the right-hand side at a step's end: its acceleration, powers and forces.
-    fn at(&mut self, contacts: &[Contact], t: f64, end: &mut StepEnd) {
-        end.power = self.accel(contacts, t, &end.x, &end.v, &mut end.a);
+    fn at(&mut self, contacts: &[Contact], root: Option<(usize, f64)>, t: f64, end: &mut StepEnd) {
+        end.power = self.accel(contacts, root, t, &end.x, &end.v, &mut end.a);
         end.forces.copy_from_slice(&self.forces);
     }
 }
@@ -204,6 +213,8 @@ struct Stages {
     kv: Vec<f64>,
     kp: [f64; 3 * K],
     kf: Vec<f64>,
+    /// `dt/dζ` per stage of a [`Clock::Root`] step.
+    kt: [f64; K],
     xs: Vec<f64>,
     vs: Vec<f64>,
     acc: Vec<f64>,
@@ -228,11 +239,49 @@ fn dot(w: &[f64], k: &[f64]) -> f64 {
     w.iter().zip(k).map(|(w, k)| w * k).sum()
 }
 
-/// Stores stage `i`'s values `values` (one per component) into `k` (stride [`K`]).
+/// Stores stage `i`'s values `values` (one per component), times `scale`, into `k`
+/// (stride [`K`]).
 #[inline]
-fn store(k: &mut [f64], i: usize, values: &[f64]) {
+fn store(k: &mut [f64], i: usize, values: &[f64], scale: f64) {
     for (row, &v) in k.chunks_exact_mut(K).zip(values) {
-        row[i] = v;
+        row[i] = scale * v;
+    }
+}
+
+/// The independent variable of a step.
+#[derive(Debug, Clone, Copy)]
+enum Clock {
+    /// The time.
+    Time,
+    /// `ζ = √δ` of wall `wall`, from `from` (Hénon's change of variable, 1982, made regular
+    /// at `δ = 0` by the square root): near a contact's start and end `δ ≈ v_imp (t − t₀)`,
+    /// so a force `∝ δ^1.5` is `∝ ζ³` and the motion is analytic in `ζ` where in `t` it is
+    /// not (a term `∝ (t − t₀)^3.5`). With `dt/dζ = 2ζ/δ'`, `δ(x) − ζ²` is conserved
+    /// exactly, a step to `ζ = 0` ends on the opening, and eighth order holds up to it.
+    Root { wall: usize, from: f64 },
+}
+
+impl Clock {
+    /// The wall and its penetration `ζ²` at the fraction `c` of a step `h`.
+    #[inline]
+    fn penetration(self, c: f64, h: f64) -> Option<(usize, f64)> {
+        match self {
+            Clock::Time => None,
+            Clock::Root { wall, from } => Some((wall, (from + c * h).powi(2))),
+        }
+    }
+
+    /// `dt/dζ` at the fraction `c` of a step `h` with velocities `v` (1 for the time);
+    /// `None` if the wall's penetration does not move the way `ζ` does there.
+    #[inline]
+    fn dt_dvar(self, sys: &System, c: f64, h: f64, v: &[f64]) -> Option<f64> {
+        match self {
+            Clock::Time => Some(1.0),
+            Clock::Root { wall, from } => {
+                let rate = toward_wall(sys, wall, v);
+                (rate * h > 0.0).then(|| 2.0 * (from + c * h) / rate)
+            }
+        }
     }
 }
 
@@ -243,26 +292,34 @@ impl Stages {
             kv: vec![0.0; n * K],
             kp: [0.0; 3 * K],
             kf: vec![0.0; n_walls * K],
+            kt: [0.0; K],
             xs: vec![0.0; n],
             vs: vec![0.0; n],
             acc: vec![0.0; n],
         }
     }
 
-    /// One step of `h` from `start` (its `a`, `power` and forces the first stage) into `end`.
+    /// One step of `h` in the `clock`'s variable from `start` (its `a`, `power` and forces
+    /// the first stage) into `end`; returns the step's duration, or `None` if a
+    /// [`Clock::Root`] step's wall turns inside it (the step must be shorter).
+    #[allow(clippy::too_many_arguments)]
     fn step(
         &mut self,
         dynamics: &mut Dynamics,
         contacts: &[Contact],
+        clock: Clock,
         t0: f64,
         start: &StepEnd,
         h: f64,
         end: &mut StepEnd,
-    ) {
-        store(&mut self.kx, 0, &start.v);
-        store(&mut self.kv, 0, &start.a);
-        store(&mut self.kp, 0, &start.power);
-        store(&mut self.kf, 0, &start.forces);
+    ) -> Option<f64> {
+        let g = clock.dt_dvar(dynamics.sys, 0.0, h, &start.v)?;
+        self.kt[0] = g;
+        store(&mut self.kx, 0, &start.v, g);
+        store(&mut self.kv, 0, &start.a, g);
+        store(&mut self.kp, 0, &start.power, g);
+        store(&mut self.kf, 0, &start.forces, g);
+        let root = matches!(clock, Clock::Root { .. });
         for i in 1..STAGES {
             let a = A[i];
             for ((((xs, vs), kx), kv), (x0, v0)) in self
@@ -276,11 +333,19 @@ impl Stages {
                 *xs = x0 + h * dot(a, kx);
                 *vs = v0 + h * dot(a, kv);
             }
-            let power = dynamics.accel(contacts, t0 + C[i] * h, &self.xs, &self.vs, &mut self.acc);
-            store(&mut self.kx, i, &self.vs);
-            store(&mut self.kv, i, &self.acc);
-            store(&mut self.kp, i, &power);
-            store(&mut self.kf, i, &dynamics.forces);
+            let t = if root {
+                t0 + h * dot(a, &self.kt)
+            } else {
+                t0 + C[i] * h
+            };
+            let g = clock.dt_dvar(dynamics.sys, C[i], h, &self.vs)?;
+            let wall = clock.penetration(C[i], h);
+            let power = dynamics.accel(contacts, wall, t, &self.xs, &self.vs, &mut self.acc);
+            self.kt[i] = g;
+            store(&mut self.kx, i, &self.vs, g);
+            store(&mut self.kv, i, &self.acc, g);
+            store(&mut self.kp, i, &power, g);
+            store(&mut self.kf, i, &dynamics.forces, g);
         }
         for ((((x1, v1), kx), kv), (x0, v0)) in end
             .x
@@ -299,9 +364,16 @@ impl Stages {
         for (impulse, kf) in end.impulse.iter_mut().zip(self.kf.chunks_exact(K)) {
             *impulse = h * dot(&B, kf);
         }
-        dynamics.at(contacts, t0 + h, end);
-        store(&mut self.kx, STAGES, &end.v);
-        store(&mut self.kv, STAGES, &end.a);
+        let duration = if root { h * dot(&B, &self.kt) } else { h };
+        dynamics.at(contacts, clock.penetration(1.0, h), t0 + duration, end);
+        // the end's rate may be zero on a step to ζ = 0 only if the wall grazes (not
+        // integrated in ζ), so its `dt/dζ` is finite; the first-same-as-last stage
+        let g = clock.dt_dvar(dynamics.sys, 1.0, h, &end.v)?;
+        self.kt[STAGES] = g;
+        store(&mut self.kx, STAGES, &end.v, g);
+        store(&mut self.kv, STAGES, &end.a, g);
+        store(&mut self.kp, STAGES, &end.power, g);
+        Some(duration)
     }
 
     /// Hairer's error norm of the last step (≤ 1 is acceptable): the fifth-order estimate
@@ -311,10 +383,14 @@ impl Stages {
     /// integrals of the energy account by `rtol` times the run's `energy` scale. A `rough` step
     /// (the first of a contact, where a Hertzian force grows like `t^1.5` and no
     /// expansion in `h` holds) takes the larger of the two estimates instead: there the
-    /// damped one can fall several times below the true error.
+    /// damped one can fall several times below the true error. A [`Clock::Root`] step's
+    /// duration is checked too, scaled by the time in which the wall's gap coordinate moves
+    /// by its tolerance.
     #[allow(clippy::too_many_arguments)]
     fn error(
         &self,
+        sys: &System,
+        clock: Clock,
         tol: &Adaptive,
         dt_max: f64,
         start: &StepEnd,
@@ -333,7 +409,19 @@ impl Stages {
             e5 += (dot(&E5, kx) / sx).powi(2) + (dot(&E5, kv) / sv).powi(2);
             e3 += (dot(&E3, kx) / sx).powi(2) + (dot(&E3, kv) / sv).powi(2);
         }
-        let motion = norm(e5, e3, (2 * start.x.len()) as f64, h, rough);
+        let mut components = 2 * start.x.len();
+        if let Clock::Root { wall, .. } = clock {
+            let at = |y0: &[f64], y1: &[f64]| {
+                toward_wall(sys, wall, y0)
+                    .abs()
+                    .max(toward_wall(sys, wall, y1).abs())
+            };
+            let st = (tol.atol + tol.rtol * at(&start.x, &end.x)) / at(&start.v, &end.v);
+            e5 += (dot(&E5, &self.kt) / st).powi(2);
+            e3 += (dot(&E3, &self.kt) / st).powi(2);
+            components += 1;
+        }
+        let motion = norm(e5, e3, components as f64, h, rough);
         // the energy account's work integrals: their integrands may have kinks that the
         // motion hardly feels (a tabulated law's loading curve while it unloads)
         let se = tol.rtol * energy;
@@ -361,28 +449,39 @@ fn norm(e5: f64, e3: f64, components: f64, h: f64, rough: bool) -> f64 {
     h.abs() * e5 / ((e5 + 0.01 * e3) * components).sqrt()
 }
 
-/// A wall's penetration, rate and acceleration at a state.
-fn wall_motion(sys: &System, j: usize, x: &[f64], v: &[f64], a: &[f64]) -> [f64; 3] {
+/// Wall `j`'s gap coordinate `b·y` of a state vector `y`, signed towards the wall.
+#[inline]
+fn toward_wall(sys: &System, j: usize, y: &[f64]) -> f64 {
     let wall = &sys.walls[j];
     let g = &sys.gaps[wall.gap];
-    let coordinate = |y: &[f64]| -> f64 {
-        g.dofs
-            .iter()
-            .zip(&g.coefficients)
-            .map(|(&d, &c)| c * y[d])
-            .sum()
-    };
+    let u: f64 = g
+        .dofs
+        .iter()
+        .zip(&g.coefficients)
+        .map(|(&d, &c)| c * y[d])
+        .sum();
+    wall.sign * u
+}
+
+/// A wall's penetration, rate and acceleration at a state.
+fn wall_motion(sys: &System, j: usize, x: &[f64], v: &[f64], a: &[f64]) -> [f64; 3] {
     [
-        wall.sign * coordinate(x) - wall.clearance,
-        wall.sign * coordinate(v),
-        wall.sign * coordinate(a),
+        toward_wall(sys, j, x) - sys.walls[j].clearance,
+        toward_wall(sys, j, v),
+        toward_wall(sys, j, a),
     ]
 }
 
 /// Switches the walls that close or open (or pass their first peak) at the state: a closing
-/// wall takes the approach speed as `v_imp`. Returns whether any wall switched.
-fn switch_walls(sys: &System, contacts: &mut [Contact], state: &StepEnd, tol_t: f64) -> bool {
-    let mut switched = false;
+/// wall takes the approach speed as `v_imp`. Returns whether any wall switched and the last
+/// wall that closed.
+fn switch_walls(
+    sys: &System,
+    contacts: &mut [Contact],
+    state: &StepEnd,
+    tol_t: f64,
+) -> (bool, Option<usize>) {
+    let (mut switched, mut closed) = (false, None);
     for (j, c) in contacts.iter_mut().enumerate() {
         let [delta, rate, accel] = wall_motion(sys, j, &state.x, &state.v, &state.a);
         if !c.active && rate > 0.0 && delta + rate * tol_t >= 0.0 {
@@ -391,8 +490,10 @@ fn switch_walls(sys: &System, contacts: &mut [Contact], state: &StepEnd, tol_t: 
                 impact_speed: rate.max(MIN_IMPACT_SPEED),
                 max_penetration: delta.max(0.0),
                 peak_pending: true,
+                in_time: !smooth_in_root(&sys.gaps[sys.walls[j].gap].law),
             };
             switched = true;
+            closed = Some(j);
         } else if c.active && rate < 0.0 && delta + rate * tol_t <= 0.0 {
             *c = Contact::default();
             switched = true;
@@ -400,12 +501,20 @@ fn switch_walls(sys: &System, contacts: &mut [Contact], state: &StepEnd, tol_t: 
             c.peak_pending = false;
         }
     }
-    switched
+    (switched, closed)
 }
 
-/// Fraction of the step at which the first event happens (a wall closing, opening, or —
-/// with `peaks` — at its first peak), if one lies more than `tol_t` inside the step, and
-/// whether it is a closing or opening (where the force is singular) rather than a peak.
+/// What happens to a wall inside a step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Event {
+    Closing,
+    Opening,
+    /// The first peak of the penetration.
+    Peak,
+}
+
+/// The first event inside a step: its fraction of the step, its wall and kind (a peak only
+/// with `peaks`), if one lies more than `tol_t` inside the step.
 fn first_event(
     sys: &System,
     contacts: &[Contact],
@@ -414,9 +523,9 @@ fn first_event(
     h: f64,
     tol_t: f64,
     peaks: bool,
-) -> Option<(f64, bool)> {
+) -> Option<(f64, usize, Event)> {
     let inside = |s: &f64| s * h > tol_t && (1.0 - s) * h > tol_t;
-    let mut first: Option<(f64, bool)> = None;
+    let mut first: Option<(f64, usize, Event)> = None;
     for (j, c) in contacts.iter().enumerate() {
         let seg = QuinticSegment::new(
             wall_motion(sys, j, &start.x, &start.v, &start.a),
@@ -425,21 +534,84 @@ fn first_event(
         );
         let crossing = seg
             .first_crossing(false, !c.active, EVENT_SAMPLES)
-            .filter(inside);
+            .filter(inside)
+            .map(|s| {
+                (
+                    s,
+                    if c.active {
+                        Event::Opening
+                    } else {
+                        Event::Closing
+                    },
+                )
+            });
         let peak = if peaks && c.active && c.peak_pending {
             seg.first_crossing(true, false, EVENT_SAMPLES)
                 .filter(inside)
+                .map(|s| (s, Event::Peak))
         } else {
             None
         };
-        let events = crossing.map(|s| (s, true)).into_iter();
-        for (s, singular) in events.chain(peak.map(|s| (s, false))) {
-            if first.is_none_or(|(f, _)| s < f) {
-                first = Some((s, singular));
+        for (s, event) in crossing.into_iter().chain(peak) {
+            if first.is_none_or(|(f, _, _)| s < f) {
+                first = Some((s, j, event));
             }
         }
     }
     first
+}
+
+/// A contact's start or end integrated in `ζ = √δ` of its wall ([`Clock::Root`]).
+#[derive(Debug, Clone, Copy)]
+struct RootPhase {
+    wall: usize,
+    /// The contact starts (`ζ` grows from 0: one step) rather than ends (`ζ` falls to 0).
+    rising: bool,
+    /// Length of the next step in `ζ`, m^½.
+    dz: f64,
+    /// Steps of the phase rejected so far.
+    rejections: usize,
+    /// The time step proposed when the phase began, taken after it.
+    h_after: f64,
+}
+
+/// Rejections after which a contact's start or end is integrated in time instead of in `ζ`
+/// (a grazing wall, whose penetration turns within the first steps; a force with a kink).
+const MAX_ROOT_REJECTIONS: usize = 6;
+
+/// Whether a contact's start and end are integrated in `ζ = √δ`: the force is a power of
+/// `δ` times a smooth factor, so smooth in `ζ`. Not a tabulated law (kinks at its points) nor
+/// Kelvin–Voigt (linear, so already smooth in time; it ends where its clamp at `F = 0`
+/// kinks, before `δ = 0`).
+fn smooth_in_root(law: &Law) -> bool {
+    !matches!(law, Law::Tabulated(_) | Law::KelvinVoigt(_) | Law::Rigid(_))
+}
+
+/// Wall `j`'s `ζ = √δ` at a state (0 outside the wall).
+fn root_of_penetration(sys: &System, j: usize, x: &[f64]) -> f64 {
+    (toward_wall(sys, j, x) - sys.walls[j].clearance)
+        .max(0.0)
+        .sqrt()
+}
+
+/// The phase that integrates wall `j`'s opening in `ζ` from `start`, if the wall is inside
+/// and on its way out there (past its peak).
+fn opening_phase(
+    sys: &System,
+    contact: &Contact,
+    j: usize,
+    start: &StepEnd,
+    h: f64,
+) -> Option<RootPhase> {
+    let [delta, rate, _] = wall_motion(sys, j, &start.x, &start.v, &start.a);
+    let past_peak = delta > 0.0 && delta < contact.max_penetration && rate < 0.0;
+    (!contact.in_time && past_peak).then(|| RootPhase {
+        wall: j,
+        rising: false,
+        dz: delta.sqrt(),
+        rejections: 0,
+        h_after: h,
+    })
 }
 
 /// Runs to `t_end` from `run.cur`; returns the error that stopped the run, if any.
@@ -458,11 +630,13 @@ pub(crate) fn run(
         .cur
         .walls
         .iter()
-        .map(|w| Contact {
+        .zip(&sys.walls)
+        .map(|(w, wall)| Contact {
             active: w.closed(),
             impact_speed: w.impact_speed,
             max_penetration: w.max_penetration,
             peak_pending: w.closed() && w.rate > 0.0,
+            in_time: !smooth_in_root(&sys.gaps[wall.gap].law),
         })
         .collect();
     let fresh = || StepEnd {
@@ -477,7 +651,7 @@ pub(crate) fn run(
     let mut start = fresh();
     start.x.copy_from_slice(&run.cur.x);
     start.v.copy_from_slice(&run.cur.v);
-    dynamics.at(&contacts, run.cur.t, &mut start);
+    dynamics.at(&contacts, None, run.cur.t, &mut start);
     let mut end = fresh();
     // each wall's largest force inside the accepted step (for the impact table)
     let mut force_max = vec![0.0; sys.walls.len()];
@@ -491,10 +665,15 @@ pub(crate) fn run(
     let mut landings = 0usize;
     // The last attempt was rejected for its error: the next accepted step does not grow.
     let mut rejected = false;
-    // The first accepted step of the last contact: the first step of the next one.
+    // The first accepted step of the last contact: the first step of the next one, if it
+    // is not integrated in ζ.
     let mut h_contact: Option<f64> = None;
+    // The step in ζ of the last contact's start: the first try of the next one.
+    let mut dz_contact: Option<f64> = None;
     // A wall closed at the start of the pending step (its size goes to `h_contact`).
     let mut contact_started = false;
+    // A contact's start or end in progress in ζ (adaptive steps only).
+    let mut root: Option<RootPhase> = None;
     // Length and error of the last accepted step, for the predictive controller.
     let mut last: Option<(f64, f64)> = None;
     let mut accepted = 0usize;
@@ -503,51 +682,111 @@ pub(crate) fn run(
     let mut near_switch = tol_t;
     while t_end - run.cur.t > 1e-13 * t_end {
         let t0 = run.cur.t;
-        if switch_walls(sys, &mut contacts, &start, near_switch) {
-            dynamics.at(&contacts, t0, &mut start);
+        let (switched, closed) = switch_walls(sys, &mut contacts, &start, near_switch);
+        if switched {
+            dynamics.at(&contacts, None, t0, &mut start);
             last = None;
             contact_started = contacts.iter().any(|c| c.active && c.peak_pending);
             if let (true, Some(hc)) = (contact_started, h_contact) {
                 h = h.min(hc);
             }
+            if let (Some(j), Steps::Adaptive { .. }) =
+                (closed.filter(|&j| !contacts[j].in_time), steps)
+            {
+                let rate = toward_wall(sys, j, &start.v);
+                root = Some(RootPhase {
+                    wall: j,
+                    rising: true,
+                    dz: dz_contact.unwrap_or_else(|| (rate * h).sqrt()),
+                    rejections: 0,
+                    h_after: h,
+                });
+            }
         }
-        let target = match dt_fixed {
-            Some(dt) => ((grid_step + 1) as f64 * dt).min(t_end) - t0,
-            None => h,
+        // the step: in ζ during a contact's start or end, else in time
+        let (clock, h_try, target) = match root {
+            Some(phase) => {
+                let from = root_of_penetration(sys, phase.wall, &start.x);
+                let dz = if phase.rising {
+                    phase.dz
+                } else {
+                    // at most half-way back to the peak's ζ, where dt/dζ is singular: a
+                    // step nearer to it has an error several times its estimate
+                    let peak = contacts[phase.wall].max_penetration.sqrt();
+                    -phase.dz.min(0.5 * (peak - from).max(0.0)).min(from)
+                };
+                let clock = Clock::Root {
+                    wall: phase.wall,
+                    from,
+                };
+                (clock, dz, dz)
+            }
+            None => {
+                let target = match dt_fixed {
+                    Some(dt) => ((grid_step + 1) as f64 * dt).min(t_end) - t0,
+                    None => h,
+                };
+                let mut h_try = landing.map_or(target, |(h, _)| h).min(t_end - t0);
+                if t_end - (t0 + h_try) < 1e-13 * t_end {
+                    h_try = t_end - t0;
+                }
+                (Clock::Time, h_try, target)
+            }
         };
         // a step landed on a closing or opening meets the force's singularity at its end
-        let (h_landing, singular_end) = landing.take().map_or((None, false), |(h, s)| (Some(h), s));
-        let mut h_try = h_landing.unwrap_or(target).min(t_end - t0);
-        if t_end - (t0 + h_try) < 1e-13 * t_end {
-            h_try = t_end - t0;
+        let singular_end = landing.take().is_some_and(|(_, singular)| singular);
+        let duration = stages.step(&mut dynamics, &contacts, clock, t0, &start, h_try, &mut end);
+        if root.is_some() && duration.is_some_and(|d| t0 + d > t_end) {
+            // a step in ζ past t_end: the rest is integrated in time
+            root = None;
+            continue;
         }
-        stages.step(&mut dynamics, &contacts, t0, &start, h_try, &mut end);
         let mut err = 0.0;
         if let Steps::Adaptive { tol, dt_max, .. } = steps {
             // the first step of a contact and a step landed on an event (a contact's end)
-            // meet the force's δ^1.5 singularity
-            let rough = contact_started || singular_end;
-            err = stages.error(
-                &tol,
-                dt_max,
-                &start,
-                &end,
-                &v_max,
-                run.energy_scale(),
-                h_try,
-                rough,
-            );
+            // meet the force's δ^1.5 singularity, unless the step is in ζ
+            let rough = matches!(clock, Clock::Time) && (contact_started || singular_end);
+            err = duration.map_or(f64::INFINITY, |_| {
+                stages.error(
+                    sys,
+                    clock,
+                    &tol,
+                    dt_max,
+                    &start,
+                    &end,
+                    &v_max,
+                    run.energy_scale(),
+                    h_try,
+                    rough,
+                )
+            });
+            if let Some(mut phase) = root.filter(|_| err > 1.0) {
+                run.stats.rejected_steps += 1;
+                phase.rejections += 1;
+                phase.dz = h_try.abs() * (0.9 * err.powf(-1.0 / 8.0)).clamp(0.2, 0.9);
+                root = (phase.rejections <= MAX_ROOT_REJECTIONS).then_some(phase);
+                if root.is_none() {
+                    contacts[phase.wall].in_time = true;
+                    h = h.min(duration.unwrap_or(h));
+                }
+                continue;
+            }
             if err > 1.0 && h_try > tol.dt_min * (1.0 + 1e-12) {
                 run.stats.rejected_steps += 1;
                 // a wall closing or opening inside the step: the kink of the force there is
-                // what the error sees; the step that ends on it is checked next
+                // what the error sees; an opening is integrated in ζ, a closing landed on
                 let near = (EVENT_NEAR * h_try).max(tol_t);
                 if landings < MAX_LANDINGS {
-                    if let Some((s, _)) =
+                    if let Some((s, j, event)) =
                         first_event(sys, &contacts, &start, &end, h_try, near, false)
                     {
-                        landing = Some((s * h_try, true));
-                        landings += 1;
+                        root = (event == Event::Opening)
+                            .then(|| opening_phase(sys, &contacts[j], j, &start, h_try))
+                            .flatten();
+                        if root.is_none() {
+                            landing = Some((s * h_try, true));
+                            landings += 1;
+                        }
                         last = None;
                         continue;
                     }
@@ -559,21 +798,31 @@ pub(crate) fn run(
                 continue;
             }
         }
-        let near = (EVENT_NEAR * h_try).max(tol_t);
+        let duration = duration.expect("a step in time has a duration");
+        let near = (EVENT_NEAR * duration).max(tol_t);
         if landings < MAX_LANDINGS {
-            if let Some((s, singular)) =
-                first_event(sys, &contacts, &start, &end, h_try, near, true)
+            if let Some((s, j, event)) =
+                first_event(sys, &contacts, &start, &end, duration, near, true)
             {
                 run.stats.rejected_steps += 1;
-                landing = Some((s * h_try, singular));
-                landings += 1;
+                let opening = match (event, clock, dt_fixed) {
+                    (Event::Opening, Clock::Time, None) => {
+                        opening_phase(sys, &contacts[j], j, &start, h_try)
+                    }
+                    _ => None,
+                };
+                root = opening;
+                if root.is_none() {
+                    landing = Some((s * duration, event != Event::Peak));
+                    landings += 1;
+                }
                 continue;
             }
         }
         landings = 0;
         near_switch = 2.0 * near;
         let landed = h_try < target * (1.0 - 1e-12);
-        if let Err(e) = commit(run, sys, &contacts, &start, &end, h_try, &mut force_max) {
+        if let Err(e) = commit(run, sys, &contacts, &start, &end, duration, &mut force_max) {
             return Some(e);
         }
         accepted += 1;
@@ -592,34 +841,54 @@ pub(crate) fn run(
             }
         }
         std::mem::swap(&mut start, &mut end);
-        if let Steps::Adaptive { tol, dt_max, .. } = steps {
-            if contact_started {
-                h_contact = Some(h_try);
+        let Steps::Adaptive { tol, dt_max, .. } = steps else {
+            continue;
+        };
+        let max_growth = if rejected { 1.0 } else { 6.0 };
+        let grow = if err > 0.0 {
+            0.9 * err.powf(-1.0 / 8.0)
+        } else {
+            max_growth
+        };
+        rejected = false;
+        if let Some(mut phase) = root {
+            // the contact's start: one step in ζ, then in time from the step's duration;
+            // its end: in ζ until ζ = 0, then in time with the step proposed before it
+            last = None;
+            if phase.rising {
+                dz_contact = Some(h_try);
                 contact_started = false;
+                h = duration.clamp(tol.dt_min, dt_max);
+                root = None;
+            } else if root_of_penetration(sys, phase.wall, &start.x) == 0.0 {
+                h = phase.h_after;
+                root = None;
+            } else {
+                phase.dz = h_try.abs() * grow.clamp(0.2, max_growth);
+                root = Some(phase);
             }
-            // a landed step is short for the event, not for its error: the next step is the
-            // one proposed before the landing; after a rejection the step does not grow
-            if !landed {
-                let max_growth = if rejected { 1.0 } else { 6.0 };
-                let mut grow = if err > 0.0 {
-                    0.9 * err.powf(-1.0 / 8.0)
-                } else {
-                    max_growth
-                };
-                // Gustafsson's predictive controller (as in Hairer's RADAU5): an error that
-                // grew from the last step is extrapolated, so that a steepening solution
-                // (the end of a Hertzian contact) shrinks the step before it is rejected
-                if let (Some((h_last, err_last)), true) = (last, err > 0.0) {
-                    grow = grow.min(
-                        0.9 * (h_try / h_last)
-                            * err.powf(-1.0 / 8.0)
-                            * (err_last / err).powf(1.0 / 8.0),
-                    );
-                }
-                h = (h_try * grow.clamp(0.2, max_growth)).clamp(tol.dt_min, dt_max);
-                last = (err > 0.0).then_some((h_try, err));
+            continue;
+        }
+        if contact_started {
+            h_contact = Some(h_try);
+            contact_started = false;
+        }
+        // a landed step is short for the event, not for its error: the next step is the
+        // one proposed before the landing; after a rejection the step does not grow
+        if !landed {
+            let mut grow = grow;
+            // Gustafsson's predictive controller (as in Hairer's RADAU5): an error that
+            // grew from the last step is extrapolated, so that a steepening solution
+            // (the end of a Hertzian contact) shrinks the step before it is rejected
+            if let (Some((h_last, err_last)), true) = (last, err > 0.0) {
+                grow = grow.min(
+                    0.9 * (h_try / h_last)
+                        * err.powf(-1.0 / 8.0)
+                        * (err_last / err).powf(1.0 / 8.0),
+                );
             }
-            rejected = false;
+            h = (h_try * grow.clamp(0.2, max_growth)).clamp(tol.dt_min, dt_max);
+            last = (err > 0.0).then_some((h_try, err));
         }
     }
     if accepted % every != 0 {
