@@ -108,6 +108,8 @@ log = logging.getLogger("vibroimpact.solver")
 #: variable makes the process send itself that signal as soon as the core has finished,
 #: before the result is converted and written, so that a test can hit that moment exactly.
 SIGNAL_AFTER_RUN_ENV = "VIBROIMPACT_TEST_SIGNAL_AFTER_RUN"
+#: Its value, read once (``os.environ.get`` of an unset name raises and catches a KeyError).
+_SIGNAL_AFTER_RUN = os.environ.get(SIGNAL_AFTER_RUN_ENV)
 
 #: The signals that stop a run, as plain numbers for ``_signal.signal``: the C function that
 #: ``signal.signal`` wraps only to convert numbers and handlers to and from enums, at ~4 µs a
@@ -243,9 +245,8 @@ def _run_core(
             progress.close()
     if failure is not None:
         raise failure
-    hook = os.environ.get(SIGNAL_AFTER_RUN_ENV)
-    if hook:
-        os.kill(os.getpid(), signal.Signals[hook])
+    if _SIGNAL_AFTER_RUN:
+        os.kill(os.getpid(), signal.Signals[_SIGNAL_AFTER_RUN])
     return raw, (received[0] if received else None)
 
 
