@@ -323,7 +323,7 @@ def simulate(
     bad = [d for d in record if not 0 <= d < n]
     if bad:
         raise ModelError(f"output.dofs: {bad[0]} is out of range; expected 0 <= dof < {n}")
-    spec = model.to_spec()
+    spec = model._run_spec()
     spec.update(
         t_end=float(t_end),
         dt=float(dt),

@@ -1,8 +1,11 @@
 //! Spec dict → core types. The Python side has validated the model already; these checks
 //! repeat the essentials so that the core is never handed something malformed.
 
+use std::sync::Arc;
+
 use nalgebra::{DMatrix, DVector};
 use numpy::{PyArray2, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -21,7 +24,7 @@ use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
 use vibroimpact_core::system::System;
 
 pub(crate) struct Job {
-    pub system: System,
+    pub system: Arc<System>,
     pub method: Method,
     pub settings: RunSettings,
     pub x0: DVector<f64>,
@@ -274,7 +277,19 @@ fn adaptive(spec: &Bound<'_, PyDict>) -> PyResult<Option<Adaptive>> {
     }))
 }
 
-pub(crate) fn job_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Job> {
+/// A model's structure, gaps and loads as the core's `System`, built once by
+/// `compile_system` and given to `start` in place of them (`spec["system"]`): what
+/// `vibroimpact.Model` keeps for its runs when nothing in it can change.
+#[pyclass(module = "vibroimpact._core", frozen)]
+pub(crate) struct CompiledSystem(Arc<System>);
+
+/// The structure, gaps and loads of a model spec compiled for `start`.
+#[pyfunction]
+pub(crate) fn compile_system(spec: &Bound<'_, PyDict>) -> PyResult<CompiledSystem> {
+    system(spec).map(|s| CompiledSystem(Arc::new(s)))
+}
+
+fn system(spec: &Bound<'_, PyDict>) -> PyResult<System> {
     let structure = match (
         matrix(spec, "mass")?,
         matrix(spec, "damping")?,
@@ -297,7 +312,15 @@ pub(crate) fn job_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Job> {
         .enumerate()
         .map(|(i, l)| load(l.cast::<PyDict>()?, i))
         .collect::<PyResult<Vec<_>>>()?;
-    let system = System::new(structure, gaps, loads).map_err(to_py_err)?;
+    System::new(structure, gaps, loads).map_err(to_py_err)
+}
+
+/// The run of a spec: the model's fields (or `system`, compiled), initial state and settings.
+pub(crate) fn job_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Job> {
+    let system = match spec.get_item(intern!(spec.py(), "system"))? {
+        Some(compiled) => compiled.cast::<CompiledSystem>()?.get().0.clone(),
+        None => Arc::new(system(spec)?),
+    };
     let method_dict: Bound<'_, PyDict> = item(spec, "method", "solver")?;
     let newton_dict: Bound<'_, PyDict> = item(spec, "newton", "solver")?;
     let default = NewtonSettings::default();

@@ -383,6 +383,8 @@ pub(crate) fn output_to_dict<'py>(
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(running::start, m)?)?;
     m.add_class::<running::Running>()?;
+    m.add_function(wrap_pyfunction!(convert::compile_system, m)?)?;
+    m.add_class::<convert::CompiledSystem>()?;
     m.add_function(wrap_pyfunction!(expm, m)?)?;
     m.add_function(wrap_pyfunction!(request_interrupt, m)?)?;
     m.add_function(wrap_pyfunction!(clear_interrupt, m)?)?;
