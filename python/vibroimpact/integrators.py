@@ -155,6 +155,15 @@ class Integrator:
     def to_spec(self) -> dict[str, Any]:
         raise NotImplementedError
 
+    def _run_spec(self) -> dict[str, Any]:
+        """``method`` and ``newton`` of a run's spec (read-only: the core only reads them),
+        built at the first run and kept, as the integrator is immutable."""
+        spec = self.__dict__.get("_spec")
+        if spec is None:
+            spec = {"method": self.to_spec(), "newton": self.newton.to_spec()}
+            object.__setattr__(self, "_spec", spec)
+        return spec
+
 
 @dataclass(frozen=True)
 class Newmark(Integrator):

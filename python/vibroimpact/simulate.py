@@ -326,12 +326,11 @@ def simulate(
         raise ModelError(f"output.dofs: {bad[0]} is out of range; expected 0 <= dof < {n}")
     spec = model._run_spec()
     spec.update(
+        method._run_spec(),
         t_end=float(t_end),
         dt=float(dt),
         every=int(every),
         record_dofs=record,
-        method=method.to_spec(),
-        newton=method.newton.to_spec(),
         adaptive=None if method.adaptive is None else method.adaptive.to_spec(t_end, dt),
     )
     if method.adaptive is None:
