@@ -202,25 +202,28 @@ def _run_core(
     loop. On the main thread, ``Ctrl-C`` and SIGTERM are caught while the run lasts: they ask
     the core to stop (``_core.request_interrupt``), which it does within 64 steps, returning
     the results up to then. If ``on_rows`` raises, the run is stopped the same way and the
-    exception re-raised."""
+    exception re-raised. A short run (``run.inline``, ≲ 10 ms) goes at the first ``wait`` on
+    this thread with the GIL released, so that no Python handler could run before it ends: no
+    handler is installed for it (~5 µs a run) and a signal during it is handled after it, as
+    one outside a run."""
     received: list[int] = []
 
     def on_signal(signum: int, frame: Any) -> None:
         received.append(signum)
         _core.request_interrupt()
 
+    _core.clear_interrupt()
+    events = log.isEnabledFor(logging.INFO)
+    run = _core.start(spec, chunk_rows, events)
     previous: dict[int, Any] = {}
-    if threading.current_thread() is threading.main_thread():
+    if not run.inline and threading.current_thread() is threading.main_thread():
         try:
             for sig in _RUN_SIGNALS:
                 previous[sig] = _signal.signal(sig, on_signal)
         except (ValueError, OSError):  # pragma: no cover - no signals here
             pass
-    _core.clear_interrupt()
-    events = log.isEnabledFor(logging.INFO)
     failure: BaseException | None = None
     try:
-        run = _core.start(spec, chunk_rows, events)
         while True:
             finished = run.wait(POLL_S)
             rows = run.take_rows()
@@ -293,9 +296,10 @@ def simulate(
 
     ``Ctrl-C`` or SIGTERM during the run (on the main thread) stops it within 64 steps and
     raises :class:`~vibroimpact.Interrupted` (a ``SolverError``, whatever ``throw`` says) with
-    the results up to then in ``partial``. A step longer than a tenth of a gap's estimated
-    contact period (:func:`contact_periods`) draws a :class:`~vibroimpact.ContactResolutionWarning`
-    before the run (fixed steps only).
+    the results up to then in ``partial`` (a run short enough, ≲ 10 ms, to go on the calling
+    thread is not stopped: a signal during it is handled after it, as one outside a run).
+    A step longer than a tenth of a gap's estimated contact period (:func:`contact_periods`)
+    draws a :class:`~vibroimpact.ContactResolutionWarning` before the run (fixed steps only).
 
     ``dt`` is reduced slightly, if needed, so that ``t_end`` is a whole number of steps. With
     adaptive stepping (``method.adaptive``), ``dt`` is the first step and ``every`` counts
