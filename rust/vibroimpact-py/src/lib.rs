@@ -334,7 +334,8 @@ pub(crate) fn output_to_dict<'py>(
         intern!(py, "side"),
         ints(&mut records.iter().map(|r| i64::from(r.side > 0.0))),
     )?;
-    let columns: [(_, fn(&ImpactRecord) -> f64); 8] = [
+    type Column = fn(&ImpactRecord) -> f64;
+    let columns: [(_, Column); 8] = [
         (intern!(py, "t_start"), |r| r.t_start),
         (intern!(py, "t_end"), |r| r.t_end),
         (intern!(py, "v_in"), |r| r.v_in),
