@@ -207,16 +207,16 @@ def _run_core(
     handler is installed for it (~5 µs a run) and a signal during it is handled after it, as
     one outside a run."""
     received: list[int] = []
-
-    def on_signal(signum: int, frame: Any) -> None:
-        received.append(signum)
-        _core.request_interrupt()
-
     _core.clear_interrupt()
     events = log.isEnabledFor(logging.INFO)
     run = _core.start(spec, chunk_rows, events)
     previous: dict[int, Any] = {}
     if not run.inline and threading.current_thread() is threading.main_thread():
+
+        def on_signal(signum: int, frame: Any) -> None:
+            received.append(signum)
+            _core.request_interrupt()
+
         try:
             for sig in _RUN_SIGNALS:
                 previous[sig] = _signal.signal(sig, on_signal)
@@ -324,10 +324,13 @@ def simulate(
     method = _DEFAULT_METHOD if method is None else method
     require(isinstance(method, Integrator), "solver.method", method, "a vibroimpact integrator")
     n = model.n_dof
-    record = list(range(n)) if dofs is None else [int(d) for d in dofs]
-    bad = [d for d in record if not 0 <= d < n]
-    if bad:
-        raise ModelError(f"output.dofs: {bad[0]} is out of range; expected 0 <= dof < {n}")
+    if dofs is None:
+        record = list(range(n))
+    else:
+        record = [int(d) for d in dofs]
+        bad = [d for d in record if not 0 <= d < n]
+        if bad:
+            raise ModelError(f"output.dofs: {bad[0]} is out of range; expected 0 <= dof < {n}")
     spec = model._run_spec()
     spec.update(
         method._run_spec(),
