@@ -9,7 +9,8 @@ mod sweep;
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 use nalgebra::DMatrix;
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::intern;
@@ -275,8 +276,11 @@ pub(crate) fn rows_to_dict(
 ) -> PyResult<()> {
     let py = d.py();
     let nt = rows.time.len();
+    // made 2-D at once (a reshape would make a second array object)
     let mat = |v: Vec<f64>, cols: usize| -> PyResult<Bound<'_, PyArray2<f64>>> {
-        PyArray1::from_vec(py, v).reshape([nt, cols])
+        Array2::from_shape_vec((nt, cols), v)
+            .map(|a| a.into_pyarray(py))
+            .map_err(|e| PyRuntimeError::new_err(format!("rows of {cols} columns: {e}")))
     };
     d.set_item(intern!(py, "time"), PyArray1::from_vec(py, rows.time))?;
     d.set_item(intern!(py, "displacement"), mat(rows.displacement, n_dofs)?)?;
