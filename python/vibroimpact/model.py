@@ -440,7 +440,7 @@ class Model:
         """:meth:`to_spec` for a run: with a dense structure (nothing in the model can then
         change, as for :meth:`gap_flexibility`) the structure, gaps and loads are compiled by
         the core once, at the first run, and its later runs pass only that and the initial
-        state (a run of a small model costs tens of µs besides its steps)."""
+        state (which may change: it is not compiled)."""
         system = self.__dict__.get("_core_system")
         if system is None:
             spec = self.to_spec()

@@ -1,7 +1,7 @@
-//! A run in progress (`_core.start`, begun by the first `wait`; a short one runs there, on
-//! the calling thread): the core runs on a worker thread and hands its
-//! recorded rows over a bounded channel (two blocks: when the Python side falls behind, the
-//! core waits, so memory stays bounded), its simulated time through an atomic and its solver
+//! A run in progress (`_core.start`, begun by the first `wait`): the core runs on a worker
+//! thread (a short run: on the calling thread, inside that `wait`) and hands its recorded
+//! rows over a bounded channel (two blocks: when the Python side falls behind, the core
+//! waits, so memory stays bounded), its simulated time through an atomic and its solver
 //! events through a bounded buffer. The Python side (`vibroimpact.simulate`) polls: `wait`
 //! (GIL released), `take_rows`, `take_events`, `time`, then `finish`. No Python runs inside
 //! the time loop.
