@@ -113,3 +113,24 @@ def test_dt_is_adjusted_to_a_whole_number_of_steps() -> None:
     r = vi.simulate(vi.Model(vi.Structure.sdof(mass=1.0, stiffness=1.0)), t_end=1.0, dt=0.3)
     assert r.stats.steps == 4 and r.dt == pytest.approx(0.25)
     assert r.time[-1] == pytest.approx(1.0)
+
+
+def test_a_dense_model_compiled_at_its_first_run_gives_the_same_results() -> None:
+    """``Model._run_spec``: a dense model's structure, gaps and loads are compiled by the core
+    at its first run and reused by the next ones; those runs equal a run of a fresh model built
+    the same way, and the model still copies and pickles (without the compiled system)."""
+    import copy
+    import pickle
+
+    model = cases.sdof_model("hunt-crossley")
+    first = vi.simulate(model, t_end=0.003, dt=1e-6)
+    assert "system" in model._run_spec()
+    again = vi.simulate(model, t_end=0.003, dt=1e-6)
+    fresh = vi.simulate(cases.sdof_model("hunt-crossley"), t_end=0.003, dt=1e-6)
+    for r in (again, fresh):
+        assert np.array_equal(r.displacement, first.displacement)
+        assert np.array_equal(r.impacts.t_start, first.impacts.t_start)
+    for twin in (copy.deepcopy(model), pickle.loads(pickle.dumps(model))):
+        assert twin == model and "_core_system" not in vars(twin)
+        assert np.array_equal(vi.simulate(twin, t_end=0.003, dt=1e-6).displacement,
+                              first.displacement)

@@ -114,8 +114,11 @@ class Adaptive:
     def to_spec(self, t_end: float, dt: float) -> dict[str, float]:
         dt_max = t_end / 50 if self.dt_max is None else float(self.dt_max)
         dt_min = min(dt, dt_max) / 1e4 if self.dt_min is None else float(self.dt_min)
-        require(dt_min <= dt_max, "solver.dt_min", dt_min, f"dt_min <= dt_max = {dt_max}")
-        require(dt_max <= t_end, "solver.dt_max", dt_max, f"dt_max <= t_end = {t_end}")
+        # (the messages formatted only on failure: a float's repr costs ~1 µs a run)
+        if dt_min > dt_max:
+            require(False, "solver.dt_min", dt_min, f"dt_min <= dt_max = {dt_max}")
+        if dt_max > t_end:
+            require(False, "solver.dt_max", dt_max, f"dt_max <= t_end = {t_end}")
         return {"rtol": float(self.rtol), "atol": float(self.atol), "dt_min": dt_min,
                 "dt_max": dt_max}
 
@@ -151,6 +154,15 @@ class Integrator:
 
     def to_spec(self) -> dict[str, Any]:
         raise NotImplementedError
+
+    def _run_spec(self) -> dict[str, Any]:
+        """``method`` and ``newton`` of a run's spec (read-only: the core only reads them),
+        built at the first run and kept, as the integrator is immutable."""
+        spec = self.__dict__.get("_spec")
+        if spec is None:
+            spec = {"method": self.to_spec(), "newton": self.newton.to_spec()}
+            object.__setattr__(self, "_spec", spec)
+        return spec
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numpy.typing import ArrayLike, NDArray
 
+from vibroimpact import _core
 from vibroimpact.contact import ContactLaw
 from vibroimpact.errors import ModelError, require
 
@@ -434,6 +435,28 @@ class Model:
         if not st.is_sparse:
             object.__setattr__(self, "_gap_flexibility", out)
         return out
+
+    def _run_spec(self) -> dict[str, Any]:
+        """:meth:`to_spec` for a run: with a dense structure (nothing in the model can then
+        change, as for :meth:`gap_flexibility`) the structure, gaps and loads are compiled by
+        the core once, at the first run, and its later runs pass only that and the initial
+        state (which may change: it is not compiled)."""
+        system = self.__dict__.get("_core_system")
+        if system is None:
+            spec = self.to_spec()
+            if self.structure.is_sparse:
+                return spec
+            system = _core.compile_system(spec)
+            object.__setattr__(self, "_core_system", system)
+        return {
+            "system": system,
+            "x0": np.asarray(self.initial_displacement, dtype=float),
+            "v0": np.asarray(self.initial_velocity, dtype=float),
+        }
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled and copied without the core's compiled system (:meth:`_run_spec`)."""
+        return {k: v for k, v in self.__dict__.items() if k != "_core_system"}
 
     def to_spec(self) -> dict[str, Any]:
         """Plain dict of arrays and numbers that the Rust core compiles."""

@@ -109,7 +109,7 @@ def _json_number(x: float) -> float | None:
     return None if math.isnan(x) else float(x)
 
 
-#: ``side`` of an impact, indexed by whether the core's sign of the wall is positive.
+#: ``side`` of an impact, indexed by the core's side column (0: negative wall, 1: positive).
 _SIDES = np.array(["negative", "positive"])
 
 
@@ -130,14 +130,8 @@ class ImpactTable:
 
     @classmethod
     def from_core(cls, raw: dict[str, Any]) -> ImpactTable:
-        return cls(
-            gap=np.asarray(raw["gap"], dtype=np.int64),
-            side=_SIDES[(np.asarray(raw["side"]) > 0).astype(np.intp)],
-            restitution_effective=np.asarray(raw["restitution"]),
-            **{k: np.asarray(raw[k]) for k in (
-                "t_start", "t_end", "v_in", "v_out", "delta_max", "force_max", "impulse"
-            )},
-        )
+        """From the core's columns: the fields, with ``side`` 0 (negative) or 1 (positive)."""
+        return cls(**{**raw, "side": _SIDES[raw["side"]]})
 
     def __len__(self) -> int:
         return len(self.t_start)
@@ -241,10 +235,10 @@ class Result:
         method: Integrator | None,
         t_end: float,
     ) -> Result:
-        s = raw["stats"]
         error = raw["error"]
-        dofs = np.asarray(raw["dofs"], dtype=np.int64)
-        units = () if model is None else tuple(model.structure.dof_units[d] for d in dofs)
+        dofs = raw["dofs"]
+        units = () if model is None else tuple(
+            [model.structure.dof_units[d] for d in dofs.tolist()])
         return cls(
             time=raw["time"],
             dofs=dofs,
@@ -255,15 +249,9 @@ class Result:
             gap_force=raw["gap_force"],
             max_abs_displacement=raw["max_abs_displacement"],
             impacts=ImpactTable.from_core(raw["impacts"]),
-            energy=EnergyAccount(**raw["energy"], balance_error=s["energy_balance_error"]),
-            stats=SolverStats(
-                steps=s["steps"],
-                newton_iterations=s["newton_iterations"],
-                rejected_steps=s["rejected_steps"],
-                step_cuts=s["step_cuts"],
-                wall_time_s=s["wall_time_s"],
-            ),
-            dt=float(s["dt"]),
+            energy=EnergyAccount(**raw["energy"], balance_error=raw["energy_balance_error"]),
+            stats=SolverStats(**raw["stats"]),
+            dt=raw["dt"],
             t_end=t_end,
             complete=error is None,
             message="completed" if error is None else str(error),

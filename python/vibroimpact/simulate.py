@@ -108,6 +108,8 @@ log = logging.getLogger("vibroimpact.solver")
 #: variable makes the process send itself that signal as soon as the core has finished,
 #: before the result is converted and written, so that a test can hit that moment exactly.
 SIGNAL_AFTER_RUN_ENV = "VIBROIMPACT_TEST_SIGNAL_AFTER_RUN"
+#: Its value, read once (``os.environ.get`` of an unset name raises and catches a KeyError).
+_SIGNAL_AFTER_RUN = os.environ.get(SIGNAL_AFTER_RUN_ENV)
 
 #: The signals that stop a run, as plain numbers for ``_signal.signal``: the C function that
 #: ``signal.signal`` wraps only to convert numbers and handlers to and from enums, at ~4 µs a
@@ -200,25 +202,28 @@ def _run_core(
     loop. On the main thread, ``Ctrl-C`` and SIGTERM are caught while the run lasts: they ask
     the core to stop (``_core.request_interrupt``), which it does within 64 steps, returning
     the results up to then. If ``on_rows`` raises, the run is stopped the same way and the
-    exception re-raised."""
+    exception re-raised. A short run (``run.inline``, ≲ 10 ms) goes at the first ``wait`` on
+    this thread with the GIL released, so that no Python handler could run before it ends: no
+    handler is installed for it (~5 µs a run) and a signal during it is handled after it, as
+    one outside a run."""
     received: list[int] = []
-
-    def on_signal(signum: int, frame: Any) -> None:
-        received.append(signum)
-        _core.request_interrupt()
-
+    _core.clear_interrupt()
+    events = log.isEnabledFor(logging.INFO)
+    run = _core.start(spec, chunk_rows, events)
     previous: dict[int, Any] = {}
-    if threading.current_thread() is threading.main_thread():
+    if not run.inline and threading.current_thread() is threading.main_thread():
+
+        def on_signal(signum: int, frame: Any) -> None:
+            received.append(signum)
+            _core.request_interrupt()
+
         try:
             for sig in _RUN_SIGNALS:
                 previous[sig] = _signal.signal(sig, on_signal)
         except (ValueError, OSError):  # pragma: no cover - no signals here
             pass
-    _core.clear_interrupt()
-    events = log.isEnabledFor(logging.INFO)
     failure: BaseException | None = None
     try:
-        run = _core.start(spec, chunk_rows, events)
         while True:
             finished = run.wait(POLL_S)
             rows = run.take_rows()
@@ -243,9 +248,8 @@ def _run_core(
             progress.close()
     if failure is not None:
         raise failure
-    hook = os.environ.get(SIGNAL_AFTER_RUN_ENV)
-    if hook:
-        os.kill(os.getpid(), signal.Signals[hook])
+    if _SIGNAL_AFTER_RUN:
+        os.kill(os.getpid(), signal.Signals[_SIGNAL_AFTER_RUN])
     return raw, (received[0] if received else None)
 
 
@@ -292,9 +296,10 @@ def simulate(
 
     ``Ctrl-C`` or SIGTERM during the run (on the main thread) stops it within 64 steps and
     raises :class:`~vibroimpact.Interrupted` (a ``SolverError``, whatever ``throw`` says) with
-    the results up to then in ``partial``. A step longer than a tenth of a gap's estimated
-    contact period (:func:`contact_periods`) draws a :class:`~vibroimpact.ContactResolutionWarning`
-    before the run (fixed steps only).
+    the results up to then in ``partial`` (a run short enough, ≲ 10 ms, to go on the calling
+    thread is not stopped: a signal during it is handled after it, as one outside a run).
+    A step longer than a tenth of a gap's estimated contact period (:func:`contact_periods`)
+    draws a :class:`~vibroimpact.ContactResolutionWarning` before the run (fixed steps only).
 
     ``dt`` is reduced slightly, if needed, so that ``t_end`` is a whole number of steps. With
     adaptive stepping (``method.adaptive``), ``dt`` is the first step and ``every`` counts
@@ -303,33 +308,36 @@ def simulate(
     **Example:** ``vi.simulate(model, t_end=0.02, dt=1e-6).impacts``
     """
     require(isinstance(model, Model), "model", type(model).__name__, "a vibroimpact.Model")
-    for name, value, unit in (("solver.t_end", t_end, "s"), ("solver.dt", dt, "s")):
+    for name, value in (("solver.t_end", t_end), ("solver.dt", dt)):
         require(
             isinstance(value, (int, float)) and not isinstance(value, bool)
             and math.isfinite(value) and value > 0,
             name,
             value,
-            f"a number > 0 in {unit}",
+            "a number > 0 in s",
         )
-    require(dt <= t_end, "solver.dt", dt, f"dt <= t_end = {t_end}")
+    if dt > t_end:  # (the message formatted only then: a float's repr costs ~1 µs a run)
+        require(False, "solver.dt", dt, f"dt <= t_end = {t_end}")
     require(
         isinstance(every, int) and every >= 1, "output.every", every, "an integer >= 1"
     )
     method = _DEFAULT_METHOD if method is None else method
     require(isinstance(method, Integrator), "solver.method", method, "a vibroimpact integrator")
     n = model.n_dof
-    record = list(range(n)) if dofs is None else [int(d) for d in dofs]
-    bad = [d for d in record if not 0 <= d < n]
-    if bad:
-        raise ModelError(f"output.dofs: {bad[0]} is out of range; expected 0 <= dof < {n}")
-    spec = model.to_spec()
+    if dofs is None:
+        record = list(range(n))
+    else:
+        record = [int(d) for d in dofs]
+        bad = [d for d in record if not 0 <= d < n]
+        if bad:
+            raise ModelError(f"output.dofs: {bad[0]} is out of range; expected 0 <= dof < {n}")
+    spec = model._run_spec()
     spec.update(
+        method._run_spec(),
         t_end=float(t_end),
         dt=float(dt),
         every=int(every),
         record_dofs=record,
-        method=method.to_spec(),
-        newton=method.newton.to_spec(),
         adaptive=None if method.adaptive is None else method.adaptive.to_spec(t_end, dt),
     )
     if method.adaptive is None:

@@ -1,8 +1,11 @@
 //! Spec dict → core types. The Python side has validated the model already; these checks
 //! repeat the essentials so that the core is never handed something malformed.
 
+use std::sync::Arc;
+
 use nalgebra::{DMatrix, DVector};
-use numpy::{PyReadonlyArray1, PyReadonlyArray2};
+use numpy::{PyArray2, PyReadonlyArray1, PyReadonlyArray2};
+use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
@@ -21,16 +24,21 @@ use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
 use vibroimpact_core::system::System;
 
 pub(crate) struct Job {
-    pub system: System,
+    pub system: Arc<System>,
     pub method: Method,
     pub settings: RunSettings,
     pub x0: DVector<f64>,
     pub v0: DVector<f64>,
 }
 
+/// A key of a spec dict: a `&str`, or a string interned once (`intern!`) for the keys read in
+/// every run (a `&str` is made into a new Python string at each lookup).
+trait Key<'py>: IntoPyObject<'py> + Copy + std::fmt::Display {}
+impl<'py, K: IntoPyObject<'py> + Copy + std::fmt::Display> Key<'py> for K {}
+
 fn item<'py, T: FromPyObjectOwned<'py>>(
     d: &Bound<'py, PyDict>,
-    key: &str,
+    key: impl Key<'py>,
     ctx: &str,
 ) -> PyResult<T> {
     let v = d
@@ -44,7 +52,7 @@ fn item<'py, T: FromPyObjectOwned<'py>>(
 
 fn opt<'py, T: FromPyObjectOwned<'py>>(
     d: &Bound<'py, PyDict>,
-    key: &str,
+    key: impl Key<'py>,
     ctx: &str,
 ) -> PyResult<Option<T>> {
     match d.get_item(key)? {
@@ -77,7 +85,8 @@ fn matrix(d: &Bound<'_, PyDict>, key: &str) -> PyResult<Matrix> {
     let obj = d
         .get_item(key)?
         .ok_or_else(|| ModelError::new_err(format!("structure.{key}: missing")))?;
-    if !obj.hasattr("indptr")? {
+    // an array first: `hasattr` on one would raise and discard an AttributeError (~1 µs)
+    if obj.cast::<PyArray2<f64>>().is_ok() || !obj.hasattr("indptr")? {
         let a: PyReadonlyArray2<f64> = item(d, key, "structure")?;
         let a = a.as_array();
         let (r, c) = a.dim();
@@ -107,7 +116,7 @@ fn matrix(d: &Bound<'_, PyDict>, key: &str) -> PyResult<Matrix> {
         .map_err(bad)
 }
 
-fn vector(d: &Bound<'_, PyDict>, key: &str) -> PyResult<DVector<f64>> {
+fn vector<'py>(d: &Bound<'py, PyDict>, key: impl Key<'py>) -> PyResult<DVector<f64>> {
     let a: PyReadonlyArray1<f64> = item(d, key, "initial")?;
     Ok(DVector::from_iterator(
         a.len()?,
@@ -214,14 +223,15 @@ fn load(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Load> {
 }
 
 fn method(d: &Bound<'_, PyDict>) -> PyResult<Method> {
-    let kind: String = item(d, "kind", "solver")?;
+    let py = d.py();
+    let kind: String = item(d, intern!(py, "kind"), "solver")?;
     match kind.as_str() {
         "newmark" | "newmark-family" => {
             let scheme = NewmarkFamily {
-                beta: item(d, "beta", "solver")?,
-                gamma: item(d, "gamma", "solver")?,
-                alpha_m: opt(d, "alpha_m", "solver")?.unwrap_or(0.0),
-                alpha_f: opt(d, "alpha_f", "solver")?.unwrap_or(0.0),
+                beta: item(d, intern!(py, "beta"), "solver")?,
+                gamma: item(d, intern!(py, "gamma"), "solver")?,
+                alpha_m: opt(d, intern!(py, "alpha_m"), "solver")?.unwrap_or(0.0),
+                alpha_f: opt(d, intern!(py, "alpha_f"), "solver")?.unwrap_or(0.0),
             };
             scheme.validate().map_err(to_py_err)?;
             Ok(Method::NewmarkFamily(scheme))
@@ -231,7 +241,7 @@ fn method(d: &Bound<'_, PyDict>) -> PyResult<Method> {
         })),
         "bathe" => {
             let scheme = Bathe {
-                gamma: opt(d, "gamma", "solver")?.unwrap_or(0.5),
+                gamma: opt(d, intern!(py, "gamma"), "solver")?.unwrap_or(0.5),
             };
             scheme.validate().map_err(to_py_err)?;
             Ok(Method::Bathe(scheme))
@@ -262,18 +272,31 @@ fn method(d: &Bound<'_, PyDict>) -> PyResult<Method> {
 }
 
 fn adaptive(spec: &Bound<'_, PyDict>) -> PyResult<Option<Adaptive>> {
-    let Some(d) = opt::<Bound<'_, PyDict>>(spec, "adaptive", "solver")? else {
+    let py = spec.py();
+    let Some(d) = opt::<Bound<'_, PyDict>>(spec, intern!(py, "adaptive"), "solver")? else {
         return Ok(None);
     };
     Ok(Some(Adaptive {
-        rtol: item(&d, "rtol", "solver")?,
-        atol: item(&d, "atol", "solver")?,
-        dt_min: item(&d, "dt_min", "solver")?,
-        dt_max: item(&d, "dt_max", "solver")?,
+        rtol: item(&d, intern!(py, "rtol"), "solver")?,
+        atol: item(&d, intern!(py, "atol"), "solver")?,
+        dt_min: item(&d, intern!(py, "dt_min"), "solver")?,
+        dt_max: item(&d, intern!(py, "dt_max"), "solver")?,
     }))
 }
 
-pub(crate) fn job_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Job> {
+/// A model's structure, gaps and loads as the core's `System`, built once by
+/// `compile_system` and given to `start` in place of them (`spec["system"]`): what
+/// `vibroimpact.Model` keeps for its runs when nothing in it can change.
+#[pyclass(module = "vibroimpact._core", frozen)]
+pub(crate) struct CompiledSystem(Arc<System>);
+
+/// The structure, gaps and loads of a model spec compiled for `start`.
+#[pyfunction]
+pub(crate) fn compile_system(spec: &Bound<'_, PyDict>) -> PyResult<CompiledSystem> {
+    system(spec).map(|s| CompiledSystem(Arc::new(s)))
+}
+
+fn system(spec: &Bound<'_, PyDict>) -> PyResult<System> {
     let structure = match (
         matrix(spec, "mass")?,
         matrix(spec, "damping")?,
@@ -296,31 +319,41 @@ pub(crate) fn job_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Job> {
         .enumerate()
         .map(|(i, l)| load(l.cast::<PyDict>()?, i))
         .collect::<PyResult<Vec<_>>>()?;
-    let system = System::new(structure, gaps, loads).map_err(to_py_err)?;
-    let method_dict: Bound<'_, PyDict> = item(spec, "method", "solver")?;
-    let newton_dict: Bound<'_, PyDict> = item(spec, "newton", "solver")?;
+    System::new(structure, gaps, loads).map_err(to_py_err)
+}
+
+/// The run of a spec: the model's fields (or `system`, compiled), initial state and settings.
+pub(crate) fn job_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Job> {
+    let py = spec.py();
+    let system = match spec.get_item(intern!(py, "system"))? {
+        Some(compiled) => compiled.cast::<CompiledSystem>()?.get().0.clone(),
+        None => Arc::new(system(spec)?),
+    };
+    let method_dict: Bound<'_, PyDict> = item(spec, intern!(py, "method"), "solver")?;
+    let newton_dict: Bound<'_, PyDict> = item(spec, intern!(py, "newton"), "solver")?;
     let default = NewtonSettings::default();
     let newton = NewtonSettings {
-        rtol: opt(&newton_dict, "rtol", "solver")?.unwrap_or(default.rtol),
-        atol: opt(&newton_dict, "atol", "solver")?.unwrap_or(default.atol),
-        max_iterations: opt(&newton_dict, "max_iterations", "solver")?
+        rtol: opt(&newton_dict, intern!(py, "rtol"), "solver")?.unwrap_or(default.rtol),
+        atol: opt(&newton_dict, intern!(py, "atol"), "solver")?.unwrap_or(default.atol),
+        max_iterations: opt(&newton_dict, intern!(py, "max_iterations"), "solver")?
             .unwrap_or(default.max_iterations),
-        max_step_cuts: opt(&newton_dict, "max_step_cuts", "solver")?
+        max_step_cuts: opt(&newton_dict, intern!(py, "max_step_cuts"), "solver")?
             .unwrap_or(default.max_step_cuts),
     };
     let n = system.n_dof();
     Ok(Job {
         method: method(&method_dict)?,
         settings: RunSettings {
-            t_end: item(spec, "t_end", "solver")?,
-            dt: item(spec, "dt", "solver")?,
-            every: item(spec, "every", "output")?,
-            record_dofs: opt(spec, "record_dofs", "output")?.unwrap_or_else(|| (0..n).collect()),
+            t_end: item(spec, intern!(py, "t_end"), "solver")?,
+            dt: item(spec, intern!(py, "dt"), "solver")?,
+            every: item(spec, intern!(py, "every"), "output")?,
+            record_dofs: opt(spec, intern!(py, "record_dofs"), "output")?
+                .unwrap_or_else(|| (0..n).collect()),
             newton,
             adaptive: adaptive(spec)?,
         },
-        x0: vector(spec, "x0")?,
-        v0: vector(spec, "v0")?,
+        x0: vector(spec, intern!(py, "x0"))?,
+        v0: vector(spec, intern!(py, "v0"))?,
         system,
     })
 }

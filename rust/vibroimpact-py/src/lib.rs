@@ -9,13 +9,16 @@ mod sweep;
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 use nalgebra::DMatrix;
-use numpy::{PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
+use numpy::ndarray::Array2;
+use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray2};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyValueError};
+use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use vibroimpact_core::contact::{ContactGeometry, ContactLaw, Material};
+use vibroimpact_core::gap::ImpactRecord;
 use vibroimpact_core::integrators;
 use vibroimpact_core::simulate::{Rows, RunOutput};
 use vibroimpact_core::structure::LinearStructure;
@@ -263,7 +266,8 @@ fn precise_matrices<'py>(
     Ok(out)
 }
 
-/// The time-history columns of `rows` (`n_dofs` recorded DOFs, `n_gaps` gaps) into `d`.
+/// The time-history columns of `rows` (`n_dofs` recorded DOFs, `n_gaps` gaps) into `d`. (The
+/// keys here and in [`output_to_dict`] are interned: a run's output is built in a few µs.)
 pub(crate) fn rows_to_dict(
     d: &Bound<'_, PyDict>,
     rows: Rows,
@@ -272,38 +276,40 @@ pub(crate) fn rows_to_dict(
 ) -> PyResult<()> {
     let py = d.py();
     let nt = rows.time.len();
+    // made 2-D at once (a reshape would make a second array object)
     let mat = |v: Vec<f64>, cols: usize| -> PyResult<Bound<'_, PyArray2<f64>>> {
-        PyArray1::from_vec(py, v).reshape([nt, cols])
+        Array2::from_shape_vec((nt, cols), v)
+            .map(|a| a.into_pyarray(py))
+            .map_err(|e| PyRuntimeError::new_err(format!("rows of {cols} columns: {e}")))
     };
-    d.set_item("time", PyArray1::from_vec(py, rows.time))?;
-    d.set_item("displacement", mat(rows.displacement, n_dofs)?)?;
-    d.set_item("velocity", mat(rows.velocity, n_dofs)?)?;
-    d.set_item("acceleration", mat(rows.acceleration, n_dofs)?)?;
-    d.set_item("gap_penetration", mat(rows.gap_penetration, n_gaps)?)?;
-    d.set_item("gap_force", mat(rows.gap_force, n_gaps)?)?;
+    d.set_item(intern!(py, "time"), PyArray1::from_vec(py, rows.time))?;
+    d.set_item(intern!(py, "displacement"), mat(rows.displacement, n_dofs)?)?;
+    d.set_item(intern!(py, "velocity"), mat(rows.velocity, n_dofs)?)?;
+    d.set_item(intern!(py, "acceleration"), mat(rows.acceleration, n_dofs)?)?;
+    d.set_item(
+        intern!(py, "gap_penetration"),
+        mat(rows.gap_penetration, n_gaps)?,
+    )?;
+    d.set_item(intern!(py, "gap_force"), mat(rows.gap_force, n_gaps)?)?;
     let e = rows.energy;
     let energy = PyDict::new(py);
-    energy.set_item("kinetic", PyArray1::from_vec(py, e.kinetic))?;
-    energy.set_item("strain", PyArray1::from_vec(py, e.strain))?;
-    energy.set_item(
-        "contact_potential",
-        PyArray1::from_vec(py, e.contact_potential),
-    )?;
-    energy.set_item("external_work", PyArray1::from_vec(py, e.external_work))?;
-    energy.set_item(
-        "damping_dissipated",
-        PyArray1::from_vec(py, e.damping_dissipated),
-    )?;
-    energy.set_item(
-        "contact_dissipated",
-        PyArray1::from_vec(py, e.contact_dissipated),
-    )?;
-    d.set_item("energy", energy)
+    for (key, column) in [
+        (intern!(py, "kinetic"), e.kinetic),
+        (intern!(py, "strain"), e.strain),
+        (intern!(py, "contact_potential"), e.contact_potential),
+        (intern!(py, "external_work"), e.external_work),
+        (intern!(py, "damping_dissipated"), e.damping_dissipated),
+        (intern!(py, "contact_dissipated"), e.contact_dissipated),
+    ] {
+        energy.set_item(key, PyArray1::from_vec(py, column))?;
+    }
+    d.set_item(intern!(py, "energy"), energy)
 }
 
 /// A finished run as the dict `vibroimpact.Result.from_core` reads: `rows` are its time
-/// histories (those not handed out in blocks) with `n_gaps` gap columns, `balance` the energy balance error of the
-/// whole run.
+/// histories (those not handed out in blocks) with `n_gaps` gap columns, `balance` the energy
+/// balance error of the whole run. `impacts` and `stats` hold the fields of `ImpactTable`
+/// (`side`: 0 for the negative wall, 1 for the positive one) and `SolverStats`.
 pub(crate) fn output_to_dict<'py>(
     py: Python<'py>,
     out: RunOutput,
@@ -313,49 +319,54 @@ pub(crate) fn output_to_dict<'py>(
 ) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     rows_to_dict(&d, rows, out.record_dofs.len(), n_gaps)?;
+    let ints = |v: &mut dyn Iterator<Item = i64>| PyArray1::from_vec(py, v.collect());
     d.set_item(
-        "dofs",
-        PyArray1::from_vec(py, out.record_dofs.iter().map(|&x| x as i64).collect()),
+        intern!(py, "dofs"),
+        ints(&mut out.record_dofs.iter().map(|&x| x as i64)),
     )?;
     d.set_item(
-        "max_abs_displacement",
+        intern!(py, "max_abs_displacement"),
         PyArray1::from_vec(py, out.max_abs_displacement),
     )?;
     let imp = PyDict::new(py);
-    let col = |f: &dyn Fn(&vibroimpact_core::gap::ImpactRecord) -> f64| {
-        PyArray1::from_vec(py, out.impacts.iter().map(f).collect())
-    };
+    let records = &out.impacts;
     imp.set_item(
-        "gap",
-        PyArray1::from_vec(py, out.impacts.iter().map(|r| r.gap as i64).collect()),
+        intern!(py, "gap"),
+        ints(&mut records.iter().map(|r| r.gap as i64)),
     )?;
     imp.set_item(
-        "side",
-        PyArray1::from_vec(py, out.impacts.iter().map(|r| r.side as i64).collect()),
+        intern!(py, "side"),
+        ints(&mut records.iter().map(|r| i64::from(r.side > 0.0))),
     )?;
-    imp.set_item("t_start", col(&|r| r.t_start))?;
-    imp.set_item("t_end", col(&|r| r.t_end))?;
-    imp.set_item("v_in", col(&|r| r.v_in))?;
-    imp.set_item("v_out", col(&|r| r.v_out))?;
-    imp.set_item("restitution", col(&|r| r.restitution()))?;
-    imp.set_item("delta_max", col(&|r| r.delta_max))?;
-    imp.set_item("force_max", col(&|r| r.force_max))?;
-    imp.set_item("impulse", col(&|r| r.impulse))?;
-    d.set_item("impacts", imp)?;
+    type Column = fn(&ImpactRecord) -> f64;
+    let columns: [(_, Column); 8] = [
+        (intern!(py, "t_start"), |r| r.t_start),
+        (intern!(py, "t_end"), |r| r.t_end),
+        (intern!(py, "v_in"), |r| r.v_in),
+        (intern!(py, "v_out"), |r| r.v_out),
+        (intern!(py, "restitution_effective"), |r| r.restitution()),
+        (intern!(py, "delta_max"), |r| r.delta_max),
+        (intern!(py, "force_max"), |r| r.force_max),
+        (intern!(py, "impulse"), |r| r.impulse),
+    ];
+    for (key, f) in columns {
+        imp.set_item(key, PyArray1::from_vec(py, records.iter().map(f).collect()))?;
+    }
+    d.set_item(intern!(py, "impacts"), imp)?;
     let stats = PyDict::new(py);
-    stats.set_item("steps", out.stats.steps)?;
-    stats.set_item("newton_iterations", out.stats.newton_iterations)?;
-    stats.set_item("rejected_steps", out.stats.rejected_steps)?;
-    stats.set_item("step_cuts", out.stats.step_cuts)?;
-    stats.set_item("wall_time_s", out.stats.wall_time_s)?;
-    stats.set_item("energy_balance_error", balance)?;
-    stats.set_item("dt", out.dt)?;
-    d.set_item("stats", stats)?;
-    match out.error {
-        None => {
-            d.set_item("error", py.None())?;
-            d.set_item("error_kind", py.None())?;
-        }
+    stats.set_item(intern!(py, "steps"), out.stats.steps)?;
+    stats.set_item(
+        intern!(py, "newton_iterations"),
+        out.stats.newton_iterations,
+    )?;
+    stats.set_item(intern!(py, "rejected_steps"), out.stats.rejected_steps)?;
+    stats.set_item(intern!(py, "step_cuts"), out.stats.step_cuts)?;
+    stats.set_item(intern!(py, "wall_time_s"), out.stats.wall_time_s)?;
+    d.set_item(intern!(py, "stats"), stats)?;
+    d.set_item(intern!(py, "energy_balance_error"), balance)?;
+    d.set_item(intern!(py, "dt"), out.dt)?;
+    let (error, kind) = match out.error {
+        None => (None, None),
         Some(e) => {
             let kind = match &e {
                 SimError::InvalidModel(_) => "invalid-model",
@@ -365,10 +376,11 @@ pub(crate) fn output_to_dict<'py>(
                 SimError::SingularTangent { .. } => "singular-tangent",
                 SimError::Interrupted { .. } => "interrupted",
             };
-            d.set_item("error", e.to_string())?;
-            d.set_item("error_kind", kind)?;
+            (Some(e.to_string()), Some(kind))
         }
-    }
+    };
+    d.set_item(intern!(py, "error"), error)?;
+    d.set_item(intern!(py, "error_kind"), kind)?;
     Ok(d)
 }
 
@@ -376,6 +388,8 @@ pub(crate) fn output_to_dict<'py>(
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(running::start, m)?)?;
     m.add_class::<running::Running>()?;
+    m.add_function(wrap_pyfunction!(convert::compile_system, m)?)?;
+    m.add_class::<convert::CompiledSystem>()?;
     m.add_function(wrap_pyfunction!(expm, m)?)?;
     m.add_function(wrap_pyfunction!(request_interrupt, m)?)?;
     m.add_function(wrap_pyfunction!(clear_interrupt, m)?)?;

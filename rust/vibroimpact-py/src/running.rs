@@ -1,6 +1,7 @@
-//! A run in progress (`_core.start`): the core runs on a worker thread and hands its
-//! recorded rows over a bounded channel (two blocks: when the Python side falls behind, the
-//! core waits, so memory stays bounded), its simulated time through an atomic and its solver
+//! A run in progress (`_core.start`, begun by the first `wait`): the core runs on a worker
+//! thread (a short run: on the calling thread, inside that `wait`) and hands its recorded
+//! rows over a bounded channel (two blocks: when the Python side falls behind, the core
+//! waits, so memory stays bounded), its simulated time through an atomic and its solver
 //! events through a bounded buffer. The Python side (`vibroimpact.simulate`) polls: `wait`
 //! (GIL released), `take_rows`, `take_events`, `time`, then `finish`. No Python runs inside
 //! the time loop.
@@ -71,15 +72,23 @@ impl Sink for ChannelSink {
 }
 
 enum Worker {
+    /// Converted, not begun: the first `wait` runs it there (a short run) or on a thread.
+    Ready(Box<(convert::Job, ChannelSink)>),
     Thread(JoinHandle<Result<RunOutput, SimError>>),
     Done(Box<Result<RunOutput, SimError>>),
     Taken,
 }
 
-/// A run started by `start`.
+/// A run prepared by `start`.
 #[pyclass(module = "vibroimpact._core", unsendable)]
 pub(crate) struct Running {
     worker: Worker,
+    /// A short run without `chunk_rows` (under [`INLINE_WORK`], about 10 ms): the first
+    /// `wait` makes it on the calling thread, with the GIL released, instead of on a thread
+    /// (whose ~50 µs would be most of its cost). No Python signal handler can run until it
+    /// has ended.
+    #[pyo3(get)]
+    inline: bool,
     rx: Receiver<Rows>,
     /// Blocks received and not yet taken.
     pending: Vec<Rows>,
@@ -91,15 +100,13 @@ pub(crate) struct Running {
     n_gaps: usize,
 }
 
-/// Starts the run of one model spec (a dict built by `vibroimpact._spec`). `chunk_rows`:
-/// hand the recorded rows over in blocks of that many (`take_rows`) instead of holding them
-/// all; `events`: collect solver events (`take_events`). A short run without `chunk_rows`
-/// (under [`INLINE_WORK`], about 10 ms) runs here at once, with the GIL released, instead of
-/// on a thread (whose ~50 µs would be most of its cost).
+/// Prepares the run of one model spec (a dict built by `vibroimpact.simulate`), which begins
+/// at the first `wait` (see `Running.inline`). `chunk_rows`: hand the recorded rows over in
+/// blocks of that many (`take_rows`) instead of holding them all; `events`: collect solver
+/// events (`take_events`).
 #[pyfunction]
 #[pyo3(signature = (spec, chunk_rows = None, events = false))]
 pub(crate) fn start(
-    py: Python<'_>,
     spec: &Bound<'_, PyDict>,
     chunk_rows: Option<usize>,
     events: bool,
@@ -116,32 +123,16 @@ pub(crate) fn start(
     let work = steps * n.max(1.0).powi(2) * (job.system.gaps.len().max(1) as f64);
     let (tx, rx) = sync_channel(BLOCKS_IN_FLIGHT);
     let shared = Arc::new(Shared::default());
-    let mut sink = ChannelSink {
+    let sink = ChannelSink {
         shared: shared.clone(),
         tx: Some(tx),
         chunk: chunk_rows,
         events,
     };
     let (n_dofs, n_gaps) = (job.settings.record_dofs.len(), job.system.gaps.len());
-    let run = move |sink: &mut ChannelSink| {
-        let convert::Job {
-            system,
-            method,
-            settings,
-            x0,
-            v0,
-        } = job;
-        simulate_streamed(&system, method, &settings, x0, v0, sink)
-    };
-    let worker = if chunk_rows.is_none() && work <= INLINE_WORK {
-        let out = py.detach(|| run(&mut sink));
-        drop(sink);
-        Worker::Done(Box::new(out))
-    } else {
-        Worker::Thread(std::thread::spawn(move || run(&mut sink)))
-    };
     Ok(Running {
-        worker,
+        worker: Worker::Ready(Box::new((job, sink))),
+        inline: chunk_rows.is_none() && work <= INLINE_WORK,
         rx,
         pending: Vec::new(),
         shared,
@@ -150,6 +141,17 @@ pub(crate) fn start(
         n_dofs,
         n_gaps,
     })
+}
+
+fn run(job: convert::Job, sink: &mut ChannelSink) -> Result<RunOutput, SimError> {
+    let convert::Job {
+        system,
+        method,
+        settings,
+        x0,
+        v0,
+    } = job;
+    simulate_streamed(&system, method, &settings, x0, v0, sink)
 }
 
 /// `blocks` as one block.
@@ -191,6 +193,18 @@ impl Running {
     fn wait(&mut self, py: Python<'_>, timeout: f64) -> bool {
         if self.finished {
             return true;
+        }
+        if matches!(self.worker, Worker::Ready(_)) {
+            let Worker::Ready(ready) = std::mem::replace(&mut self.worker, Worker::Taken) else {
+                unreachable!("matched above")
+            };
+            let (job, mut sink) = *ready;
+            self.worker = if self.inline {
+                // the sink dropped after the run: the channel then reports its end
+                Worker::Done(Box::new(py.detach(move || run(job, &mut sink))))
+            } else {
+                Worker::Thread(std::thread::spawn(move || run(job, &mut sink)))
+            };
         }
         let (rx, pending) = (&mut self.rx, &mut self.pending);
         let timeout = Duration::from_secs_f64(timeout.max(0.0));
@@ -292,6 +306,7 @@ impl Running {
             Worker::Thread(handle) => py
                 .detach(|| handle.join())
                 .map_err(|_| PyRuntimeError::new_err("the simulation thread panicked"))?,
+            Worker::Ready(_) => unreachable!("wait begins the run"),
             Worker::Taken => return Err(PyRuntimeError::new_err("finish: already called")),
         };
         let mut out = out.map_err(to_py_err)?;
