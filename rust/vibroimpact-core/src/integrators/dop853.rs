@@ -10,9 +10,10 @@
 //! step is retaken to end there, until the event lies within [`EVENT_NEAR`] of a step (or
 //! [`EVENT_TOL`] of `t_end`) of the step's end; the wall is switched at the start of the next
 //! step. `v_imp`, `t_start`, `t_end`, `v_out` and the peak are therefore those of the
-//! integrated motion, to its tolerance. A Hertzian force starts and ends like `t^1.5`: the
-//! first step of a contact and a step landed on a closing or opening take the larger, third-
-//! order error estimate. The work integrals of the energy account and each wall's impulse
+//! integrated motion, to its tolerance. A Hertzian force starts and ends like `t^1.5`: with
+//! adaptive steps a power-law contact's first step and its last ones are taken in `ζ = √δ`
+//! ([`Clock::Root`]), where the motion is analytic; otherwise the first step of a contact and
+//! a step landed on a closing or opening take the larger, third-order error estimate. The work integrals of the energy account and each wall's impulse
 //! are integrated with the same stages (no trapezoidal rule) and the work integrals are
 //! error-controlled too, so the energy balance closes to the method's accuracy.
 //!
@@ -258,7 +259,9 @@ enum Clock {
     /// so a force `∝ δ^1.5` is `∝ ζ³` and the motion is analytic in `ζ` where in `t` it is
     /// not (a term `∝ (t − t₀)^3.5`). With `dt/dζ = 2ζ/δ'`, `δ(x) − ζ²` is conserved
     /// exactly, a step to `ζ = 0` ends on the opening, and eighth order holds up to it.
-    Root { wall: usize, from: f64 },
+    /// `offset`: the wall's penetration at `ζ = 0` (< 0 for a closing switched on just
+    /// before the wall), so that the force sees `δ = ζ² + offset`, the motion's penetration.
+    Root { wall: usize, from: f64, offset: f64 },
 }
 
 impl Clock {
@@ -267,7 +270,7 @@ impl Clock {
     fn penetration(self, c: f64, h: f64) -> Option<(usize, f64)> {
         match self {
             Clock::Time => None,
-            Clock::Root { wall, from } => Some((wall, (from + c * h).powi(2))),
+            Clock::Root { wall, from, offset } => Some((wall, (from + c * h).powi(2) + offset)),
         }
     }
 
@@ -277,7 +280,7 @@ impl Clock {
     fn dt_dvar(self, sys: &System, c: f64, h: f64, v: &[f64]) -> Option<f64> {
         match self {
             Clock::Time => Some(1.0),
-            Clock::Root { wall, from } => {
+            Clock::Root { wall, from, .. } => {
                 let rate = toward_wall(sys, wall, v);
                 (rate * h > 0.0).then(|| 2.0 * (from + c * h) / rate)
             }
@@ -587,13 +590,6 @@ fn smooth_in_root(law: &Law) -> bool {
     !matches!(law, Law::Tabulated(_) | Law::KelvinVoigt(_) | Law::Rigid(_))
 }
 
-/// Wall `j`'s `ζ = √δ` at a state (0 outside the wall).
-fn root_of_penetration(sys: &System, j: usize, x: &[f64]) -> f64 {
-    (toward_wall(sys, j, x) - sys.walls[j].clearance)
-        .max(0.0)
-        .sqrt()
-}
-
 /// The phase that integrates wall `j`'s opening in `ζ` from `start`, if the wall is inside
 /// and on its way out there (past its peak).
 fn opening_phase(
@@ -704,9 +700,13 @@ pub(crate) fn run(
             }
         }
         // the step: in ζ during a contact's start or end, else in time
+        // a step in ζ that ends the contact (lands on ζ = 0)
+        let mut opens = false;
         let (clock, h_try, target) = match root {
             Some(phase) => {
-                let from = root_of_penetration(sys, phase.wall, &start.x);
+                let delta =
+                    toward_wall(sys, phase.wall, &start.x) - sys.walls[phase.wall].clearance;
+                let from = delta.max(0.0).sqrt();
                 let dz = if phase.rising {
                     phase.dz
                 } else {
@@ -715,9 +715,11 @@ pub(crate) fn run(
                     let peak = contacts[phase.wall].max_penetration.sqrt();
                     -phase.dz.min(0.5 * (peak - from).max(0.0)).min(from)
                 };
+                opens = !phase.rising && dz == -from;
                 let clock = Clock::Root {
                     wall: phase.wall,
                     from,
+                    offset: delta - from * from,
                 };
                 (clock, dz, dz)
             }
@@ -736,8 +738,9 @@ pub(crate) fn run(
         // a step landed on a closing or opening meets the force's singularity at its end
         let singular_end = landing.take().is_some_and(|(_, singular)| singular);
         let duration = stages.step(&mut dynamics, &contacts, clock, t0, &start, h_try, &mut end);
-        if root.is_some() && duration.is_some_and(|d| t0 + d > t_end) {
-            // a step in ζ past t_end: the rest is integrated in time
+        if let Some(phase) = root.filter(|_| duration.is_some_and(|d| t0 + d > t_end)) {
+            // a step in ζ past t_end: the rest of the contact is integrated in time
+            contacts[phase.wall].in_time = true;
             root = None;
             continue;
         }
@@ -860,7 +863,7 @@ pub(crate) fn run(
                 contact_started = false;
                 h = duration.clamp(tol.dt_min, dt_max);
                 root = None;
-            } else if root_of_penetration(sys, phase.wall, &start.x) == 0.0 {
+            } else if opens {
                 h = phase.h_after;
                 root = None;
             } else {
