@@ -315,17 +315,18 @@ class Bathe(Integrator):
 class Dop853(Integrator):
     """Explicit Runge–Kutta DOP853 (Dormand & Prince; Hairer, Nørsett & Wanner, *Solving
     ODEs I*, 1993, §II.10: order 8, error estimators of orders 5 and 3) with located contact
-    events, for small models. The contact set is fixed inside each step; every wall's closing,
-    opening and first peak is located on the step's quintic Hermite interpolant and the step
-    retaken to end on it, so ``v_imp``, impact times, ``v_out`` and peaks are those of the
-    integrated motion. The energy account's work integrals and each wall's impulse are
-    integrated with the same stages (the work integrals error-controlled too). Adaptive by
+    events, for small models. The contact set is fixed inside each step; every wall's closing
+    and opening is located on the step's quintic Hermite interpolant and the step retaken to
+    end on it, and peaks are found inside the steps on the dense output of order 7, so
+    ``v_imp``, impact times, ``v_out`` and peaks are those of the integrated motion. The
+    energy account's work integrals and each wall's impulse are integrated with the same
+    stages (the work integrals error-controlled too). Adaptive by
     default (``adaptive = Adaptive(rtol=1e-8, atol=1e-12)``: each DOF's displacement error
     against ``atol + rtol·|x|``, its velocity error against ``atol/dt_max + rtol·v_max``);
     ``adaptive = None`` takes fixed steps ``dt`` (still landing on events). Explicit: the
     step is bounded by the stiffest mode (``ω_max·h ≲ 5``), so stiff FE models are better
-    served by the implicit methods. On the paper's SDOF case it is within 1e-12 m / 1e-9 s of
-    the reference in about 330 steps solved (``vibroimpact bench``). No Newton iterations."""
+    served by the implicit methods. On the paper's SDOF case it is within 1e-11 m / 1e-9 s of
+    the reference in about 150 steps solved (``vibroimpact bench``). No Newton iterations."""
 
     name: str = field(default="dop853", init=False)
     supports_adaptive: ClassVar[bool] = True
@@ -605,13 +606,25 @@ rejection.
 
 **Contacts.** The set of closed walls is fixed inside a step, so each step integrates a
 smooth equation. After each step every wall's penetration is interpolated by the quintic
-Hermite polynomial through its value, rate and acceleration at both ends; a closing, an
-opening or the first peak of a contact inside the step makes the step be retaken to end
-there (the event is then within 1e-5 of a step of its end, and the wall switches at the
-next step's start — the force law is zero on the open side, so the early switch changes
-nothing measurable). A step rejected for its error that contains a closing or opening lands
-on it instead of shrinking blindly. `v_imp` is the rate at the closing; the impact table
-interpolates `t_start`, `t_end`, `v_out` inside the step that ends at the event.
+Hermite polynomial through its value, rate and acceleration at both ends; a closing or an
+opening inside the step (or the first peak of a `tabulated` contact, whose law turns onto
+its unloading curve there) makes the step be retaken to end there (the event is then within
+1e-5 of a step of its end, and the wall switches at the next step's start — the force law
+is zero on the open side, so the early switch changes nothing measurable). A step rejected
+for its error that contains a closing or opening lands on it instead of shrinking blindly;
+a closing that the wall's present rate and acceleration put inside the next step is landed
+on at once (exact in free flight under constant forces; otherwise corrected as any landing).
+`v_imp` is the rate at the closing; the impact table interpolates `t_start`, `t_end`,
+`v_out` inside the step that ends at the event.
+
+**Peaks inside the steps.** Where a wall's penetration or a DOF's displacement turns
+inside a step (its rate changes sign), the turning point is located on the quintic
+interpolant and valued on DOP853's dense output of order 7 (Hairer's continuous extension:
+three more evaluations, spent only in such a step), whose error is the step's: the impact
+table's `delta_max`, the largest force (golden-section search along the interpolant), the
+run's `max_abs_displacement` and a sweep's peaks come from inside the steps, so no step
+needs to end on a peak, and a free vibration's amplitude is exact to the tolerance although
+a period takes about ten steps.
 
 **Contact ends in ζ = √δ.** A Hertzian force starts and ends like `t^1.5`, so in time the
 motion has a `t^3.5` term there and no expansion in `h` holds: the steps would have to shrink
@@ -623,11 +636,13 @@ motion is analytic in `ζ`, and `t` is integrated and error-controlled with the 
 step covers a contact's start; its end is integrated down to `ζ = 0`, which lands on the
 opening exactly, each step spanning at most half the way back to the peak's `ζ` (where
 `dt/dζ` is singular; nearer, the damped error estimate fell ten times short of the true
-error). A contact whose step in `ζ` is rejected six times (a grazing wall that turns at
-once) is integrated in time to its end: its first step and every step landed on its events
-take the larger (third-order) error estimate, where the damped one can fall several times
-below the true error. On the paper's SDOF case this halves the steps solved (174 against
-318 at rtol 1e-8).
+error). The end begins in `ζ` as soon as the penetration, extrapolated with its rate and
+acceleration, would leave the wall within the next step. A contact whose step in `ζ` is
+rejected six times (a grazing wall that turns at once) is integrated in time to its end: its
+first step and every step landed on its events take the larger (third-order) error
+estimate, where the damped one can fall several times below the true error. On the
+paper's SDOF case this halves the steps solved (174 against 318 at rtol 1e-8; 149 with the
+predicted closings and openings and the peaks found inside the steps).
 
 **Energy account.** The external work and the damping and contact dissipation are
 integrated with the same stages (`W' = F·v`, `D' = vᵀCv`, `(F − F_el)·δ̇`) and are part of
@@ -635,21 +650,23 @@ the step's error norm (against `rtol` times the initial energy or the external w
 balance closes to the method's accuracy (1e-8 of the energy in at the default rtol 1e-8) even
 where their integrands have kinks the motion hardly feels (a tabulated law's loading curve
 while it unloads) — the trapezoidal account of the implicit methods is exact only for
-average acceleration. Each wall's impulse is integrated with the stages too, and its largest
-force found along the step's quintic penetration.
+average acceleration. Each wall's impulse is integrated with the stages too.
 
 ### Verification
 
 * Order 8 on the damped oscillator, fixed steps ω_n·dt from 1 to 0.25
   (`tests/test_integrator_order.py`: measured 7.98).
 * The paper's SDOF case at the default rtol 1e-8: peak within 1e-11 m, every impact's start
-  and end within 1e-9 s of the SciPy reference, in under 250 steps solved
-  (`tests/test_dop853.py`); every force law but the tabulated one against the SciPy
-  reference (peak 1e-10 m, impact times 2e-9 s); Hertz's closed form (peak indentation,
+  and end within 1e-9 s of the SciPy reference, in under 160 steps solved
+  (`tests/test_dop853.py`); an undamped oscillator's amplitude within 2e-8 (rtol 1e-8) and
+  3e-10 (rtol 1e-10) at about ten steps a period, where the largest step end is 2e-3
+  short; every force law but the tabulated one against the SciPy reference (peak 1e-10 m,
+  impact times 2e-9 s); Hertz's closed form (peak indentation,
   contact duration, restitution 1, force peak, impulse, energy: within 3e-8 at rtol 1e-8
   and 2e-9 at rtol 1e-10, about 20 steps for the impact); a grazing contact found inside
   10 ms steps; a forced 2-DOF relative gap against an independent SciPy integration
-  (33 impacts); the Rust test `hertz_impact_of_a_free_mass_matches_energy_closed_form`.
+  (33 impacts); the Rust tests `hertz_impact_of_a_free_mass_matches_energy_closed_form`
+  and `dense_output_is_of_order_seven` (the dense output's error falls by 2⁸ per halved step).
 
 ### When to use
 

@@ -192,6 +192,24 @@ impl ImpactRecord {
     }
 }
 
+/// What an integrator knows of each wall inside a step, beyond the step's ends.
+pub(crate) struct WallInterior<'a> {
+    /// The impulse `∫F dt` over the step, N·s.
+    pub impulse: &'a [f64],
+    /// The largest force inside the step, N.
+    pub force_max: &'a [f64],
+    /// The penetration's peak inside the step (0 if it does not peak inside it), m.
+    pub delta_max: &'a [f64],
+}
+
+/// One wall's [`WallInterior`].
+#[derive(Debug, Clone, Copy)]
+struct Known {
+    impulse: f64,
+    force_max: f64,
+    delta_max: f64,
+}
+
 /// Tracks contacts across committed steps and writes the impact table.
 #[derive(Debug, Clone, Default)]
 pub struct ImpactLog {
@@ -231,17 +249,17 @@ impl ImpactLog {
         }
     }
 
-    /// Updates the table for a committed step `[t, t + h]`. `interior`: per wall, the impulse
-    /// over the step and the largest force inside it, when the integrator knows them (else the
-    /// trapezoidal rule and the parabola through the last force samples).
-    pub fn commit(
+    /// Updates the table for a committed step `[t, t + h]`. `interior`: what the integrator
+    /// knows of each wall inside the step (else the trapezoidal rule, the parabola through the
+    /// last force samples and the cubic Hermite interpolant of the penetration).
+    pub(crate) fn commit(
         &mut self,
         walls: &[Wall],
         before: &[WallState],
         after: &[WallState],
         t: f64,
         h: f64,
-        interior: Option<(&[f64], &[f64])>,
+        interior: Option<&WallInterior>,
     ) {
         for (j, wall) in walls.iter().enumerate() {
             let (s0, s1) = (&before[j], &after[j]);
@@ -255,7 +273,11 @@ impl ImpactLog {
                 dy1: s1.rate,
                 h,
             };
-            let known = interior.map(|(impulse, force_max)| (impulse[j], force_max[j]));
+            let known = interior.map(|i| Known {
+                impulse: i.impulse[j],
+                force_max: i.force_max[j],
+                delta_max: i.delta_max[j],
+            });
             match (s0.closed(), s1.closed()) {
                 (false, true) => {
                     let theta = seg.crossing();
@@ -271,14 +293,14 @@ impl ImpactLog {
                         v_out: f64::NAN,
                         delta_max: 0.0,
                         force_max: 0.0,
-                        impulse: known.map_or(0.5 * (1.0 - theta) * h * s1.force, |k| k.0),
+                        impulse: known.map_or(0.5 * (1.0 - theta) * h * s1.force, |k| k.impulse),
                     });
                     self.update_peaks(j, &seg, s0, s1, t + h, known);
                 }
                 (true, true) => {
                     if let Some(r) = self.open[j] {
                         self.records[r].impulse +=
-                            known.map_or(0.5 * h * (s0.force + s1.force), |k| k.0);
+                            known.map_or(0.5 * h * (s0.force + s1.force), |k| k.impulse);
                     }
                     self.update_peaks(j, &seg, s0, s1, t + h, known);
                 }
@@ -286,13 +308,13 @@ impl ImpactLog {
                     let theta = seg.crossing();
                     if let Some(r) = self.open[j].take() {
                         let rec = &mut self.records[r];
-                        rec.impulse += known.map_or(0.5 * theta * h * s0.force, |k| k.0);
+                        rec.impulse += known.map_or(0.5 * theta * h * s0.force, |k| k.impulse);
                         rec.t_end = t + theta * h;
                         rec.v_out = -seg.rate(theta);
                         let [(ta, fa), (tb, fb)] = self.history[j];
                         rec.force_max = rec.force_max.max(known.map_or_else(
                             || parabola_peak([ta, tb, rec.t_end], [fa, fb, 0.0]),
-                            |k| k.1,
+                            |k| k.force_max,
                         ));
                     }
                 }
@@ -309,13 +331,16 @@ impl ImpactLog {
         s0: &WallState,
         s1: &WallState,
         t1: f64,
-        known: Option<(f64, f64)>,
+        known: Option<Known>,
     ) {
         let Some(r) = self.open[j] else { return };
         let rec = &mut self.records[r];
-        // Penetration peaks where δ̇ changes sign: maximise the Hermite interpolant there.
+        // Penetration peaks where δ̇ changes sign: known inside the step, or the maximum of
+        // the Hermite interpolant there.
         let mut delta = s1.penetration;
-        if s0.rate > 0.0 && s1.rate <= 0.0 {
+        if let Some(k) = known {
+            delta = delta.max(k.delta_max);
+        } else if s0.rate > 0.0 && s1.rate <= 0.0 {
             let s = (s0.rate / (s0.rate - s1.rate)).clamp(0.0, 1.0);
             let s = refine_stationary(seg, s);
             delta = delta.max(seg.value(s));
@@ -323,10 +348,10 @@ impl ImpactLog {
         rec.delta_max = rec.delta_max.max(delta);
         // Force peaks: known inside the step, or the parabola through the last three samples.
         let [(ta, fa), (tb, fb)] = self.history[j];
-        rec.force_max = rec
-            .force_max
-            .max(s1.force)
-            .max(known.map_or_else(|| parabola_peak([ta, tb, t1], [fa, fb, s1.force]), |k| k.1));
+        rec.force_max = rec.force_max.max(s1.force).max(known.map_or_else(
+            || parabola_peak([ta, tb, t1], [fa, fb, s1.force]),
+            |k| k.force_max,
+        ));
         self.history[j] = [(tb, fb), (t1, s1.force)];
     }
 }

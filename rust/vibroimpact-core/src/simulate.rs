@@ -8,7 +8,7 @@ use std::time::Instant;
 use nalgebra::DVector;
 
 use crate::error::{invalid, SimError, ENERGY_GROWTH_LIMIT};
-use crate::gap::{ImpactLog, ImpactRecord};
+use crate::gap::{ImpactLog, ImpactRecord, WallInterior};
 use crate::integrators::dop853::{self, Steps};
 use crate::integrators::{
     Bathe, BatheStepper, NewmarkFamily, NewmarkStepper, NewtonSettings, PreciseIntegration,
@@ -171,9 +171,18 @@ pub struct RunOutput {
 
 /// Sees every accepted step of a run: streaming reducers (sweeps: Poincaré samples, peaks,
 /// impact statistics; `crate::sweep`) that need more than the decimated output without
-/// storing the history. Called after each accepted step from `s0` to `s1` of length `h`.
+/// storing the history. Called after each accepted step from `s0` to `s1` of length `h`;
+/// `turns`: where each DOF's displacement turns inside the step (fraction of the step,
+/// value), when the integrator knows it from its own interpolant.
 pub trait StepObserver {
-    fn accepted(&mut self, sys: &System, s0: &State, s1: &State, h: f64);
+    fn accepted(
+        &mut self,
+        sys: &System,
+        s0: &State,
+        s1: &State,
+        h: f64,
+        turns: Option<&[Option<(f64, f64)>]>,
+    );
 }
 
 /// Consecutive recorded rows: the time histories of a run (or of a block of it) at the
@@ -476,9 +485,11 @@ fn stepper(
 pub(crate) struct StepIntegrals<'a> {
     /// Increments of the external work and of the damping and contact dissipation, J.
     pub work: [f64; 3],
-    /// Per wall: the impulse `∫F dt` over the step, N·s, and the largest force inside it, N.
-    pub impulse: &'a [f64],
-    pub force_max: &'a [f64],
+    /// Per wall: impulse, largest force and peak penetration inside the step.
+    pub walls: WallInterior<'a>,
+    /// Per DOF: where its displacement turns inside the step, if it does (fraction of the
+    /// step, value in m or rad), on the integrator's own interpolant.
+    pub displacement_turns: &'a [Option<(f64, f64)>],
 }
 
 /// The state of a run and everything accumulated from its accepted steps.
@@ -633,9 +644,12 @@ impl<'o> Run<'o> {
             None => self.account.commit(sys, &self.cur, trial),
         }
         for (m, &d) in self.out.max_abs.iter_mut().zip(&self.out.dofs) {
-            *m = m.max(trial.x[d].abs());
+            let inside = integrals.and_then(|i| i.displacement_turns[d]);
+            *m = m
+                .max(trial.x[d].abs())
+                .max(inside.map_or(0.0, |(_, x)| x.abs()));
         }
-        let interior = integrals.map(|i| (i.impulse, i.force_max));
+        let interior = integrals.map(|i| &i.walls);
         self.log.commit(
             &sys.walls,
             &self.cur.walls,
@@ -646,7 +660,8 @@ impl<'o> Run<'o> {
         );
         self.contact_events(sys, iterations);
         if let Some(observer) = self.observer.as_deref_mut() {
-            observer.accepted(sys, &self.cur, &self.trial, h);
+            let turns = integrals.map(|i| i.displacement_turns);
+            observer.accepted(sys, &self.cur, &self.trial, h, turns);
         }
         std::mem::swap(&mut self.cur, &mut self.trial);
         self.since_check += 1;

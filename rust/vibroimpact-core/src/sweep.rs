@@ -188,7 +188,14 @@ fn displacement_segment(s0: &State, s1: &State, d: usize, h: f64) -> HermiteSegm
 }
 
 impl StepObserver for Reducer<'_> {
-    fn accepted(&mut self, sys: &System, s0: &State, s1: &State, h: f64) {
+    fn accepted(
+        &mut self,
+        sys: &System,
+        s0: &State,
+        s1: &State,
+        h: f64,
+        turns: Option<&[Option<(f64, f64)>]>,
+    ) {
         self.out.final_displacement.copy_from_slice(&s1.x);
         self.out.final_velocity.copy_from_slice(&s1.v);
         self.out.final_time = s1.t;
@@ -256,21 +263,28 @@ impl StepObserver for Reducer<'_> {
             let xm = seg.value(0.5 * (1.0 + theta_a));
             self.square_integral[j] += span / 6.0 * (xa * xa + 4.0 * xm * xm + xb * xb);
             let (mut hi, mut lo) = (xa.max(xb), xa.min(xb));
-            if let Some((s, peak)) = seg.interior_peak() {
-                if s >= theta_a {
-                    hi = hi.max(peak);
+            if let Some(turns) = turns {
+                // the integrator's own turning point (a peak or a trough)
+                if let Some((_, x)) = turns[d].filter(|&(s, _)| s >= theta_a) {
+                    (hi, lo) = (hi.max(x), lo.min(x));
                 }
-            }
-            let neg = HermiteSegment {
-                y0: -seg.y0,
-                dy0: -seg.dy0,
-                y1: -seg.y1,
-                dy1: -seg.dy1,
-                h,
-            };
-            if let Some((s, peak)) = neg.interior_peak() {
-                if s >= theta_a {
-                    lo = lo.min(-peak);
+            } else {
+                if let Some((s, peak)) = seg.interior_peak() {
+                    if s >= theta_a {
+                        hi = hi.max(peak);
+                    }
+                }
+                let neg = HermiteSegment {
+                    y0: -seg.y0,
+                    dy0: -seg.dy0,
+                    y1: -seg.y1,
+                    dy1: -seg.dy1,
+                    h,
+                };
+                if let Some((s, peak)) = neg.interior_peak() {
+                    if s >= theta_a {
+                        lo = lo.min(-peak);
+                    }
                 }
             }
             let m = &mut self.out.displacement_max[j];
