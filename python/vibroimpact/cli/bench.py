@@ -84,7 +84,9 @@ def main(args: argparse.Namespace) -> int:
               f"{a['median_s'] * 1e3:.3f} ms (core {a['core_median_s'] * 1e3:.3f} ms), "
               f"{a['steps']} steps + {a['rejected_steps']} discarded; peak error "
               f"{a['peak_error_m']:.1e} m, impact times {a['impact_time_error_s']:.1e} s; "
-              f"SciPy DOP853 with events {a['scipy_dop853_s'] * 1e3:.1f} ms")
+              f"SciPy DOP853 with events {a['scipy_dop853_s'] * 1e3:.1f} ms at rtol "
+              f"{a['scipy_rtol']:g} ({a['scipy_peak_error_m']:.1e} m, "
+              f"{a['scipy_impact_time_error_s']:.1e} s)")
     print()
     _print_large_models(quick=args.quick)
     points = args.sweep_points if args.sweep_points is not None else (40 if args.quick else 400)
