@@ -218,6 +218,9 @@ struct Stages {
     kx: Vec<f64>,
     kv: Vec<f64>,
     kp: [f64; 3 * K],
+    /// Which powers can be nonzero: the loads' (the model has loads), the damping's (it has
+    /// damping), the contact forces'; the others' work stays 0 without being integrated.
+    powers: [bool; 3],
     kf: Vec<f64>,
     /// `dt/dζ` per stage of a [`Clock::Root`] step.
     kt: [f64; K],
@@ -294,12 +297,14 @@ impl Clock {
 }
 
 impl Stages {
-    fn new(n: usize, n_walls: usize) -> Self {
+    fn new(sys: &System) -> Self {
+        let n = sys.n_dof();
         Self {
             kx: vec![0.0; n * K],
             kv: vec![0.0; n * K],
             kp: [0.0; 3 * K],
-            kf: vec![0.0; n_walls * K],
+            powers: [!sys.loads.is_empty(), sys.has_damping, true],
+            kf: vec![0.0; sys.walls.len() * K],
             kt: [0.0; K],
             xs: vec![0.0; n],
             vs: vec![0.0; n],
@@ -353,11 +358,21 @@ impl Stages {
             *x1 = x0 + h * dot(&B, kx);
             *v1 = v0 + h * dot(&B, kv);
         }
-        for (w, kp) in end.work.iter_mut().zip(self.kp.chunks_exact(K)) {
-            *w = h * dot(&B, kp);
+        for ((w, kp), &used) in end
+            .work
+            .iter_mut()
+            .zip(self.kp.chunks_exact(K))
+            .zip(&self.powers)
+        {
+            *w = if used { h * dot(&B, kp) } else { 0.0 };
         }
-        for (impulse, kf) in end.impulse.iter_mut().zip(self.kf.chunks_exact(K)) {
-            *impulse = h * dot(&B, kf);
+        for ((impulse, kf), c) in end
+            .impulse
+            .iter_mut()
+            .zip(self.kf.chunks_exact(K))
+            .zip(contacts)
+        {
+            *impulse = if c.active { h * dot(&B, kf) } else { 0.0 };
         }
         let duration = if root { h * dot(&B, &self.kt) } else { h };
         dynamics.at(contacts, clock.penetration(1.0, h), t0 + duration, end);
@@ -424,7 +439,12 @@ impl Stages {
             return motion;
         }
         let (mut w5, mut w3) = (0.0, 0.0);
-        for kp in self.kp.chunks_exact(K) {
+        for (kp, _) in self
+            .kp
+            .chunks_exact(K)
+            .zip(self.powers)
+            .filter(|(_, used)| *used)
+        {
             w5 += (dot(&E5, kp) / se).powi(2);
             w3 += (dot(&E3, kp) / se).powi(2);
         }
@@ -723,7 +743,7 @@ pub(crate) fn run(
     let n = sys.n_dof();
     let tol_t = EVENT_TOL * t_end;
     let mut dynamics = Dynamics::new(sys);
-    let mut stages = Stages::new(n, sys.walls.len());
+    let mut stages = Stages::new(sys);
     let mut contacts: Vec<Contact> = run
         .cur
         .walls
@@ -769,6 +789,8 @@ pub(crate) fn run(
     // The first accepted step of the last contact: the first step of the next one, if it
     // is not integrated in ζ.
     let mut h_contact: Option<f64> = None;
+    // The step proposed when the last contact began from free motion.
+    let mut h_free: Option<f64> = None;
     // The step in ζ of the last contact's start: the first try of the next one.
     let mut dz_contact: Option<f64> = None;
     // A wall closed at the start of the pending step (its size goes to `h_contact`).
@@ -783,10 +805,18 @@ pub(crate) fn run(
     let mut near_switch = tol_t;
     while t_end - run.cur.t > 1e-13 * t_end {
         let t0 = run.cur.t;
+        let was_free = contacts.iter().all(|c| !c.active);
         let (switched, closed) = switch_walls(sys, &mut contacts, &start, near_switch);
         if switched {
             dynamics.at(&contacts, None, t0, &mut start);
             last = None;
+            // a contact is short: the steps of the free motion resume after it at the size
+            // proposed before it (the error control cuts one that is too long)
+            match (was_free, contacts.iter().all(|c| !c.active)) {
+                (true, false) => h_free = Some(h),
+                (false, true) => h = h.max(h_free.unwrap_or(h)),
+                _ => {}
+            }
             contact_started = contacts.iter().any(|c| c.active && c.peak_pending);
             if let (true, Some(hc)) = (contact_started, h_contact) {
                 h = h.min(hc);
@@ -1217,15 +1247,21 @@ impl Inside {
                 };
             }
             let law = &sys.gaps[sys.walls[j].gap].law;
-            let force = |(penetration, rate): (f64, f64)| {
-                law.force_in_contact(
-                    penetration,
-                    rate,
-                    c.impact_speed,
-                    c.max_penetration.max(penetration),
-                )
-                .force
+            let evaluate = |penetration: f64, rate: f64| {
+                let max_penetration = c.max_penetration.max(penetration);
+                law.force_in_contact(penetration, rate, c.impact_speed, max_penetration)
             };
+            // the force's rate at the ends, F_δ δ' + F_δ' δ'': it peaks inside only if it
+            // rises at the start and falls at the end (else the larger end is the largest)
+            let [(f0, rising), (f1, falling)] = ends.map(|[delta, rate, accel]| {
+                let f = evaluate(delta, rate);
+                (f.force, f.d_penetration * rate + f.d_rate * accel)
+            });
+            self.force_max[j] = f0.max(f1);
+            if !(rising > 0.0 && falling < 0.0) {
+                continue;
+            }
+            let force = |(penetration, rate): (f64, f64)| evaluate(penetration, rate).force;
             let on_segment = |s: f64| force((seg.value(s), seg.slope(s) / h));
             let samples: [f64; FORCE_SAMPLES + 1] =
                 std::array::from_fn(|k| on_segment(k as f64 / FORCE_SAMPLES as f64));
@@ -1234,7 +1270,7 @@ impl Inside {
                 .enumerate()
                 .max_by(|a, b| a.1.total_cmp(b.1))
                 .expect("samples");
-            self.force_max[j] = best;
+            self.force_max[j] = self.force_max[j].max(best);
             if k == 0 || k == FORCE_SAMPLES {
                 continue;
             }
@@ -1295,7 +1331,7 @@ mod tests {
         .unwrap();
         let sys = System::new(s, vec![], vec![]).unwrap();
         let mut dynamics = super::Dynamics::new(&sys);
-        let mut stages = super::Stages::new(1, 0);
+        let mut stages = super::Stages::new(&sys);
         let error = |h: f64, dynamics: &mut super::Dynamics, stages: &mut super::Stages| {
             let state = || super::StepEnd {
                 x: vec![0.0],
