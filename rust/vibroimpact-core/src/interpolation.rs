@@ -145,6 +145,20 @@ impl QuinticSegment {
         }
     }
 
+    /// The Bernstein coefficients `b_i` of `p(s) = Σ b_i C(5,i) sⁱ (1 − s)^(5−i)`:
+    /// `b_i = Σ_{k≤i} [C(i,k)/C(5,k)] c_k`.
+    fn bernstein(&self) -> [f64; 6] {
+        let [c0, c1, c2, c3, c4, c5] = self.c;
+        [
+            c0,
+            c0 + 0.2 * c1,
+            c0 + 0.4 * c1 + 0.1 * c2,
+            c0 + 0.6 * c1 + 0.3 * c2 + 0.1 * c3,
+            c0 + 0.8 * c1 + 0.6 * c2 + 0.4 * c3 + 0.2 * c4,
+            c0 + c1 + c2 + c3 + c4 + c5,
+        ]
+    }
+
     /// `p(s)`.
     #[inline]
     pub fn value(&self, s: f64) -> f64 {
@@ -171,15 +185,16 @@ impl QuinticSegment {
     /// sub-intervals and refined by safeguarded Newton; the start counts as on the near side.
     pub fn first_crossing(&self, rate: bool, rising: bool, samples: usize) -> Option<f64> {
         let sign = if rising { 1.0 } else { -1.0 };
-        // sign·p (or sign·p') on [0, 1] is at most the sum of its positive terms: no crossing
-        // when that bound stays ≤ 0 (most steps, cheaply)
-        let bound: f64 = if rate {
-            (1..6)
-                .map(|k| (sign * k as f64 * self.c[k]).max(0.0))
-                .sum::<f64>()
-                + (sign * self.c[1]).min(0.0)
+        // p on [0, 1] lies in the convex hull of its Bernstein coefficients b_i, and p' in
+        // that of 5 (b_{i+1} − b_i): no crossing when sign·p (or sign·p') stays ≤ 0 at all of
+        // them (most steps, cheaply)
+        let b = self.bernstein();
+        let bound = if rate {
+            (0..5)
+                .map(|i| sign * (b[i + 1] - b[i]))
+                .fold(f64::MIN, f64::max)
         } else {
-            (1..6).map(|k| (sign * self.c[k]).max(0.0)).sum::<f64>() + sign * self.c[0]
+            b.iter().map(|&bi| sign * bi).fold(f64::MIN, f64::max)
         };
         if bound <= 0.0 {
             return None;
@@ -296,6 +311,24 @@ mod tests {
             h: 1.0,
         };
         assert!((down.crossing() - 0.37).abs() < 1e-14);
+    }
+
+    #[test]
+    fn bernstein_form_equals_the_polynomial() {
+        let seg = QuinticSegment::new([0.3, -1.2, 4.0], [-0.5, 2.5, -7.0], 0.8);
+        let b = seg.bernstein();
+        let binomial = [1.0, 5.0, 10.0, 10.0, 5.0, 1.0];
+        for s in [0.0_f64, 0.17, 0.5, 0.91, 1.0] {
+            let bernstein: f64 = (0..6)
+                .map(|i| b[i] * binomial[i] * s.powi(i as i32) * (1.0 - s).powi(5 - i as i32))
+                .sum();
+            assert!((bernstein - seg.value(s)).abs() < 1e-14, "{s}");
+        }
+        // the hull bounds the polynomial, and the search finds no crossing outside it
+        let (lo, hi) = b
+            .iter()
+            .fold((f64::MAX, f64::MIN), |(l, h), &x| (l.min(x), h.max(x)));
+        assert!((0..=100).all(|k| (lo..=hi).contains(&seg.value(k as f64 / 100.0))));
     }
 
     #[test]
