@@ -273,7 +273,7 @@ def test_every_force_law_agrees_with_scipy(name: str, law: vi.ContactLaw,
     """Every force law on the paper's SDOF case (the power laws' contact ends integrated in
     ζ = √δ) at the default rtol 1e-8 against the independent SciPy reference (rtol 1e-12):
     the same impacts, the peak within 1e-10 m, impact times within 2e-9 s, exit speeds within
-    3e-7 m/s (of 3.5 to 8 m/s), and the energy balance closed to 2e-7. The tabulated law
+    4e-7 m/s (of 3.5 to 8 m/s), and the energy balance closed to 2e-7. The tabulated law
     (kinks, so integrated in time) is in test_tabulated_law_energy_account_converges."""
     model = vi.Model(vi.Structure.sdof(mass=100.0),
                      gaps=[vi.Gap(dof=0, clearance=0.005, side="both", law=law)],
@@ -287,8 +287,7 @@ def test_every_force_law_agrees_with_scipy(name: str, law: vi.ContactLaw,
     assert np.max(np.abs(ours.impacts.t_start - t_start)) < 2e-9
     done = [i["v_out"] is not None for i in impacts]
     v_out = np.array([i["v_out"] for i in impacts if i["v_out"] is not None])
-    # Kelvin–Voigt's force kinks where its clamp at F = 0 engages (before δ = 0), inside a
-    # step: its exit speed is only within 1e-6 m/s at this tolerance
-    assert np.max(np.abs(ours.impacts.v_out[done] - v_out)) < (
-        1e-6 if name == "kelvin-voigt" else 3e-7)
+    # Kelvin–Voigt's force kinks where its clamp at F = 0 engages (before δ = 0): a step
+    # lands there (1.3e-6 m/s before it did, 2.7e-7 since)
+    assert np.max(np.abs(ours.impacts.v_out[done] - v_out)) < 4e-7
     assert ours.energy.balance_error < 2e-7

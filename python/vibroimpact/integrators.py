@@ -614,8 +614,11 @@ is zero on the open side, so the early switch changes nothing measurable). A ste
 for its error that contains a closing or opening lands on it instead of shrinking blindly;
 a closing that the wall's present rate and acceleration put inside the next step is landed
 on at once (exact in free flight under constant forces; otherwise corrected as any landing).
-`v_imp` is the rate at the closing; the impact table interpolates `t_start`, `t_end`,
-`v_out` inside the step that ends at the event.
+A contact force that its law's formula turns tensile before the wall opens (Kelvin–Voigt,
+strongly damped laws: clamped to zero there, a kink) is landed on the same way, located on
+the formula along the interpolated penetration. `v_imp` is the rate at the closing; the
+impact table interpolates `t_start`, `t_end`, `v_out` inside the step that ends at the
+event.
 
 **Peaks inside the steps.** Where a wall's penetration or a DOF's displacement turns
 inside a step (its rate changes sign), the turning point is located on the quintic

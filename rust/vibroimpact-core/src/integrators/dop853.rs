@@ -9,16 +9,18 @@
 //! unloading curve) is located on the step's quintic Hermite interpolant of the penetration
 //! (value, rate and acceleration at both ends) and the step is retaken to end there, until
 //! the event lies within [`EVENT_NEAR`] of a step (or [`EVENT_TOL`] of `t_end`) of the step's
-//! end; the wall is switched at the start of the next step. A closing predicted inside the
-//! next step is landed on at once. `v_imp`, `t_start`, `t_end` and `v_out` are therefore
-//! those of the integrated motion, to its tolerance; peaks (penetration, force, displacement)
-//! are found inside the steps on the dense output of order 7 ([`Inside::scan`]). A Hertzian
-//! force starts and ends like `t^1.5`: with adaptive steps a power-law contact's first step
-//! and its last ones are taken in `ζ = √δ` ([`Clock::Root`]), where the motion is analytic;
-//! otherwise the first step of a contact and a step landed on a closing or opening take the
-//! larger, third-order error estimate. The work integrals of the energy account and each
-//! wall's impulse are integrated with the same stages (no trapezoidal rule) and the work
-//! integrals are error-controlled too, so the energy balance closes to the method's accuracy.
+//! end; the wall is switched at the start of the next step. A force clamped to zero before
+//! its wall opens (its law's formula turned tensile) is landed on too. A closing predicted
+//! inside the next step is landed on at once. `v_imp`, `t_start`, `t_end` and `v_out` are
+//! therefore those of the integrated motion, to its tolerance; peaks (penetration, force,
+//! displacement) are found inside the steps on the dense output of order 7
+//! ([`Inside::scan`]). A Hertzian force starts and ends like `t^1.5`: with adaptive steps a
+//! power-law contact's first step and its last ones are taken in `ζ = √δ` ([`Clock::Root`]),
+//! where the motion is analytic; otherwise the first step of a contact and a step landed on
+//! a closing or opening take the larger, third-order error estimate. The work integrals of
+//! the energy account and each wall's impulse are integrated with the same stages (no
+//! trapezoidal rule) and the work integrals are error-controlled too, so the energy balance
+//! closes to the method's accuracy.
 //!
 //! Explicit: the step is bounded by the stiffest mode (`ω_max h ≲ 5`), so FE models with
 //! stiff high modes are better served by the implicit methods.
@@ -617,6 +619,9 @@ enum Event {
     Opening,
     /// The first peak of the penetration.
     Peak,
+    /// The force falls to zero while the wall is still in (its law's formula turns tensile
+    /// and is clamped: Kelvin–Voigt, strongly damped laws).
+    Release,
 }
 
 /// The first event inside a step: its fraction of the step, its wall and kind (a peak only
@@ -658,13 +663,51 @@ fn first_event(
         } else {
             None
         };
-        for (s, event) in crossing.into_iter().chain(peak) {
+        // a force clamped to zero at the step's end while the wall is still in: where its
+        // formula turned tensile, a kink
+        let clamped =
+            c.active && start.forces[j] > 0.0 && end.forces[j] == 0.0 && seg.value(1.0) > 0.0;
+        let release = clamped
+            .then(|| release(&sys.gaps[sys.walls[j].gap].law, c, &seg, h))
+            .flatten()
+            .filter(inside)
+            .map(|s| (s, Event::Release));
+        for (s, event) in crossing.into_iter().chain(peak).chain(release) {
             if first.is_none_or(|(f, _, _)| s < f) {
                 first = Some((s, j, event));
             }
         }
     }
     first
+}
+
+/// Where a contact force's formula (before the clamp to compressive) falls to zero inside a
+/// step, along the wall's interpolated penetration `seg`: bracketed on [`EVENT_SAMPLES`]
+/// points, then bisected to round-off.
+fn release(law: &Law, c: &Contact, seg: &QuinticSegment, h: f64) -> Option<f64> {
+    let force = |s: f64| {
+        let penetration = seg.value(s);
+        let max_penetration = c.max_penetration.max(penetration);
+        law.evaluate_in_contact(
+            penetration,
+            seg.slope(s) / h,
+            c.impact_speed,
+            max_penetration,
+        )
+        .force
+    };
+    let n = EVENT_SAMPLES as f64;
+    let k = (1..=EVENT_SAMPLES).find(|&k| force(k as f64 / n) <= 0.0)?;
+    let (mut lo, mut hi) = ((k - 1) as f64 / n, k as f64 / n);
+    while hi - lo > 1e-13 {
+        let mid = 0.5 * (lo + hi);
+        if force(mid) > 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    Some(hi)
 }
 
 /// The earliest time after `state` at which an open wall closes if every wall's
@@ -984,7 +1027,8 @@ pub(crate) fn run(
                 };
                 root = opening;
                 if root.is_none() {
-                    landing = Some((s * duration, event != Event::Peak));
+                    let singular = matches!(event, Event::Closing | Event::Opening);
+                    landing = Some((s * duration, singular));
                     landings += 1;
                 }
                 continue;
