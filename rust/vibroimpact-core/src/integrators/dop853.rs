@@ -201,10 +201,14 @@ impl<'s> Dynamics<'s> {
         [external, damping, contact]
     }
 
-    /// Evaluates the right-hand side at a step's end: its acceleration, powers and forces.
+    /// Evaluates the right-hand side at a step's end: its acceleration, powers and forces,
+    /// and each wall's motion.
     fn at(&mut self, contacts: &[Contact], root: Option<(usize, f64)>, t: f64, end: &mut StepEnd) {
         end.power = self.accel(contacts, root, t, &end.x, &end.v, &mut end.a);
         end.forces.copy_from_slice(&self.forces);
+        for (j, wall) in end.walls.iter_mut().enumerate() {
+            *wall = wall_motion(self.sys, j, &end.x, &end.v, &end.a);
+        }
     }
 }
 
@@ -242,6 +246,8 @@ struct StepEnd {
     /// Increments over the step of the work integrals, J, and of each wall's impulse, N·s.
     work: [f64; 3],
     impulse: Vec<f64>,
+    /// Each wall's penetration (m), its rate and acceleration ([`wall_motion`]).
+    walls: Vec<[f64; 3]>,
 }
 
 /// `Σ_j w_j k_j` over the first `w.len()` stage values `k`.
@@ -591,7 +597,7 @@ fn switch_walls(
 ) -> (bool, Option<usize>) {
     let (mut switched, mut closed) = (false, None);
     for (j, c) in contacts.iter_mut().enumerate() {
-        let [delta, rate, accel] = wall_motion(sys, j, &state.x, &state.v, &state.a);
+        let [delta, rate, accel] = state.walls[j];
         if !c.active && rate > 0.0 && delta + rate * tol_t >= 0.0 {
             *c = Contact {
                 active: true,
@@ -638,11 +644,7 @@ fn first_event(
     let inside = |s: &f64| s * h > tol_t && (1.0 - s) * h > tol_t;
     let mut first: Option<(f64, usize, Event)> = None;
     for (j, c) in contacts.iter().enumerate() {
-        let seg = QuinticSegment::new(
-            wall_motion(sys, j, &start.x, &start.v, &start.a),
-            wall_motion(sys, j, &end.x, &end.v, &end.a),
-            h,
-        );
+        let seg = QuinticSegment::new(start.walls[j], end.walls[j], h);
         let crossing = seg
             .first_crossing(false, !c.active, EVENT_SAMPLES)
             .filter(inside)
@@ -712,10 +714,10 @@ fn release(law: &Law, c: &Contact, seg: &QuinticSegment, h: f64) -> Option<f64> 
 
 /// The earliest time after `state` at which an open wall closes if every wall's
 /// penetration kept its present acceleration.
-fn predicted_closing(sys: &System, contacts: &[Contact], state: &StepEnd) -> Option<f64> {
+fn predicted_closing(contacts: &[Contact], state: &StepEnd) -> Option<f64> {
     let mut first: Option<f64> = None;
     for (j, c) in contacts.iter().enumerate() {
-        let [delta, rate, accel] = wall_motion(sys, j, &state.x, &state.v, &state.a);
+        let [delta, rate, accel] = state.walls[j];
         if c.active || delta >= 0.0 {
             continue;
         }
@@ -770,14 +772,8 @@ fn smooth_in_root(law: &Law) -> bool {
 
 /// The phase that integrates wall `j`'s opening in `ζ` from `start`, if the wall is inside
 /// and on its way out there (past its peak).
-fn opening_phase(
-    sys: &System,
-    contact: &Contact,
-    j: usize,
-    start: &StepEnd,
-    h: f64,
-) -> Option<RootPhase> {
-    let [delta, rate, _] = wall_motion(sys, j, &start.x, &start.v, &start.a);
+fn opening_phase(contact: &Contact, j: usize, start: &StepEnd, h: f64) -> Option<RootPhase> {
+    let [delta, rate, _] = start.walls[j];
     let past_peak = delta > 0.0 && delta < contact.max_penetration && rate < 0.0;
     (!contact.in_time && past_peak).then(|| RootPhase {
         wall: j,
@@ -821,6 +817,7 @@ pub(crate) fn run(
         forces: vec![0.0; sys.walls.len()],
         work: [0.0; 3],
         impulse: vec![0.0; sys.walls.len()],
+        walls: vec![[0.0; 3]; sys.walls.len()],
     };
     let mut start = fresh();
     start.x.copy_from_slice(&run.cur.x);
@@ -880,7 +877,7 @@ pub(crate) fn run(
             if let (Some(j), Steps::Adaptive { .. }) =
                 (closed.filter(|&j| !contacts[j].in_time), steps)
             {
-                let rate = toward_wall(sys, j, &start.v);
+                let rate = start.walls[j][1];
                 root = Some(RootPhase {
                     wall: j,
                     rising: true,
@@ -895,18 +892,16 @@ pub(crate) fn run(
         // opening and is discarded for the force's kink there
         if root.is_none() && landing.is_none() && dt_fixed.is_none() {
             root = contacts.iter().enumerate().find_map(|(j, c)| {
-                let [delta, rate, accel] = wall_motion(sys, j, &start.x, &start.v, &start.a);
+                let [delta, rate, accel] = start.walls[j];
                 let leaves = c.active && delta + h * (rate + 0.5 * h * accel) < 0.0;
-                leaves
-                    .then(|| opening_phase(sys, c, j, &start, h))
-                    .flatten()
+                leaves.then(|| opening_phase(c, j, &start, h)).flatten()
             });
         }
         // a closing within the next step, predicted at constant acceleration (exact in free
         // flight under constant forces): landed on at once instead of after a step that
         // finds it; a step that falls short or overshoots is corrected as any landing
         if root.is_none() && landing.is_none() && dt_fixed.is_none() {
-            landing = predicted_closing(sys, &contacts, &start)
+            landing = predicted_closing(&contacts, &start)
                 .filter(|&tau| tau > near_switch && tau < h.min(t_end - t0))
                 .map(|tau| (tau, true));
         }
@@ -915,8 +910,7 @@ pub(crate) fn run(
         let mut opens = false;
         let (clock, h_try, target) = match root {
             Some(phase) => {
-                let delta =
-                    toward_wall(sys, phase.wall, &start.x) - sys.walls[phase.wall].clearance;
+                let delta = start.walls[phase.wall][0];
                 let from = delta.max(0.0).sqrt();
                 let dz = if phase.rising {
                     phase.dz
@@ -995,7 +989,7 @@ pub(crate) fn run(
                         first_event(sys, &contacts, &start, &end, h_try, near, false)
                     {
                         root = (event == Event::Opening)
-                            .then(|| opening_phase(sys, &contacts[j], j, &start, h_try))
+                            .then(|| opening_phase(&contacts[j], j, &start, h_try))
                             .flatten();
                         if root.is_none() {
                             landing = Some((s * h_try, true));
@@ -1021,7 +1015,7 @@ pub(crate) fn run(
                 run.stats.rejected_steps += 1;
                 let opening = match (event, clock, dt_fixed) {
                     (Event::Opening, Clock::Time, None) => {
-                        opening_phase(sys, &contacts[j], j, &start, h_try)
+                        opening_phase(&contacts[j], j, &start, h_try)
                     }
                     _ => None,
                 };
@@ -1129,7 +1123,7 @@ fn commit(
     let t = run.cur.t + h;
     for (j, c) in contacts.iter_mut().enumerate() {
         if c.active {
-            let at_end = toward_wall(sys, j, &end.x) - sys.walls[j].clearance;
+            let at_end = end.walls[j][0];
             c.max_penetration = c.max_penetration.max(inside.delta_max[j]).max(at_end);
         }
     }
@@ -1291,7 +1285,7 @@ impl Inside {
             if !c.active {
                 continue;
             }
-            let ends = [start, end].map(|y| wall_motion(sys, j, &y.x, &y.v, &y.a));
+            let ends = [start.walls[j], end.walls[j]];
             let seg = QuinticSegment::new(ends[0], ends[1], h);
             if let Some((s, penetration)) = turning_point(ends[0], ends[1], h) {
                 self.delta_max[j] = if in_time {
@@ -1395,6 +1389,7 @@ mod tests {
                 forces: vec![],
                 work: [0.0; 3],
                 impulse: vec![],
+                walls: vec![],
             };
             let (start, mut end) = (state(), state());
             stages
