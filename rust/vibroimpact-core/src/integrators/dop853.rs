@@ -1218,18 +1218,23 @@ struct Dense<'a, 'd, 's> {
 }
 
 impl Dense<'_, '_, '_> {
-    /// Wall `j`'s penetration and its rate at the fraction `s` of the step.
-    fn wall(&mut self, sys: &System, j: usize, s: f64) -> (f64, f64) {
+    /// DOF `d`'s displacement and velocity at the fraction `s` of the step.
+    fn dof(&mut self, d: usize, s: f64) -> [f64; 2] {
         if !self.extended {
             let (stages, dynamics) = (&mut *self.stages, &mut *self.dynamics);
             stages.extend(dynamics, self.contacts, self.t0, self.start, self.h);
             self.extended = true;
         }
+        self.stages.dense(d, self.start, self.end, self.h, s)
+    }
+
+    /// Wall `j`'s penetration and its rate at the fraction `s` of the step.
+    fn wall(&mut self, sys: &System, j: usize, s: f64) -> (f64, f64) {
         let wall = &sys.walls[j];
         let gap = &sys.gaps[wall.gap];
         let (mut u, mut rate) = (0.0, 0.0);
         for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
-            let [x, v] = self.stages.dense(d, self.start, self.end, self.h, s);
+            let [x, v] = self.dof(d, s);
             u += coef * x;
             rate += coef * v;
         }
@@ -1268,17 +1273,8 @@ impl Inside {
         };
         for (d, turn) in self.displacement_turn.iter_mut().enumerate() {
             let ends = [start, end].map(|y| [y.x[d], y.v[d], y.a[d]]);
-            *turn = turning_point(ends[0], ends[1], h).map(|(s, x)| {
-                if !in_time {
-                    return (s, x);
-                }
-                if !dense.extended {
-                    let (stages, dynamics) = (&mut *dense.stages, &mut *dense.dynamics);
-                    stages.extend(dynamics, contacts, t0, start, h);
-                    dense.extended = true;
-                }
-                (s, dense.stages.dense(d, start, end, h, s)[0])
-            });
+            *turn = turning_point(ends[0], ends[1], h)
+                .map(|(s, x)| (s, if in_time { dense.dof(d, s)[0] } else { x }));
         }
         for (j, c) in contacts.iter().enumerate() {
             (self.delta_max[j], self.force_max[j]) = (0.0, 0.0);
@@ -1334,7 +1330,7 @@ impl Inside {
 }
 
 /// The maximiser of a unimodal `f` on `[a, b]` by golden-section search, to 1e-9 of the
-/// step (the maximum's value is then off by a part in 1e-18).
+/// step (the value, stationary at the maximum, is then exact to round-off).
 fn golden_max(f: impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
     let r = 0.5 * (5f64.sqrt() - 1.0);
     let (mut a, mut b) = (a, b);
