@@ -172,8 +172,8 @@ pub struct RunOutput {
 /// Sees every accepted step of a run: streaming reducers (sweeps: Poincaré samples, peaks,
 /// impact statistics; `crate::sweep`) that need more than the decimated output without
 /// storing the history. Called after each accepted step from `s0` to `s1` of length `h`;
-/// `turns`: where each DOF's displacement turns inside the step (fraction of the step,
-/// value), when the integrator knows it from its own interpolant.
+/// `turns`: where each recorded DOF's displacement turns inside the step (fraction of the
+/// step, value), when the integrator knows it from its own interpolant.
 pub trait StepObserver {
     fn accepted(
         &mut self,
@@ -488,7 +488,8 @@ pub(crate) struct StepIntegrals<'a> {
     /// Per wall: impulse, largest force and peak penetration inside the step.
     pub walls: WallInterior<'a>,
     /// Per DOF: where its displacement turns inside the step, if it does (fraction of the
-    /// step, value in m or rad), on the integrator's own interpolant.
+    /// step, value in m or rad), on the integrator's own interpolant; `None` for the DOFs
+    /// that are not recorded.
     pub displacement_turns: &'a [Option<(f64, f64)>],
 }
 
@@ -821,6 +822,11 @@ pub(crate) struct Recorder<'o> {
 }
 
 impl Recorder<'_> {
+    /// The recorded DOFs.
+    pub fn dofs(&self) -> &[usize] {
+        &self.dofs
+    }
+
     fn new(sys: &System, dofs: Vec<usize>, n_rec: usize) -> Self {
         Self {
             rows: Rows::with_capacity(n_rec, dofs.len(), sys.gaps.len()),

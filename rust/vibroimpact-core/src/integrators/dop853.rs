@@ -824,6 +824,8 @@ pub(crate) fn run(
     start.v.copy_from_slice(&run.cur.v);
     dynamics.at(&contacts, None, run.cur.t, &mut start);
     let mut end = fresh();
+    // the DOFs whose turning points the peaks and the sweeps' observers need
+    let recorded = run.out.dofs().to_vec();
     let mut inside = Inside {
         force_max: vec![0.0; sys.walls.len()],
         delta_max: vec![0.0; sys.walls.len()],
@@ -1033,6 +1035,7 @@ pub(crate) fn run(
         let landed = h_try < target * (1.0 - 1e-12);
         inside.scan(
             sys,
+            &recorded,
             &contacts,
             &mut stages,
             &mut dynamics,
@@ -1181,8 +1184,8 @@ fn commit(
 }
 
 /// What turns inside an accepted step: each wall's largest force and peak penetration (0
-/// where it does not peak inside) and where each DOF's displacement turns (fraction of the
-/// step and value), so that no step needs to end on a peak.
+/// where it does not peak inside) and where each recorded DOF's displacement turns (fraction
+/// of the step and value; `None` for the others), so that no step needs to end on a peak.
 struct Inside {
     force_max: Vec<f64>,
     delta_max: Vec<f64>,
@@ -1243,14 +1246,15 @@ impl Dense<'_, '_, '_> {
 }
 
 impl Inside {
-    /// Finds what turns inside an accepted step: located on the quintic interpolants (the
-    /// force's largest value by golden-section search along it), valued on the dense output
-    /// of order 7 for a step in time, whose error is the step's; on the quintic for a step in
-    /// `ζ` (a contact's ends, short in time).
+    /// Finds what turns inside an accepted step (of the DOFs, the `recorded` ones): located
+    /// on the quintic interpolants (the force's largest value by golden-section search along
+    /// it), valued on the dense output of order 7 for a step in time, whose error is the
+    /// step's; on the quintic for a step in `ζ` (a contact's ends, short in time).
     #[allow(clippy::too_many_arguments)]
     fn scan(
         &mut self,
         sys: &System,
+        recorded: &[usize],
         contacts: &[Contact],
         stages: &mut Stages,
         dynamics: &mut Dynamics,
@@ -1271,9 +1275,9 @@ impl Inside {
             h,
             extended: false,
         };
-        for (d, turn) in self.displacement_turn.iter_mut().enumerate() {
+        for &d in recorded {
             let ends = [start, end].map(|y| [y.x[d], y.v[d], y.a[d]]);
-            *turn = turning_point(ends[0], ends[1], h)
+            self.displacement_turn[d] = turning_point(ends[0], ends[1], h)
                 .map(|(s, x)| (s, if in_time { dense.dof(d, s)[0] } else { x }));
         }
         for (j, c) in contacts.iter().enumerate() {
