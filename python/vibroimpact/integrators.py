@@ -616,7 +616,10 @@ a closing that the wall's present rate and acceleration put inside the next step
 on at once (exact in free flight under constant forces; otherwise corrected as any landing).
 A contact force that its law's formula turns tensile before the wall opens (Kelvin–Voigt,
 strongly damped laws: clamped to zero there, a kink) is landed on the same way, located on
-the formula along the interpolated penetration. `v_imp` is the rate at the closing; the
+the formula along the interpolated penetration. A closed wall's force is evaluated from the
+switch on (at the smallest positive penetration while the wall is still just short of it),
+so that a force that does not start from zero — Kelvin–Voigt's `c·δ̇` — does not jump
+inside the contact's first step. `v_imp` is the rate at the closing; the
 impact table interpolates `t_start`, `t_end`, `v_out` inside the step that ends at the
 event.
 

@@ -155,13 +155,14 @@ impl<'s> Dynamics<'s> {
                 u += coef * x[d];
                 u_rate += coef * v[d];
             }
+            // a closed wall's force from the smallest penetration at least: a wall is closed
+            // up to its switching tolerance before it is reached, and a force that does not
+            // start from zero (Kelvin–Voigt's c δ̇) must not jump inside the step
             let penetration = match root {
                 Some((w, p)) if w == j => p,
                 _ => wall.sign * u - wall.clearance,
-            };
-            if penetration <= 0.0 {
-                continue;
             }
+            .max(f64::MIN_POSITIVE);
             let rate = wall.sign * u_rate;
             let force = gap.law.force_in_contact(
                 penetration,
@@ -665,10 +666,9 @@ fn first_event(
         } else {
             None
         };
-        // a force clamped to zero at the step's end while the wall is still in: where its
-        // formula turned tensile, a kink
-        let clamped =
-            c.active && start.forces[j] > 0.0 && end.forces[j] == 0.0 && seg.value(1.0) > 0.0;
+        // a force clamped to zero at the step's end: where its formula turned tensile while
+        // the wall was still in, a kink
+        let clamped = c.active && start.forces[j] > 0.0 && end.forces[j] == 0.0;
         let release = clamped
             .then(|| release(&sys.gaps[sys.walls[j].gap].law, c, &seg, h))
             .flatten()
@@ -684,8 +684,9 @@ fn first_event(
 }
 
 /// Where a contact force's formula (before the clamp to compressive) falls to zero inside a
-/// step, along the wall's interpolated penetration `seg`: bracketed on [`EVENT_SAMPLES`]
-/// points, then bisected to round-off.
+/// step while the wall is still in, along the wall's interpolated penetration `seg`:
+/// bracketed on [`EVENT_SAMPLES`] points, then bisected to round-off (`None` if the
+/// penetration reaches zero first: an opening).
 fn release(law: &Law, c: &Contact, seg: &QuinticSegment, h: f64) -> Option<f64> {
     let force = |s: f64| {
         let penetration = seg.value(s);
@@ -699,7 +700,9 @@ fn release(law: &Law, c: &Contact, seg: &QuinticSegment, h: f64) -> Option<f64> 
         .force
     };
     let n = EVENT_SAMPLES as f64;
-    let k = (1..=EVENT_SAMPLES).find(|&k| force(k as f64 / n) <= 0.0)?;
+    let k = (1..=EVENT_SAMPLES)
+        .take_while(|&k| seg.value(k as f64 / n) > 0.0)
+        .find(|&k| force(k as f64 / n) <= 0.0)?;
     let (mut lo, mut hi) = ((k - 1) as f64 / n, k as f64 / n);
     while hi - lo > 1e-13 {
         let mid = 0.5 * (lo + hi);
