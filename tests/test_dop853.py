@@ -267,6 +267,29 @@ def _law_cases() -> list[tuple[str, vi.ContactLaw, dict[str, float]]]:
     return laws
 
 
+def test_kelvin_voigt_ends_are_resolved() -> None:
+    """Kelvin–Voigt's force jumps to c·v_imp at the closing and is clamped where c·δ̇ + kδ
+    turns tensile, before the opening: its force starts from the switch (no jump inside a
+    step) and the clamp is a located event, so the paper's SDOF case with it is as accurate
+    as with the smooth laws — impact times within 1e-11 s and exit speeds within 5e-8 m/s of
+    SciPy — in under 250 steps solved (317 before either)."""
+    law = vi.contact.KelvinVoigt(stiffness=1e9, damping=2e4)
+    model = vi.Model(vi.Structure.sdof(mass=100.0),
+                     gaps=[vi.Gap(dof=0, clearance=0.005, side="both", law=law)],
+                     initial_velocity=8.0)
+    ours = vi.simulate(model, t_end=cases.SDOF_T_END, dt=1e-5, method=vi.Dop853())
+    ref = reference.bilateral_sdof("kelvin-voigt", 100.0, 0.005, 8.0, cases.SDOF_T_END,
+                                   K=1e9, c=2e4)
+    impacts = ref["impacts"]
+    assert len(ours.impacts) == len(impacts)
+    t_start = np.array([i["t_start"] for i in impacts])
+    assert np.max(np.abs(ours.impacts.t_start - t_start)) < 1e-11
+    done = [i["v_out"] is not None for i in impacts]
+    v_out = np.array([i["v_out"] for i in impacts if i["v_out"] is not None])
+    assert np.max(np.abs(ours.impacts.v_out[done] - v_out)) < 5e-8
+    assert ours.stats.steps + ours.stats.rejected_steps < 250
+
+
 @pytest.mark.parametrize(("name", "law", "params"), _law_cases(),
                          ids=[case[0] for case in _law_cases()])
 def test_every_force_law_agrees_with_scipy(name: str, law: vi.ContactLaw,
