@@ -169,6 +169,10 @@ pub struct RunOutput {
     pub error: Option<SimError>,
 }
 
+/// Where a DOF's displacement turns inside a step: the fraction of the step and the value (m
+/// or rad), on the integrator's own interpolant.
+pub type Turn = (f64, f64);
+
 /// Sees every accepted step of a run: streaming reducers (sweeps: Poincaré samples, peaks,
 /// impact statistics; `crate::sweep`) that need more than the decimated output without
 /// storing the history. Called after each accepted step from `s0` to `s1` of length `h`;
@@ -181,7 +185,7 @@ pub trait StepObserver {
         s0: &State,
         s1: &State,
         h: f64,
-        turns: Option<&[Option<(f64, f64)>]>,
+        turns: Option<&[Option<Turn>]>,
     );
 }
 
@@ -490,7 +494,7 @@ pub(crate) struct StepIntegrals<'a> {
     /// Per DOF: where its displacement turns inside the step, if it does (fraction of the
     /// step, value in m or rad), on the integrator's own interpolant; `None` for the DOFs
     /// that are not recorded.
-    pub displacement_turns: &'a [Option<(f64, f64)>],
+    pub displacement_turns: &'a [Option<Turn>],
 }
 
 /// The state of a run and everything accumulated from its accepted steps.

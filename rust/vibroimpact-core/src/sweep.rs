@@ -22,7 +22,7 @@ use rayon::prelude::*;
 
 use crate::error::{invalid, SimError};
 use crate::interpolation::HermiteSegment;
-use crate::simulate::{simulate_observed, Method, RunSettings, Stats, StepObserver};
+use crate::simulate::{simulate_observed, Method, RunSettings, Stats, StepObserver, Turn};
 use crate::system::{State, System};
 
 /// What a sweep keeps of each run, and how long the run is.
@@ -194,7 +194,7 @@ impl StepObserver for Reducer<'_> {
         s0: &State,
         s1: &State,
         h: f64,
-        turns: Option<&[Option<(f64, f64)>]>,
+        turns: Option<&[Option<Turn>]>,
     ) {
         self.out.final_displacement.copy_from_slice(&s1.x);
         self.out.final_velocity.copy_from_slice(&s1.v);

@@ -31,7 +31,7 @@ use crate::error::SimError;
 use crate::gap::WallInterior;
 use crate::gap::WallState;
 use crate::interpolation::QuinticSegment;
-use crate::simulate::{Run, StepIntegrals};
+use crate::simulate::{Run, StepIntegrals, Turn};
 use crate::step_control::Adaptive;
 use crate::system::System;
 
@@ -1192,13 +1192,13 @@ fn commit(
 struct Inside {
     force_max: Vec<f64>,
     delta_max: Vec<f64>,
-    displacement_turn: Vec<Option<(f64, f64)>>,
+    displacement_turn: Vec<Option<Turn>>,
 }
 
 /// Where `y` turns inside a step (its rate changes sign between the ends), located on the
 /// quintic Hermite interpolant of `(y, y', y'')` at the ends: the fraction of the step and
 /// the interpolant's value there (error `O(h⁶)`).
-fn turning_point(start: [f64; 3], end: [f64; 3], h: f64) -> Option<(f64, f64)> {
+fn turning_point(start: [f64; 3], end: [f64; 3], h: f64) -> Option<Turn> {
     if start[1] * end[1] >= 0.0 {
         return None;
     }
