@@ -134,3 +134,17 @@ def test_a_dense_model_compiled_at_its_first_run_gives_the_same_results() -> Non
         assert twin == model and "_core_system" not in vars(twin)
         assert np.array_equal(vi.simulate(twin, t_end=0.003, dt=1e-6).displacement,
                               first.displacement)
+
+
+def test_every_exception_of_the_core_is_the_packages_own() -> None:
+    """One hierarchy: an ``except vi.SolverError`` (or ``vi.ModelError``) catches whatever any
+    entry point of the compiled core raises, because the core raises the package's classes."""
+    from vibroimpact import _core
+
+    exported = {name: obj for name, obj in vars(_core).items()
+                if isinstance(obj, type) and issubclass(obj, BaseException)}
+    assert exported == {"ModelError": vi.ModelError}
+    # a failure the core itself raises (the singular Newmark operator before the first step)
+    model = vi.Model(structure=vi.Structure(mass=np.eye(1), stiffness=np.array([[-4e6]])))
+    with pytest.raises(vi.SolverError, match="singular"):
+        vi.simulate(model, t_end=0.01, dt=1e-3)

@@ -8,7 +8,6 @@ from numpy.typing import NDArray
 build_profile: str
 
 class ModelError(ValueError): ...
-class SolverError(RuntimeError): ...
 
 class Running:
     inline: bool

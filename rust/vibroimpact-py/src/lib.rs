@@ -30,12 +30,10 @@ create_exception!(
     PyValueError,
     "The model or settings are invalid."
 );
-create_exception!(
-    _core,
-    SolverError,
-    PyRuntimeError,
-    "The solver could not complete the run."
-);
+// The solver's failures raise the package's own `vibroimpact.SolverError` (with its
+// `partial` results), so that `except vi.SolverError` catches every failure of the core: one
+// hierarchy, defined once, in Python.
+pyo3::import_exception!(vibroimpact.errors, SolverError);
 
 pub(crate) fn to_py_err(e: SimError) -> PyErr {
     match e {
@@ -401,7 +399,6 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(contact_law_evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(geometry_stiffness, m)?)?;
     m.add("ModelError", m.py().get_type::<ModelError>())?;
-    m.add("SolverError", m.py().get_type::<SolverError>())?;
     m.add(
         "build_profile",
         if cfg!(debug_assertions) {
