@@ -1,5 +1,5 @@
-"""Contact-force laws ``F(δ, δ̇, v_imp)`` (paper §2.2, Table 2; DESIGN.md §3) and contact
-stiffness from geometry and material.
+"""Contact-force laws ``F(δ, δ̇, v_imp)`` (paper §2.2, Table 2; docs/contact-laws.md) and
+contact stiffness from geometry and material.
 
 Each law is plain data; the force, its derivatives and the time loop live in the Rust core.
 ``stiffness`` is either a number (N/mⁿ) or a :class:`Geometry` from which the stiffness is
@@ -571,7 +571,7 @@ class Tabulated(ContactLaw):
 
 @dataclass(frozen=True)
 class Rigid(ContactLaw):
-    """The massless bar (paper Fig. 1a; DESIGN.md §2): a rigid wall with Newton's restitution
+    """The massless bar (paper Fig. 1a): a rigid wall with Newton's restitution
     law ``δ̇⁺ = −e δ̇⁻``, applied as an instantaneous velocity jump through the generalized
     impulse, ``Δv = −(1+e)(b·v) M⁻¹bᵀ/(b M⁻¹ bᵀ)`` for one wall. ``restitution`` ``e`` in
     [0, 1] (0: plastic impact). It has no force–indentation relation: only the impulsive
