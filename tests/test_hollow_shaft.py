@@ -1,4 +1,4 @@
-"""The paper's hollow shaft (§3.2, DESIGN.md §7.3): free–free frequencies against Table 4,
+"""The paper's hollow shaft (§3.2, docs/paper-cases.md): free–free frequencies against Table 4,
 energy conservation of the undamped Hertz run, ``vibroimpact reproduce hollow-shaft`` and the
 example model file."""
 

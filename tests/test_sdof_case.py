@@ -1,4 +1,4 @@
-"""The paper's SDOF case (DESIGN.md §7.2) against an independent SciPy reference."""
+"""The paper's SDOF case (docs/paper-cases.md §Case 2) against an independent SciPy reference."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
-"""The paper's cases (DESIGN.md §7), built from the public API so that users can start from
-them: the two-sphere single impact (§2.2, Figs. 3–4) and the SDOF block between two walls
+"""The paper's cases (docs/paper-cases.md), built from the public API so that users can start
+from them: the two-sphere single impact (§2.2, Figs. 3–4) and the SDOF block between two walls
 (§3.1, Figs. 5–13, Table 3), and the hollow shaft on sliders (§3.2, Figs. 14–17, Table 4)."""
 
 from __future__ import annotations
@@ -57,7 +57,7 @@ def paper_law(name: str, restitution: float) -> ContactLaw:
 
 def sdof_model(law: str = "lankarani-nikravesh", restitution: float = 0.9) -> Model:
     """Case 2: a 100 kg block leaving the middle of a 2 × 5 mm clearance at 8 m/s, no spring
-    and no damper (k0 = c0 = 0), with the case-1 contact stiffness (DESIGN.md §7.2)."""
+    and no damper (k0 = c0 = 0), with the case-1 contact stiffness (docs/paper-cases.md)."""
     return Model(
         structure=Structure.sdof(mass=100.0),
         gaps=[Gap(dof=0, clearance=0.005, side="both", law=paper_law(law, restitution))],
@@ -66,7 +66,7 @@ def sdof_model(law: str = "lankarani-nikravesh", restitution: float = 0.9) -> Mo
 
 
 def two_spheres(law: str, restitution: float = 0.5) -> dict[str, Any]:
-    """Case 1: the 0.04 kg sphere hitting the socket at 0.3 m/s (DESIGN.md §7.1)."""
+    """Case 1: the 0.04 kg sphere hitting the socket at 0.3 m/s (docs/paper-cases.md §Case 1)."""
     return single_impact(paper_law(law, restitution), mass=0.04, velocity=0.3)
 
 
@@ -87,7 +87,7 @@ def hollow_shaft_beam(theory: str = "timoshenko", elements: int = 20) -> Any:
     """Case 3's tube as a planar beam (``vibroimpact.fe.Beam``): Ø190 mm × 5 mm wall ×
     1000 mm, E = 207 GPa, ν = 0.3, ρ = 34.41 g/cm³ (≈ 100 kg), free–free, ``elements`` equal
     elements of ``theory`` ``"timoshenko"`` (Cowper's thin-tube shear coefficient, rotary
-    inertia) or ``"euler-bernoulli"``; consistent mass (DESIGN.md §7.3)."""
+    inertia) or ``"euler-bernoulli"``; consistent mass (docs/paper-cases.md §Case 3)."""
     from vibroimpact.fe import Beam, Material, Section
 
     return Beam(

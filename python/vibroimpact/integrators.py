@@ -1,4 +1,4 @@
-"""Time integrators (paper §2.3; DESIGN.md §4). Each is a small settings object passed to
+"""Time integrators (paper §2.3; docs/integrators.md). Each is a small settings object passed to
 :func:`vibroimpact.simulate`; the stepping itself runs in the Rust core."""
 
 from __future__ import annotations

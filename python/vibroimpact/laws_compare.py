@@ -68,8 +68,8 @@ UNLOADING_POINTS = 1001
 #: The restitutions of the documented table.
 DOC_RESTITUTIONS = (0.1, 0.3, 0.5, 0.7, 0.9, 0.99)
 
-#: The impact of the documented table: the paper's two spheres (DESIGN.md §7.1). For the
-#: laws ``K δⁿ (1 + χ δ̇/v_imp)`` the effective restitution depends on χ only, not on these.
+#: The impact of the documented table: the paper's two spheres (docs/paper-cases.md). For
+#: the laws ``K δⁿ (1 + χ δ̇/v_imp)`` the effective restitution depends on χ only, not on these.
 DOC_MASS, DOC_VELOCITY = 0.04, 0.3
 
 _DOCS = Path(__file__).resolve().parents[2] / "docs" / "contact-laws.md"

@@ -1,5 +1,5 @@
 """The model: a linear structure ``M, C, K`` (paper eq. 1), gaps with contact laws, external
-loads and initial conditions (paper eq. 2; DESIGN.md §1). Plain data, validated on creation.
+loads and initial conditions (paper eq. 2; docs/conventions.md). Plain data, validated on creation.
 
 Example — the paper's SDOF case (a 100 kg block between two walls 5 mm away)::
 
@@ -207,7 +207,7 @@ def _dofs(value: int | Sequence[int], field_name: str) -> tuple[int, ...]:
 
 @dataclass(frozen=True)
 class Gap:
-    """A clearance on the gap coordinate ``u = Σ cᵢ x[dofᵢ]`` (DESIGN.md §1).
+    """A clearance on the gap coordinate ``u = Σ cᵢ x[dofᵢ]`` (docs/conventions.md §Gaps).
 
     ``dof``: one DOF index or a list; ``coefficients``: one per DOF (default 1 each; use
     ``dof=[i, j], coefficients=[1, -1]`` for the relative displacement of two DOFs).

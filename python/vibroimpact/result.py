@@ -1,4 +1,4 @@
-"""What a run returns (DESIGN.md §6): time histories, the impact table, the energy account
+"""What a run returns (docs/conventions.md): time histories, the impact table, the energy account
 and solver statistics, as numpy arrays with pandas/xarray views."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""``vibroimpact reproduce``: the paper's cases (DESIGN.md §7)."""
+"""``vibroimpact reproduce``: the paper's cases (docs/paper-cases.md)."""
 
 from __future__ import annotations
 

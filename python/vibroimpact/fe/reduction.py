@@ -1,4 +1,4 @@
-"""Craig–Bampton reduction that keeps the gap DOFs physical (DESIGN.md §5; Craig & Bampton,
+"""Craig–Bampton reduction that keeps the gap DOFs physical (docs/beam.md; Craig & Bampton,
 *AIAA J.* 6:1313, 1968).
 
 The DOFs are split into boundary DOFs ``b`` (the gap DOFs, kept as they are) and interior DOFs

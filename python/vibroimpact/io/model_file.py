@@ -1,5 +1,5 @@
 """Model files: a structure with clearances, its loads, initial state and solver settings in one
-TOML file (DESIGN.md §8).
+TOML file (docs/model-file.md; units and names: docs/conventions.md).
 
 The accepted keys are data: :data:`SCHEMA` (one :class:`Field` per key: TOML path, type, unit,
 default or required, allowed values, description) and :data:`RULES` (constraints between keys).
@@ -279,7 +279,7 @@ SCHEMA: tuple[Field, ...] = (
           choices=(SCHEMA_VERSION,)),
     Field("structure", "table", "the linear structure M x'' + C x' + K x = F (paper eq. 1)",
           default=REQUIRED),
-    Field("gaps", "tables", "clearances, one table each (DESIGN.md §1)", default=[],
+    Field("gaps", "tables", "clearances, one table each (conventions.md §Gaps)", default=[],
           default_text="none"),
     Field("initial", "table", "initial state at t = 0", default={}, default_text="at rest"),
     Field("loads", "tables", "external loads F(t), one table each", default=[],
@@ -428,7 +428,7 @@ SCHEMA: tuple[Field, ...] = (
     Field("gaps[].side", "string", "wall at u = +clearance, at u = -clearance, or both",
           default="positive", choices=("positive", "negative", "both")),
     Field("gaps[].name", "string", "label in results"),
-    Field("gaps[].law", "table", "contact-force law (DESIGN.md §3)", default=REQUIRED),
+    Field("gaps[].law", "table", "contact-force law (contact-laws.md)", default=REQUIRED),
     # [gaps.law]
     Field("gaps[].law.kind", "string", "contact-force law (vibroimpact.contact)",
           default=REQUIRED, choices=_LAW_KINDS),
@@ -1552,7 +1552,7 @@ def load_model(path: str | os.PathLike[str]) -> ModelFile:
 # The reference
 # --------------------------------------------------------------------------------------------
 
-#: The example shown at the top of the reference (the paper's SDOF case, DESIGN.md §7.2).
+#: The example shown at the top of the reference (the paper's SDOF case, docs/paper-cases.md).
 EXAMPLE = """\
 schema_version = 1
 

@@ -1,5 +1,5 @@
 """Result files: NetCDF-4/HDF5 and CSV, written atomically, read back as an ``xarray.Dataset``
-(DESIGN.md §6).
+(docs/conventions.md §What a run returns).
 
 * ``.nc``, ``.h5``, ``.hdf5``: one NetCDF-4 file (a NetCDF-4 file *is* an HDF5 file: xarray,
   MATLAB's ``ncread``/``h5read``, ``ncdump`` and h5py read it). Dims ``time``, ``dof``, ``gap``,

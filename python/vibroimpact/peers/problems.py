@@ -104,8 +104,8 @@ class SdofProblem:
 
 
 def paper_sdof() -> SdofProblem:
-    """The paper's SDOF case (DESIGN.md §7.2): 100 kg at 8 m/s between two walls 5 mm away,
-    k0 = c0 = 0, Lankarani–Nikravesh ce 0.9 with the case-1 stiffness (K ≈ 1.509e11), 0.02 s
+    """The paper's SDOF case (docs/paper-cases.md): 100 kg at 8 m/s between two walls 5 mm
+    away, k0 = c0 = 0, Lankarani–Nikravesh ce 0.9 with the case-1 stiffness (K ≈ 1.509e11), 0.02 s
     at dt = 1 µs."""
     from vibroimpact import cases
 

@@ -1,4 +1,4 @@
-"""The energy account over time (DESIGN.md §6)."""
+"""The energy account over time (docs/conventions.md §What a run returns)."""
 
 from __future__ import annotations
 

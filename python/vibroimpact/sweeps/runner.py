@@ -1,6 +1,6 @@
 """Parameter sweeps: a grid of model variants run in parallel in the compiled core, in this
 process or on a Dask cluster, reduced to Poincaré samples, peaks, RMS and impact statistics,
-and returned as an :class:`xarray.Dataset` (DESIGN.md §5, §9).
+and returned as an :class:`xarray.Dataset` (docs/sweeps.md).
 
 Example — the bifurcation diagram of an impact oscillator against the forcing frequency::
 

@@ -1,5 +1,5 @@
-//! Gap elements (DESIGN.md §1): a clearance on a gap coordinate `u = b · x`, one or two
-//! walls, a contact law; and the per-wall contact state and impact log.
+//! Gap elements (docs/conventions.md §Gaps): a clearance on a gap coordinate `u = b · x`, one
+//! or two walls, a contact law; and the per-wall contact state and impact log.
 
 use crate::contact::{ContactLaw, Law, MIN_IMPACT_SPEED};
 use crate::error::{invalid, SimError};
@@ -160,7 +160,7 @@ pub fn evaluate_wall(
     s
 }
 
-/// One contact of one wall: the rows of the impact table (DESIGN.md §6).
+/// One contact of one wall: a row of the impact table (docs/conventions.md).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ImpactRecord {
     pub gap: usize,

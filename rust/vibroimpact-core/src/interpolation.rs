@@ -1,6 +1,7 @@
 //! Cubic Hermite interpolation of a gap's penetration inside one step, used to locate the
-//! instants where a gap closes or opens and the speed at those instants (DESIGN.md §1:
-//! `v_imp` is the speed at the crossing, never the speed at the first step inside the wall).
+//! instants where a gap closes or opens and the speed at those instants (docs/conventions.md
+//! §Approach speed: `v_imp` is the speed at the crossing, never the speed at the first step
+//! inside the wall).
 
 /// Penetration and its time derivative at both ends of a step of length `h`.
 #[derive(Debug, Clone, Copy)]

@@ -1,7 +1,8 @@
-//! The time loop: steps of a fixed size with automatic step cutting, the impact table, the
-//! energy account and decimated output into preallocated buffers (DESIGN.md §5–6). A
-//! [`Sink`] (`simulate_streamed`) takes the recorded rows in blocks while the run goes on
-//! (long runs stream to disk), follows its progress and receives its solver [`Event`]s.
+//! The time loop: steps of a fixed size with automatic step cutting, the impact table, the energy
+//! account and decimated output into preallocated buffers (docs/architecture.md,
+//! docs/conventions.md). A [`Sink`] (`simulate_streamed`) takes the recorded rows in blocks while
+//! the run goes on (long runs stream to disk), follows its progress and receives its solver
+//! [`Event`]s.
 
 use std::time::Instant;
 
@@ -68,7 +69,7 @@ pub struct Stats {
     pub wall_time_s: f64,
 }
 
-/// Energy account at the recorded instants, J (DESIGN.md §6).
+/// Energy account at the recorded instants, J (docs/conventions.md).
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct EnergyHistory {
     pub kinetic: Vec<f64>,

@@ -1,4 +1,4 @@
-//! Adaptive stepping for the Newmark family (DESIGN.md §4): a local error estimate, step
+//! Adaptive stepping for the Newmark family (docs/integrators.md): a local error estimate, step
 //! growth in free flight and reduction in contact, and every gap's closing and opening (and
 //! the first peak of each contact) located inside the step and landed on, so that no contact
 //! is stepped over and `v_imp`, `t_start`, `t_end`, `v_out` and the peak come from a step that

@@ -1,4 +1,4 @@
-//! Batch runs for parameter sweeps and bifurcation diagrams (DESIGN.md §5, §9): many variants
+//! Batch runs for parameter sweeps and bifurcation diagrams (docs/sweeps.md): many variants
 //! of a model run in parallel threads (rayon), each reduced while it runs to what a sweep
 //! needs, so that no time history is ever stored:
 //!

@@ -1,4 +1,4 @@
-//! Contact-force laws `F(δ, δ̇, v_imp)` (paper §2.2, Table 2; DESIGN.md §3).
+//! Contact-force laws `F(δ, δ̇, v_imp)` (paper §2.2, Table 2; docs/contact-laws.md).
 //!
 //! Every law gives the force and its two partial derivatives, which Newton uses as the
 //! consistent tangent. A law sees only its own parameters, never the system. Laws are

@@ -1,7 +1,7 @@
 use super::{ContactForce, ContactLaw};
 use crate::error::{invalid, SimError};
 
-/// The massless bar (paper Fig. 1a; DESIGN.md §2): a rigid wall with Newton's restitution
+/// The massless bar (paper Fig. 1a; docs/rigid-impacts.md): a rigid wall with Newton's restitution
 /// law `δ̇⁺ = −e δ̇⁻`, applied as an instantaneous velocity jump through the generalized
 /// impulse. It has no force–indentation relation: only the impulsive methods
 /// (`Method::EventDriven`, `Method::MoreauJean`) accept it, and every compliant integrator

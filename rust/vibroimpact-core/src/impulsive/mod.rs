@@ -1,5 +1,5 @@
-//! Impulsive methods for rigid gaps (the massless bar, paper Fig. 1a; DESIGN.md §2): Newton's
-//! restitution law `δ̇⁺ = −e δ̇⁻` applied as an instantaneous velocity jump through the
+//! Impulsive methods for rigid gaps (the massless bar, paper Fig. 1a; docs/rigid-impacts.md):
+//! Newton's restitution law `δ̇⁺ = −e δ̇⁻` applied as an instantaneous velocity jump through the
 //! generalized impulse, `Δv = −M⁻¹ Gᵀ P`, with `P ≥ 0` from the impact LCP
 //! (`Δv = −(1+e)(b·v) M⁻¹bᵀ/(b M⁻¹ bᵀ)` for a single wall).
 //!

@@ -119,7 +119,7 @@ impl<'s> Dynamics<'s> {
 
     /// `a = M⁻¹ (F(t) − C v − K x − Σ φ_g b_gᵀ)` with the forces of the active walls; returns
     /// the power of the loads, of the damping and of the contact forces' dissipative part
-    /// (the integrands of the energy account, DESIGN.md §6). `root`: a wall whose
+    /// (the integrands of the energy account, docs/conventions.md). `root`: a wall whose
     /// penetration is given (`ζ²` of a [`Clock::Root`] step) instead of taken from `x`.
     fn accel(
         &mut self,

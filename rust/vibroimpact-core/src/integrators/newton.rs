@@ -1,4 +1,4 @@
-//! Newton–Raphson on the active gap coordinates (paper eqs. 22–27; DESIGN.md §5).
+//! Newton–Raphson on the active gap coordinates (paper eqs. 22–27; docs/architecture.md).
 //!
 //! With the linear part factorised, a step's unknown is the increment of the gap coordinates
 //! `Δu` only: `r(Δu) = Δu − Δu_lin + W φ(Δu) = 0`, `W = B K̃⁻¹ Bᵀ`. The Jacobian is
