@@ -407,6 +407,40 @@ def test_resumed_sweep_recomputes_no_finished_chunk(tmp_path: Path) -> None:
     assert not (tmp_path / "s.nc.parts").exists()
 
 
+@pytest.mark.parametrize("during", ["a chunk's callback", "a part's writing"])
+def test_a_signal_stops_the_sweep_with_interrupted_naming_the_points_kept(
+        tmp_path: Path, monkeypatch: pytest.MonkeyPatch, during: str) -> None:
+    """SIGTERM on the main thread, between chunks or while a part is written (held until the
+    part is complete), raises Interrupted with the signal and the points on disk."""
+    sweep = _small_sweep()
+    out = tmp_path / "s.nc"
+    term_handler = signal.getsignal(signal.SIGTERM)
+    if during == "a part's writing":
+        savez = np.savez
+
+        def savez_then_signal(*args: object, **kwargs: object) -> None:
+            os.kill(os.getpid(), signal.SIGTERM)
+            savez(*args, **kwargs)
+
+        monkeypatch.setattr(np, "savez", savez_then_signal)
+        on_chunk = None
+    else:
+        def on_chunk(ev: ChunkEvent) -> None:
+            os.kill(os.getpid(), signal.SIGTERM)
+
+    with pytest.raises(vi.Interrupted) as err:
+        run_sweep(sweep, output=out, on_chunk=on_chunk, threads=1)
+    monkeypatch.undo()
+    parts = sorted((tmp_path / "s.nc.parts").glob("*/chunk-*.npz"))
+    assert err.value.signum == signal.SIGTERM and 1 <= len(parts) < 4
+    assert str(err.value) == (
+        f"sweep stopped by SIGTERM: {3 * len(parts)} of 12 points ({len(parts)} of 4 chunks) "
+        f"are kept in {out}.parts/; the same command (the same sweep and output) resumes "
+        "from them")
+    assert signal.getsignal(signal.SIGTERM) == term_handler
+    xr.testing.assert_equal(run_sweep(sweep, output=out), run_sweep(sweep))
+
+
 # --------------------------------------------------------------------------------------------
 # The command line
 # --------------------------------------------------------------------------------------------
@@ -478,9 +512,10 @@ def test_cli_dask_without_dask_says_how_to_install_it(
     assert "pip install 'vibroimpact[distributed]'" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT])
+@pytest.mark.parametrize("sig", [signal.SIGKILL, signal.SIGINT, signal.SIGTERM])
 def test_cli_killed_sweep_restarts_where_it_stopped(tmp_path: Path, sig: int) -> None:
-    """SIGKILL (or Ctrl-C: the running chunks stop at once and are not kept) the sweep once
+    """SIGKILL (or Ctrl-C or SIGTERM: the running chunks stop at once and are not kept; one
+    line says how many points are kept and that the same command resumes) the sweep once
     some chunks are on disk; the same command then reuses every finished chunk and writes the
     same Dataset as an uninterrupted run."""
     out = tmp_path / "s.nc"
@@ -500,11 +535,16 @@ def test_cli_killed_sweep_restarts_where_it_stopped(tmp_path: Path, sig: int) ->
     finally:
         if proc.poll() is None:
             os.kill(proc.pid, sig)
-        proc.communicate(timeout=30)
-    expected = -signal.SIGKILL if sig == signal.SIGKILL else 130  # 130: "interrupted"
+        _, stderr = proc.communicate(timeout=30)
+    expected = -signal.SIGKILL if sig == signal.SIGKILL else 128 + sig  # 130, 143
     assert proc.returncode == expected, "the sweep finished before it could be killed"
     done = {p.name for p in (tmp_path / "s.nc.parts").glob("*/chunk-*.npz")}
     assert 3 <= len(done) < 20 and not out.exists()
+    if sig != signal.SIGKILL:
+        assert stderr.decode().splitlines() == [
+            f"vibroimpact: interrupted: sweep stopped by {signal.Signals(sig).name}: "
+            f"{2 * len(done)} of 40 points ({len(done)} of 20 chunks) are kept in "
+            f"{out}.parts/; the same command (the same sweep and output) resumes from them"]
     p = _cli(*args)
     assert p.returncode == 0, p.stderr
     summary = json.loads(p.stdout)
@@ -515,3 +555,73 @@ def test_cli_killed_sweep_restarts_where_it_stopped(tmp_path: Path, sig: int) ->
         vi.load_model(MODEL_FILE), [parse_param("loads.0.frequency=8:30:40")], transient=40,
         periods=10, chunk_size=2))
     xr.testing.assert_equal(load_sweep(out), fresh)
+
+
+# A stiff SDOF (ω = 100 rad/s, or 1 and 3.2 rad/s when swept) integrated by Newmark with
+# beta = 0.1 at dt = 0.05 s: stable only for ω dt <= 1/sqrt(gamma/2 - beta) = 2.58, so a
+# point of ω = 100 (ω dt = 5) fails (energy blow-up) and the soft ones run through.
+UNSTABLE_SWEEP = """schema_version = 1
+[structure]
+kind = "sdof"
+mass = 1.0
+stiffness = 1e4
+[initial]
+displacement = 1e-3
+[[loads]]
+kind = "harmonic"
+dof = 0
+amplitude = 1.0
+frequency = 1.0
+[solver]
+method = "newmark"
+beta = 0.1
+gamma = 0.5
+dt = 0.05
+t_end = 1.0
+"""
+
+
+def _unstable_sweep(tmp_path: Path, param: str, *extra: str) -> subprocess.CompletedProcess:
+    model = tmp_path / "unstable.toml"
+    model.write_text(UNSTABLE_SWEEP)
+    return _cli("sweep", str(model), "--param", param, "--transient", "5", "--periods", "5",
+                "-o", str(tmp_path / "u.nc"), *extra)
+
+
+def test_cli_sweep_whose_every_point_fails_exits_3_on_one_line(tmp_path: Path) -> None:
+    p = _unstable_sweep(tmp_path, "loads.0.frequency=1:2:4", "--json")
+    assert p.returncode == 3, p.stderr
+    lines = p.stderr.splitlines()
+    assert len(lines) == 1, p.stderr
+    assert lines[0].startswith("vibroimpact: solver failed: every one of the 4 points failed "
+                               "(first: loads.0.frequency=1: the solution diverged (energy "
+                               "blow-up) at t = ")
+    assert lines[0].endswith(f"the Dataset (every point marked failed) was written to "
+                             f"{tmp_path / 'u.nc'}")
+    assert json.loads(p.stdout)["failed_points"] == 4
+    assert bool(load_sweep(tmp_path / "u.nc").failed.all())
+
+
+def test_cli_sweep_with_some_failed_points_counts_them_and_the_file_lists_them(
+        tmp_path: Path) -> None:
+    stiffness = [1.0, 10.0, 1e4, 2e4]
+    p = _unstable_sweep(tmp_path, "structure.stiffness=" + ",".join(map(str, stiffness)))
+    assert p.returncode == 0, p.stderr
+    # the points beyond Newmark's critical step fail, the others run through
+    omega_dt = np.sqrt(stiffness) * 0.05
+    beyond = omega_dt > 1 / np.sqrt(0.5 / 2 - 0.1)
+    assert beyond.tolist() == [False, False, True, True]
+    assert p.stdout.splitlines()[-1].endswith(
+        "0 impacting, 2 of 4 failed (listed above; all are marked in the Dataset's variable "
+        f"failed, docs/sweeps.md: Failed points); written to {tmp_path / 'u.nc'}")
+    listed = [ln for ln in p.stderr.splitlines() if ln.startswith("  failed: ")]
+    assert [ln.split(":")[1].strip() for ln in listed] == ["structure.stiffness=10000",
+                                                          "structure.stiffness=20000"]
+    # docs/sweeps.md, "Failed points": listing them from the file
+    ds = load_sweep(tmp_path / "u.nc")
+    failed = ds.failed.to_series()
+    assert failed[failed].index.tolist() == np.array(stiffness)[beyond].tolist()
+    messages = json.loads(ds.attrs["errors"])
+    assert [e["point"] for e in messages] == ["structure.stiffness=10000",
+                                              "structure.stiffness=20000"]
+    assert all("energy blow-up" in e["message"] for e in messages)

@@ -17,7 +17,9 @@ from vibroimpact._core import build_profile as build_profile
 from vibroimpact.errors import ContactResolutionWarning as ContactResolutionWarning
 from vibroimpact.errors import Interrupted as Interrupted
 from vibroimpact.errors import ModelError as ModelError
+from vibroimpact.errors import PreRunWarning as PreRunWarning
 from vibroimpact.errors import SolverError as SolverError
+from vibroimpact.errors import StepStabilityWarning as StepStabilityWarning
 from vibroimpact.integrators import HHT as HHT
 from vibroimpact.integrators import Adaptive as Adaptive
 from vibroimpact.integrators import Bathe as Bathe

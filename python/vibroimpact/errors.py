@@ -13,7 +13,14 @@ if TYPE_CHECKING:
 
     from vibroimpact.result import Result
 
-__all__ = ["ContactResolutionWarning", "Interrupted", "ModelError", "SolverError"]
+__all__ = [
+    "ContactResolutionWarning",
+    "Interrupted",
+    "ModelError",
+    "PreRunWarning",
+    "SolverError",
+    "StepStabilityWarning",
+]
 
 
 class SolverError(RuntimeError):
@@ -37,9 +44,21 @@ class Interrupted(SolverError):
         self.signum = signum
 
 
-class ContactResolutionWarning(UserWarning):
+class PreRunWarning(UserWarning):
+    """A setting that will spoil the run, found before it starts
+    (:func:`vibroimpact.simulate.pre_run_warnings`); ``vibroimpact run`` prints each on one
+    line."""
+
+
+class ContactResolutionWarning(PreRunWarning):
     """The step is too long to resolve a contact: fewer than 10 steps per period of the
     contact oscillation estimated for a gap (:func:`vibroimpact.simulate.contact_periods`)."""
+
+
+class StepStabilityWarning(PreRunWarning):
+    """The step exceeds the critical step of a conditionally stable integrator (Newmark with
+    ``2β < γ``) for the structure's highest natural frequency: the linear response grows
+    without bound (:func:`vibroimpact.simulate.step_stability_messages`)."""
 
 
 def require(condition: bool, field: str, value: object, expected: str) -> None:

@@ -169,8 +169,21 @@ class Integrator:
 class Newmark(Integrator):
     """Newmark-β with Newton–Raphson (paper eqs. 14–27). ``gamma = 1/2, beta = 1/4`` (the
     default) is the average-acceleration rule: unconditionally stable, second order, no
-    numerical damping. Stability needs ``gamma >= 1/2`` and ``beta >= (1/2 + gamma)²/4``
-    (paper eq. 16)."""
+    numerical damping. ``gamma >= 1/2`` is required (paper eq. 16; below it every mode is
+    amplified at any step) and ``beta > 0`` (the method is implicit here).
+
+    **Stability on the linear structure** (Hughes, *The Finite Element Method*, 2000, §9.1,
+    the undamped case): unconditional for ``beta >= gamma/2``; for ``beta < gamma/2`` only
+    while ``ω·dt <= Ω_crit = 1/√(gamma/2 − beta)`` for every natural frequency ω
+    (:attr:`critical_omega_dt`; 2 for the central-difference rule ``gamma = 1/2, beta → 0``,
+    2.58 at ``beta = 0.1``); damping never lowers it (it raises it for ``gamma > 1/2``).
+    A fixed-step run beyond it for the structure's highest frequency is warned about before
+    it starts (:class:`~vibroimpact.StepStabilityWarning`, one line from ``vibroimpact run``);
+    the bound is the linear structure's (gaps open): a closed contact adds stiffness and
+    lowers it. Checked against the spectral radius of the step's amplification matrix and
+    runs on either side of it (``tests/test_newmark_stability.py``).
+    ``beta >= (1/2 + gamma)²/4`` in addition (paper eq. 16) keeps the eigenvalues of the step
+    complex at every ω·dt, so that ``gamma > 1/2`` damps the high frequencies most."""
 
     name: str = field(default="newmark", init=False)
     supports_adaptive: ClassVar[bool] = True
@@ -192,6 +205,13 @@ class Newmark(Integrator):
             self.beta,
             "beta > 0",
         )
+
+    @property
+    def critical_omega_dt(self) -> float:
+        """The largest ``ω·dt`` at which the undamped linear oscillator stays bounded:
+        ``1/√(gamma/2 − beta)``, ``inf`` when ``beta >= gamma/2`` (unconditionally stable)."""
+        margin = self.gamma / 2 - self.beta
+        return math.inf if margin <= 0 else 1.0 / math.sqrt(margin)
 
     def to_spec(self) -> dict[str, Any]:
         return {"kind": "newmark", "beta": float(self.beta), "gamma": float(self.gamma)}

@@ -21,14 +21,22 @@ from vibroimpact.errors import (
     ContactResolutionWarning,
     Interrupted,
     ModelError,
+    PreRunWarning,
     SolverError,
+    StepStabilityWarning,
     require,
 )
 from vibroimpact.integrators import Integrator, Newmark
 from vibroimpact.model import Model
 from vibroimpact.result import Result
 
-__all__ = ["ProgressBar", "contact_periods", "simulate"]
+__all__ = [
+    "ProgressBar",
+    "contact_periods",
+    "pre_run_warnings",
+    "simulate",
+    "step_stability_messages",
+]
 
 #: The method of a run given none (integrators are immutable: one instance serves all runs).
 _DEFAULT_METHOD = Newmark()
@@ -95,6 +103,40 @@ def contact_resolution_messages(model: Model, dt: float) -> list[str]:
                 "or adaptive stepping"
             )
     return lines
+
+
+def step_stability_messages(model: Model, method: Integrator, dt: float) -> list[str]:
+    """One line if ``method`` is only conditionally stable (:class:`~vibroimpact.Newmark`
+    with ``2β < γ``: :attr:`~vibroimpact.Newmark.critical_omega_dt`) and ``dt`` exceeds its
+    critical step for the structure's highest natural frequency
+    (:func:`vibroimpact.fe.modal.highest_angular_frequency`; computed only then)."""
+    if not isinstance(method, Newmark) or math.isinf(method.critical_omega_dt):
+        return []
+    from vibroimpact.fe.modal import highest_angular_frequency
+
+    omega = highest_angular_frequency(model.structure)
+    if omega * dt <= method.critical_omega_dt:
+        return []
+    dt_crit = method.critical_omega_dt / omega
+    return [
+        f"solver.dt: {dt:.3e} s exceeds the critical step {dt_crit:.3e} s of Newmark with "
+        f"gamma = {method.gamma:g}, beta = {method.beta:g} (stable only for beta >= gamma/2 "
+        f"or omega*dt <= 1/sqrt(gamma/2 - beta) = {method.critical_omega_dt:.4g}) at the "
+        f"structure's highest natural frequency {omega / (2 * math.pi):.4g} Hz: the response "
+        f"will grow without bound; use dt <= {dt_crit:.3e} s or beta >= gamma/2 (the bound "
+        "is the linear structure's, gaps open; a closed contact lowers it)"
+    ]
+
+
+def pre_run_warnings(model: Model, method: Integrator, dt: float) -> list[PreRunWarning]:
+    """The warnings due before a fixed-step run of ``model`` by ``method`` at ``dt`` (none
+    with adaptive stepping, whose error control chooses the steps): a step too long for a
+    contact (:func:`contact_resolution_messages`) and one beyond a conditionally stable
+    method's critical step (:func:`step_stability_messages`)."""
+    if method.adaptive is not None:
+        return []
+    return [*map(ContactResolutionWarning, contact_resolution_messages(model, dt)),
+            *map(StepStabilityWarning, step_stability_messages(model, method, dt))]
 
 
 #: Seconds between two polls of a run in progress (signals, rows, events, progress).
@@ -299,7 +341,10 @@ def simulate(
     the results up to then in ``partial`` (a run short enough, ≲ 10 ms, to go on the calling
     thread is not stopped: a signal during it is handled after it, as one outside a run).
     A step longer than a tenth of a gap's estimated contact period (:func:`contact_periods`)
-    draws a :class:`~vibroimpact.ContactResolutionWarning` before the run (fixed steps only).
+    draws a :class:`~vibroimpact.ContactResolutionWarning` before the run, and a step beyond
+    the critical step of a conditionally stable Newmark (``2β < γ``) for the structure's
+    highest natural frequency a :class:`~vibroimpact.StepStabilityWarning` (fixed steps only:
+    :func:`pre_run_warnings`).
 
     ``dt`` is reduced slightly, if needed, so that ``t_end`` is a whole number of steps. With
     adaptive stepping (``method.adaptive``), ``dt`` is the first step and ``every`` counts
@@ -340,9 +385,8 @@ def simulate(
         record_dofs=record,
         adaptive=None if method.adaptive is None else method.adaptive.to_spec(t_end, dt),
     )
-    if method.adaptive is None:
-        for line in contact_resolution_messages(model, float(dt)):
-            warnings.warn(line, ContactResolutionWarning, stacklevel=2)
+    for warning in pre_run_warnings(model, method, float(dt)):
+        warnings.warn(warning, stacklevel=2)
     if chunk_rows is not None or on_rows is not None:
         require(isinstance(chunk_rows, int) and not isinstance(chunk_rows, bool)
                 and chunk_rows >= 1 and callable(on_rows), "chunk_rows", chunk_rows,

@@ -21,11 +21,11 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from vibroimpact.errors import ContactResolutionWarning, Interrupted, ModelError, SolverError
+from vibroimpact.errors import Interrupted, ModelError, PreRunWarning, SolverError
 from vibroimpact.io import results_file
 from vibroimpact.io.model_file import ModelFile, ModelFileError, load_model
 from vibroimpact.report import add_verbosity_options, configure_logging, log_run
-from vibroimpact.simulate import contact_resolution_messages
+from vibroimpact.simulate import pre_run_warnings
 
 __all__ = ["OUTPUT_SUFFIXES", "add_parser", "main"]
 
@@ -183,11 +183,10 @@ def _run(mf: ModelFile, out: Path | None, stream: bool, args: argparse.Namespace
          ) -> tuple[dict[str, Any], list[Path]]:
     """Run ``mf`` (streamed to ``out`` or in memory, then written to ``out``): the summary
     and the files written. Raises :class:`SolverError` if the run stopped early."""
-    if mf.method.adaptive is None:
-        for line in contact_resolution_messages(mf.model, mf.dt):
-            print(f"vibroimpact: warning: {line}", file=sys.stderr)
+    for warning in pre_run_warnings(mf.model, mf.method, mf.dt):
+        print(f"vibroimpact: warning: {warning}", file=sys.stderr)
     with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ContactResolutionWarning)  # printed above
+        warnings.simplefilter("ignore", PreRunWarning)  # printed above
         if stream and out is not None:
             summary = results_file.simulate_to_file(
                 mf.model, out, mf.t_end, mf.dt, mf.method, every=mf.every, dofs=mf.run_dofs,

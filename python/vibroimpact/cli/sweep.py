@@ -9,9 +9,12 @@ import json
 import sys
 from typing import Any
 
-from vibroimpact.errors import ModelError
+from vibroimpact.errors import ModelError, SolverError
 
 __all__ = ["add_parser", "main"]
+
+#: Failed points whose message is printed (the Dataset's ``failed`` variable has them all).
+_FAILURES_SHOWN = 5
 
 _DESCRIPTION = """\
 Run a model file for every point of a parameter grid (one or more --param, their Cartesian
@@ -45,7 +48,10 @@ examples:
   vibroimpact sweep model.toml --param loads.0.frequency=5:50:4000 \\
       --scheduler tcp://head:8786 -o s.nc
 
-exit codes: 0 done, 2 mistakes in the model file or the arguments (one line each)."""
+exit codes: 0 done (some points may have failed: the summary counts them), 2 mistakes in
+the model file or the arguments (one line each), 3 every point failed (the Dataset is still
+written), 130 / 143 stopped by Ctrl-C / SIGTERM (the finished chunks are kept in OUT.parts/;
+the same command resumes)."""
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -151,14 +157,25 @@ def main(args: argparse.Namespace) -> int:
         "where": ("dask " + (args.scheduler or "LocalCluster")) if (args.dask or args.scheduler)
         else "in-process",
     }
+    failures = json.loads(ds.attrs["errors"])
     if args.json:
         print(json.dumps(summary))
-    else:
+    if summary["failed_points"] == summary["points"]:
+        first = failures[0]
+        raise SolverError(f"every one of the {summary['points']} points failed (first: "
+                          f"{first['point']}: {first['message']}); the Dataset (every point "
+                          f"marked failed) was written to {out}")
+    if not args.json:
+        for e in failures[:_FAILURES_SHOWN]:
+            print(f"  failed: {e['point']}: {e['message']}", file=sys.stderr)
+        failed = ""
+        if summary["failed_points"]:
+            shown = min(_FAILURES_SHOWN, summary["failed_points"])
+            listed = f"the first {shown}" if shown < summary["failed_points"] else "listed"
+            failed = (f" ({listed} above; all are marked in the Dataset's variable failed, "
+                      "docs/sweeps.md: Failed points)")
         print(f"{summary['points']} points ({' x '.join(map(str, summary['grid'].values()))}) "
               f"in {summary['wall_time_s']:.2f} s {summary['where']}: "
-              f"{summary['impacting_points']} impacting, {summary['failed_points']} failed; "
-              f"written to {out}")
-        if summary["failed_points"]:
-            for e in json.loads(ds.attrs["errors"])[:5]:
-                print(f"  failed: {e['point']}: {e['message']}", file=sys.stderr)
+              f"{summary['impacting_points']} impacting, {summary['failed_points']} of "
+              f"{summary['points']} failed{failed}; written to {out}")
     return 0

@@ -40,7 +40,13 @@ if TYPE_CHECKING:
 
     from vibroimpact.fe.beam import Beam
 
-__all__ = ["Modes", "modes", "plot_mode_shapes", "rigid_body_threshold"]
+__all__ = [
+    "Modes",
+    "highest_angular_frequency",
+    "modes",
+    "plot_mode_shapes",
+    "rigid_body_threshold",
+]
 
 #: Models with at most this many DOFs are solved densely by ``method="auto"``.
 DENSE_MODAL_LIMIT = 600
@@ -181,6 +187,27 @@ def modes(
     keep = min(len(lam), n_rigid + n_modes)
     lam, phi = lam[:keep], phi[:, :keep]
     return Modes(eigenvalues=lam, shapes=phi, rigid_body_modes=n_rigid, dof_map=dof_map)
+
+
+def highest_angular_frequency(structure: Any) -> float:
+    """The largest natural angular frequency ω (rad/s) of ``structure`` (as for
+    :func:`modes`; an :class:`~vibroimpact.fe.FEStructure`'s massless DOFs condensed first),
+    0 if no eigenvalue ``ω²`` is positive: LAPACK's largest eigenvalue up to
+    :data:`DENSE_MODAL_LIMIT` DOFs, else ARPACK's (:func:`scipy.sparse.linalg.eigsh`,
+    ``which="LA"``)."""
+    if isinstance(structure, FEStructure) and structure.massless_dofs:
+        return highest_angular_frequency(structure.condense_massless().structure)
+    k, m, _ = _matrices(structure)
+    n = int(m.shape[0])
+    if n <= DENSE_MODAL_LIMIT:
+        kd = k.toarray() if sp.issparse(k) else np.asarray(k, dtype=float)
+        md = m.toarray() if sp.issparse(m) else np.asarray(m, dtype=float)
+        lam = float(scipy.linalg.eigh(kd, md, eigvals_only=True,
+                                      subset_by_index=[n - 1, n - 1])[0])
+    else:
+        lam = float(spla.eigsh(sp.csc_array(k), k=1, M=sp.csc_array(m), which="LA",
+                               return_eigenvectors=False, tol=1e-8)[0])
+    return math.sqrt(lam) if lam > 0 else 0.0
 
 
 def _dense(k: Any, m: Any, count: int) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

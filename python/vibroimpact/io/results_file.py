@@ -314,10 +314,13 @@ class _Interrupts:
         self.signum: int | None = None
 
     def check(self) -> None:
-        """Raise :class:`KeyboardInterrupt` if ``Ctrl-C`` or ``SIGTERM`` arrived."""
+        """Raise :class:`KeyboardInterrupt` (its ``signum`` the signal's number) if ``Ctrl-C``
+        or ``SIGTERM`` arrived."""
         if self.signum is not None:
             signum, self.signum = self.signum, None
-            raise KeyboardInterrupt(f"signal {signum}")
+            error = KeyboardInterrupt(f"signal {signum}")
+            error.signum = signum  # type: ignore[attr-defined]
+            raise error
 
 
 #: The hold in force on the main thread, if any (holds nest: the outermost one decides).

@@ -29,15 +29,18 @@ runs them in the order of the values, ``down`` in reverse, ``both`` does both (a
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import hashlib
 import json
 import math
 import os
 import shutil
+import signal
 import sys
+import threading
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
@@ -47,7 +50,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from vibroimpact import _core
-from vibroimpact.errors import ModelError, require
+from vibroimpact.errors import Interrupted, ModelError, require
 from vibroimpact.integrators import Adaptive, Integrator, Newmark
 from vibroimpact.io.results_file import atomic_write, netcdf_engine
 from vibroimpact.model import Model
@@ -568,6 +571,46 @@ def _run_local(plan: _Plan, chunks: Sequence[_Chunk], todo: Iterable[int],
             raise
 
 
+@contextlib.contextmanager
+def _signals_stop_the_chunks(received: list[int]) -> Iterator[None]:
+    """On the main thread, Ctrl-C (SIGINT) and SIGTERM are noted in ``received`` and raise
+    :class:`KeyboardInterrupt`, which stops the running chunks (SIGTERM would otherwise end
+    the process at once, saying nothing of the parts kept)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def handler(signum: int, frame: Any) -> None:
+        received.append(signum)
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    previous: dict[int, Any] = {}
+    try:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            previous[sig] = signal.signal(sig, handler)
+    except (ValueError, OSError):  # pragma: no cover - no signals here
+        pass
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+
+
+def _interrupted_message(signum: int, folder: Path | None, chunks: Sequence[_Chunk],
+                         results: dict[int, dict[str, Any]], n_jobs: int) -> str:
+    """What an interrupted sweep keeps, on one line."""
+    name = signal.Signals(signum).name
+    if folder is None:
+        return (f"sweep stopped by {name}: no points kept (without an output file, finished "
+                "chunks are not kept)")
+    kept = [c for c in chunks if c.index in results and _part_path(folder, c.index).exists()]
+    points = sum(len(c.jobs) for c in kept)
+    return (f"sweep stopped by {name}: {points} of {n_jobs} points ({len(kept)} of "
+            f"{len(chunks)} chunks) are kept in {folder.parent}/; the same command (the same "
+            "sweep and output) resumes from them")
+
+
 def run_sweep(
     sweep: Sweep,
     *,
@@ -588,6 +631,10 @@ def run_sweep(
     - ``resume``: with ``output``, keep finished chunks in ``OUTPUT.parts/`` and reuse those of
       an interrupted run of the same sweep; the parts are removed once the file is written.
     - ``on_chunk``: called with a :class:`ChunkEvent` as each chunk finishes or is reused.
+
+    ``Ctrl-C`` or SIGTERM (on the main thread) stops the running chunks and raises
+    :class:`~vibroimpact.Interrupted` saying how many points are kept in ``OUTPUT.parts/``
+    (``signum``: the signal); the same call then resumes from them.
     """
     started = time.perf_counter()
     require(isinstance(sweep, Sweep), "sweep", type(sweep).__name__, "a vibroimpact Sweep")
@@ -631,13 +678,23 @@ def run_sweep(
         finished(chunks[i], results[i], reused=True)
     todo = [c.index for c in chunks if c.index not in results]
     _core.clear_interrupt()  # a stale request would stop every point
+    received: list[int] = []
     try:
-        if client is None:
-            _run_local(plan, chunks, todo, results, threads, finished)
-        else:
-            from vibroimpact.sweeps.distributed import run_on_dask
+        with _signals_stop_the_chunks(received):
+            if client is None:
+                _run_local(plan, chunks, todo, results, threads, finished)
+            else:
+                from vibroimpact.sweeps.distributed import run_on_dask
 
-            run_on_dask(client, plan, chunks, todo, results, threads, finished, digest)
+                run_on_dask(client, plan, chunks, todo, results, threads, finished, digest)
+    except KeyboardInterrupt as e:
+        # a signal (the one noted here, or one held while a part was written); any other
+        # KeyboardInterrupt (raised by on_chunk, say) goes on as it is
+        signum = received[0] if received else getattr(e, "signum", None)
+        if signum is None:
+            raise
+        raise Interrupted(_interrupted_message(signum, folder, chunks, results, plan.n_jobs),
+                          signum=signum) from None
     finally:
         bar.close()
     ds = _dataset(sweep, plan, chunks, results, digest)
