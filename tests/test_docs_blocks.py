@@ -69,10 +69,8 @@ TOKEN = re.compile(
 
 #: Pages whose blocks do not yet run or print what they say: fixed in the following commits.
 KNOWN_BROKEN = {
-    "README.md": "unmarked install block and layout; quoted output not in the checked form",
     "docs/beam.md": "unmarked TOML snippets; `model` undefined; a 3-DOF recording expanded "
                     "with the 23-DOF basis",
-    "docs/getting-started.md": "unmarked install block; r1, r2 and long.toml undefined",
     "docs/model-file.md": "an unmarked block of error messages",
     "docs/rigid-impacts.md": "an unmarked TOML snippet",
 }
