@@ -69,8 +69,6 @@ TOKEN = re.compile(
 
 #: Pages whose blocks do not yet run or print what they say: fixed in the following commits.
 KNOWN_BROKEN = {
-    "docs/beam.md": "unmarked TOML snippets; `model` undefined; a 3-DOF recording expanded "
-                    "with the 23-DOF basis",
     "docs/model-file.md": "an unmarked block of error messages",
     "docs/rigid-impacts.md": "an unmarked TOML snippet",
 }
