@@ -69,8 +69,6 @@ TOKEN = re.compile(
 
 #: Pages whose blocks do not yet run or print what they say: fixed in the following commits.
 KNOWN_BROKEN = {
-    "docs/model-file.md": "an unmarked block of error messages",
-    "docs/rigid-impacts.md": "an unmarked TOML snippet",
 }
 
 
