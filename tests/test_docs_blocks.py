@@ -21,7 +21,8 @@ Conventions (for page writers):
   ``<!-- fragment -->`` or ``<!-- fragment: why -->`` on the line before it (blank lines
   between allowed). A fragment is not run (a ``toml`` or ``python`` one must still parse). An
   unmarked block that is none of the above fails the test, so no page adds an unchecked
-  block silently.
+  block silently. Indented (unfenced) blocks are for formulas and messages: one that holds a
+  command or Python code fails too.
 
 Comparing printed text: whitespace is ignored; ``...`` stands for any text (wall times, the
 rest of a long table); words and punctuation must be equal; a quoted number matches a
@@ -61,6 +62,7 @@ PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("**/*.md"))]
 COMMAND_LANGS = {"bash", "sh", "shell"}
 FENCE = re.compile(r"^(?P<fence>```+|~~~+)\s*(?P<lang>[\w+-]*)\s*$")
 FRAGMENT = re.compile(r"^<!--\s*fragment(?::\s*(?P<why>.*?))?\s*-->$")
+CODE_START = re.compile(r"^(\$ |vibroimpact |python |import |from \S+ import )")
 EXPECTED = re.compile(r"#\s*->\s?(?P<text>.*)$")
 TOKEN = re.compile(
     r"(?P<ellipsis>\.\.\.)"
@@ -113,6 +115,24 @@ def parse_blocks(page: Path, text: str | None = None) -> list[Block]:
                             None if marker is None else (marker["why"] or "fragment")))
         i += 1
     return blocks
+
+
+def unfenced_code(page: Path, text: str | None = None) -> list[str]:
+    """Lines of indented code blocks (4 spaces after a blank line, outside fences) that are a
+    command or Python code, as ``page:line``: such code belongs in a fenced block."""
+    lines = (page.read_text(encoding="utf-8") if text is None else text).splitlines()
+    found, fence, indented = [], None, False
+    for number, line in enumerate(lines, 1):
+        opening = FENCE.match(line)
+        if fence is None and opening:
+            fence = opening["fence"]
+        elif fence is not None and line.startswith(fence):
+            fence = None
+        elif fence is None:
+            indented = line.startswith("    ") and (indented or not lines[number - 2].strip())
+            if indented and CODE_START.match(line.strip()):
+                found.append(f"{page.relative_to(ROOT)}:{number}")
+    return found
 
 
 # -- comparing printed text --------------------------------------------------------------------
@@ -320,6 +340,7 @@ def test_page_blocks_run_and_print_what_the_page_says(page: Path, tmp_path: Path
     shutil.copytree(ROOT / "examples", tmp_path / "examples")
     monkeypatch.chdir(tmp_path)
     monkeypatch.setenv("MPLBACKEND", "Agg")
+    assert not unfenced_code(page), "commands or code in an indented block: fence them"
     reader = PageRun(tmp_path)
     try:
         for block in parse_blocks(page):
@@ -371,6 +392,13 @@ def test_unmarked_blocks_are_refused(tmp_path: Path) -> None:
         assert marked.fragment == "a snippet"
         if marked.lang != "output":
             PageRun(tmp_path).run(marked)
+
+
+def test_indented_code_is_found() -> None:
+    page = ROOT / "docs" / "new-page.md"
+    text = ("Run\n\n    vibroimpact run m.toml\n\nor\n\n    F = K δⁿ\n\n"
+            "```bash\n    vibroimpact run m.toml\n```\n* a list\n    vibroimpact words\n")
+    assert unfenced_code(page, text) == ["docs/new-page.md:3"]
 
 
 def test_a_wrong_quote_fails(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
