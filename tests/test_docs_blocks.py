@@ -36,8 +36,9 @@ from __future__ import annotations
 
 import ast
 import contextlib
-import functools
 import io
+import itertools
+import operator
 import os
 import re
 import shlex
@@ -68,11 +69,6 @@ TOKEN = re.compile(
     r"(?P<ellipsis>\.\.\.)"
     r"|(?P<num>[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?)(?P<cut>\.\.\.)?(?![\w.])"
     r"|(?P<word>\w+)|(?P<char>\S)")
-
-#: Pages whose blocks do not yet run or print what they say: fixed in the following commits.
-KNOWN_BROKEN = {
-}
-
 
 @dataclass
 class Block:
@@ -129,7 +125,8 @@ def unfenced_code(page: Path, text: str | None = None) -> list[str]:
         elif fence is not None and line.startswith(fence):
             fence = None
         elif fence is None:
-            indented = line.startswith("    ") and (indented or not lines[number - 2].strip())
+            indented = line.startswith("    ") and (indented or number == 1
+                                                    or not lines[number - 2].strip())
             if indented and CODE_START.match(line.strip()):
                 found.append(f"{page.relative_to(ROOT)}:{number}")
     return found
@@ -160,18 +157,15 @@ def _same(expected: tuple[str, str], actual: tuple[str, str]) -> bool:
 
 def matches(expected: str, actual: str) -> bool:
     """Whether the printed ``actual`` is what ``expected`` quotes (the module's rules)."""
-    want, got = _tokens(expected), _tokens(actual)
-
-    @functools.cache
-    def match(i: int, j: int) -> bool:
-        if i == len(want):
-            return j == len(got)
-        if want[i][0] == "ellipsis":
-            return any(match(i + 1, k) for k in range(j, len(got) + 1))
-        return j < len(got) and _same(want[i], got[j]) and match(i + 1, j + 1)
-
-    sys.setrecursionlimit(max(sys.getrecursionlimit(), 4 * (len(want) + len(got)) + 1000))
-    return match(0, 0)
+    got = _tokens(actual)
+    # reached[j]: the quoted tokens so far match the first j printed ones
+    reached = [True] + [False] * len(got)
+    for want in _tokens(expected):
+        if want[0] == "ellipsis":
+            reached = list(itertools.accumulate(reached, operator.or_))
+        else:
+            reached = [False] + [reached[j] and _same(want, got[j]) for j in range(len(got))]
+    return reached[-1]
 
 
 def _check_output(where: str, what: str, expected: str, actual: str) -> None:
@@ -331,10 +325,7 @@ def _page_id(page: Path) -> str:
     return str(page.relative_to(ROOT))
 
 
-@pytest.mark.parametrize("page", [
-    pytest.param(p, id=_page_id(p), marks=[pytest.mark.xfail(
-        reason=KNOWN_BROKEN[_page_id(p)], strict=True)] if _page_id(p) in KNOWN_BROKEN else [])
-    for p in PAGES])
+@pytest.mark.parametrize("page", PAGES, ids=_page_id)
 def test_page_blocks_run_and_print_what_the_page_says(page: Path, tmp_path: Path,
                                                       monkeypatch: pytest.MonkeyPatch) -> None:
     shutil.copytree(ROOT / "examples", tmp_path / "examples")
