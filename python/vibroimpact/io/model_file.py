@@ -1765,6 +1765,7 @@ def render_reference() -> str:
         "naming the key, the value and what was expected; `vibroimpact run` then exits with",
         "code 2. For example:",
         "",
+        "<!-- fragment: what three bad model files print (vibroimpact run exits with 2) -->",
         "```text",
         "gaps[0].law.restitution: 1.2 is not valid; expected a number with 0 < restitution <= 1",
         "gaps[0].clearence: unknown key; did you mean 'clearance'? expected one of: dof, "
