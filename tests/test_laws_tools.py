@@ -256,7 +256,7 @@ def test_cli_laws_json(capsys: pytest.CaptureFixture[str]) -> None:
     for row in out.values():
         assert tuple(row) == COMPARE_FIELDS
     assert out["hertz"]["restitution_effective"] == pytest.approx(1.0, abs=1e-6)
-    assert out["safaeifar-karimi"]["restitution_effective"] == pytest.approx(0.5, abs=1e-3)
+    assert out["exact-restitution"]["restitution_effective"] == pytest.approx(0.5, abs=1e-3)
     # the same numbers as `vibroimpact impact --json` for that law
     code = cli_main(["impact", "--law", "flores", "--stiffness", str(K), "--restitution", "0.5",
                      "--mass", "0.04", "--velocity", "0.3", "--json"])
@@ -295,3 +295,48 @@ def test_plot_laws_has_labelled_axes(tmp_path: Path) -> None:
     assert min(rates["hertz"]) == pytest.approx(-V0, rel=1e-3)
     assert min(rates["flores"]) == pytest.approx(-0.4704 * V0, rel=2e-3)
     assert (tmp_path / "loops.svg").stat().st_size > 0
+
+
+REMOVED = ("law 'safaeifar-karimi' was removed: it was a stand-in, not the published law; "
+           "use 'exact-restitution' (the same relation under its own name)")
+
+
+def test_removed_law_name_is_refused_with_its_reason(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """``safaeifar-karimi`` (a stand-in under a paper's name) is refused everywhere a law is
+    named, in one line that points to ``exact-restitution``; nothing is written."""
+    assert "safaeifar-karimi" not in contact.LAWS
+    with pytest.raises(vi.ModelError) as info:
+        contact.law_from_name("safaeifar-karimi", stiffness=K, restitution=0.5)
+    assert str(info.value) == REMOVED
+    with pytest.raises(vi.ModelError) as info:
+        comparison_laws(0.5, MASS, V0, K, 1.5, ["flores", "safaeifar-karimi"])
+    assert str(info.value) == REMOVED
+    model = tmp_path / "m.toml"
+    model.write_text('[structure]\nkind = "sdof"\nmass = 1.0\n\n[[gaps]]\ndof = 0\n'
+                     'clearance = 0.001\n\n[gaps.law]\nkind = "safaeifar-karimi"\n'
+                     'stiffness = 1e9\nrestitution = 0.5\n\n[initial]\nvelocity = 1.0\n\n'
+                     '[solver]\ndt = 1e-5\nt_end = 0.01\n', encoding="utf-8")
+    with pytest.raises(vi.ModelError) as info:
+        vi.load_model(model)
+    assert str(info.value) == f"gaps[0].law.kind: {REMOVED}"
+    capsys.readouterr()
+    for argv in (
+        ["impact", "--law", "safaeifar-karimi", "--stiffness", "1e9", "--restitution", "0.5",
+         "--mass", "0.04", "--velocity", "0.3"],
+        ["laws", "--restitution", "0.5", "--velocity", "0.3", "--mass", "0.04",
+         "--stiffness", "1e9", "--laws", "hertz", "safaeifar-karimi"],
+        ["run", str(model), "-o", str(tmp_path / "out.csv")],
+    ):
+        assert cli_main(argv) == 2, argv
+        captured = capsys.readouterr()
+        assert captured.out == "", argv
+        assert captured.err.splitlines() == [
+            "vibroimpact: error: " + ("gaps[0].law.kind: " if argv[0] == "run" else "") + REMOVED
+        ], argv
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.toml"]
+    # the help lists only the laws there are
+    with pytest.raises(SystemExit):
+        cli_main(["impact", "--help"])
+    assert "safaeifar" not in capsys.readouterr().out

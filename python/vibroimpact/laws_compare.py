@@ -39,6 +39,7 @@ from vibroimpact.contact import (
     HuntCrossley,
     KelvinVoigt,
     Tabulated,
+    refuse_removed_law,
 )
 from vibroimpact.errors import require
 from vibroimpact.impact import single_impact
@@ -117,6 +118,7 @@ def comparison_laws(
     k_or_geometry, n, k = _resolve_stiffness(stiffness, exponent)
     names = list(FORCE_LAWS) if laws is None else list(laws)
     for name in names:
+        refuse_removed_law(name)
         require(name in FORCE_LAWS, "law", name, "one of " + ", ".join(FORCE_LAWS))
     peak = _hertz_peak(k, n, mass, velocity)
     ce = float(restitution)
@@ -212,7 +214,7 @@ DESIGN_ACCURACY: dict[str, DesignAccuracy] = {
     "gharib-hurmuzlu": DesignAccuracy(0.0, 0.1, 0.015, "proposed for low ce"),
     "carvalho-martins": DesignAccuracy(0.3, 1.0, 0.005,
                                        "closed form of the exact relation, ce ≳ 1/3"),
-    "safaeifar-karimi": DesignAccuracy(0.0, 1.0, 0.002, "exact relation (see its docstring)"),
+    "exact-restitution": DesignAccuracy(0.0, 1.0, 1e-6, "exact relation (see its docs page)"),
 }
 
 
@@ -231,7 +233,7 @@ def _formula(name: str) -> str:
         "gharib-hurmuzlu": "χ = 1/ce − 1",
         "ye": "χ = 8(1−ce)/(5ce)",
         "carvalho-martins": "χ = 3(1−ce)(11−ce)/[2(1+9ce)]",
-        "safaeifar-karimi": "χ: root of χ−ln(1+χ) = −χce−ln(1−χce)",
+        "exact-restitution": "χ: root of χ−ln(1+χ) = −χce−ln(1−χce)",
         "tabulated": "unloading ∝ δ^m, m = (n+1)/ce²−1, from δ_max",
     }.get(name, "")
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from vibroimpact.contact import FORCE_LAWS, law_from_name
+from vibroimpact.contact import FORCE_LAWS, REMOVED_LAWS, law_from_name
 from vibroimpact.impact import single_impact
 
 UNITS = {
@@ -15,6 +15,15 @@ UNITS = {
     "v_out": "m/s",
     "restitution_effective": "",
 }
+
+
+class LawNames(tuple[str, ...]):
+    """The force-law names of ``--law``/``--laws`` (shown in help and usage). A removed name
+    (:data:`~vibroimpact.contact.REMOVED_LAWS`) also passes argparse's check, so that the
+    command refuses it with the reason in one line instead of a usage message."""
+
+    def __contains__(self, name: object) -> bool:
+        return name in REMOVED_LAWS or tuple.__contains__(self, name)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -28,7 +37,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
             "effective restitution v_out/V0."
         ),
     )
-    p.add_argument("--law", required=True, choices=sorted(FORCE_LAWS), help="contact law")
+    p.add_argument("--law", required=True, choices=LawNames(sorted(FORCE_LAWS)),
+                   help="contact law")
     p.add_argument("--stiffness", type=float, required=True, help="contact stiffness K, N/m^n")
     p.add_argument("--exponent", type=float, default=None, help="exponent n (default 1.5)")
     p.add_argument("--restitution", type=float, default=None, help="restitution ce, 0 < ce <= 1")
