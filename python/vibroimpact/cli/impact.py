@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from vibroimpact.contact import FORCE_LAWS, REMOVED_LAWS, law_from_name
+from vibroimpact.contact import FORCE_LAWS, REMOVED_LAWS, kelvin_voigt_damping, law_from_name
+from vibroimpact.errors import ModelError
 from vibroimpact.impact import single_impact
 
 UNITS = {
@@ -41,7 +42,9 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help="contact law")
     p.add_argument("--stiffness", type=float, required=True, help="contact stiffness K, N/m^n")
     p.add_argument("--exponent", type=float, default=None, help="exponent n (default 1.5)")
-    p.add_argument("--restitution", type=float, default=None, help="restitution ce, 0 < ce <= 1")
+    p.add_argument("--restitution", type=float, default=None,
+                   help="restitution ce, 0 < ce <= 1 (kelvin-voigt: the dashpot c that gives "
+                        "it for this mass, instead of --damping)")
     p.add_argument(
         "--damping", type=float, default=None,
         help="damping: c in N s/m (kelvin-voigt) or b (hunt-crossley, instead of ce)",
@@ -60,6 +63,13 @@ def main(args: argparse.Namespace) -> int:
             params[name] = value
     if args.law == "kelvin-voigt":
         params.setdefault("exponent", 1.0)
+        if "restitution" in params:
+            if "damping" in params:
+                raise ModelError("law: kelvin-voigt takes one of --restitution or --damping; "
+                                 f"got restitution={args.restitution!r}, "
+                                 f"damping={args.damping!r}")
+            params["damping"] = kelvin_voigt_damping(params.pop("restitution"),
+                                                     args.stiffness, args.mass)
     law = law_from_name(args.law, **params)
     out = single_impact(law, mass=args.mass, velocity=args.velocity)
     if args.json:
