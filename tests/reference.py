@@ -57,7 +57,7 @@ LAWS: tuple[str, ...] = (
     "gharib-hurmuzlu",
     "ye",
     "carvalho-martins",
-    "safaeifar-karimi",
+    "exact-restitution",
     "tabulated",
 )
 
@@ -73,7 +73,7 @@ _CE_LAWS: tuple[str, ...] = (
     "gharib-hurmuzlu",
     "ye",
     "carvalho-martins",
-    "safaeifar-karimi",
+    "exact-restitution",
 )
 
 _TABLE_KEYS: tuple[str, ...] = (
@@ -158,7 +158,7 @@ class ContactLaw:
     * gharib-hurmuzlu (2012): ``1/ce - 1``
     * ye (Ye, Li & Zhu 2009): ``8(1-ce)/(5ce)``
     * carvalho-martins (2019): ``3(1-ce)(11-ce)/(2(1+9ce))``
-    * safaeifar-karimi: the exact factor (:func:`exact_hunt_crossley_factor`)
+    * exact-restitution: the exact factor (:func:`exact_hunt_crossley_factor`)
 
     tabulated: loading curve ``F_L`` while ``delta_dot >= 0``; while ``delta_dot <= -w`` the
     unloading curve stretched to start on ``F_L`` at the contact's largest penetration ``dm``,
@@ -207,7 +207,7 @@ class ContactLaw:
             return 8.0 * (1.0 - ce) / (5.0 * ce)
         if self.name == "carvalho-martins":
             return 3.0 * (1.0 - ce) * (11.0 - ce) / (2.0 * (1.0 + 9.0 * ce))
-        if self.name == "safaeifar-karimi":
+        if self.name == "exact-restitution":
             return exact_hunt_crossley_factor(ce)
         return 0.0
 

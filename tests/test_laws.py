@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 import reference
 from vibroimpact import contact
-from vibroimpact.impact import single_impact_result
+from vibroimpact.impact import single_impact, single_impact_result
 from vibroimpact.laws_compare import (
     DESIGN_ACCURACY,
     DOC_MASS,
@@ -81,15 +81,22 @@ def test_restitution_independent_of_stiffness_mass_and_speed() -> None:
         assert a[name][0.5] == pytest.approx(b[name][0.5], abs=2e-4)
 
 
-def test_exact_factor_law_is_exact() -> None:
-    """The reference's own root of χ − ln(1+χ) = −χ ce − ln(1 − χ ce) restitutes ce."""
-    for ce in (0.05, 0.5, 0.95):
-        chi = reference.exact_hunt_crossley_factor(ce)
-        lhs = chi - math.log1p(chi)
-        assert lhs == pytest.approx(-chi * ce - math.log1p(-chi * ce), rel=1e-8)
-        out = reference.single_impact("safaeifar-karimi", MASS, V0, rtol=1e-10, stiffness=K,
-                                      restitution=ce)
-        assert out["restitution_effective"] == pytest.approx(ce, abs=1e-8)
+@pytest.mark.parametrize("ce", [0.05, 0.3, 0.5, 0.8, 0.95, 0.999])
+def test_exact_restitution_restitutes_ce(ce: float) -> None:
+    """One impact of ``exact-restitution`` restitutes ce: in the independent SciPy integration
+    of its force (with the reference's own root of χ − ln(1+χ) = −χ ce − ln(1 − χ ce)) to 1e-8
+    and in the core to 1e-7, on the paper's spheres and on a soft linear contact (K, n, m and
+    v_imp drop out of the relation)."""
+    chi = reference.exact_hunt_crossley_factor(ce)
+    assert chi - math.log1p(chi) == pytest.approx(-chi * ce - math.log1p(-chi * ce), rel=1e-8)
+    for k, n, mass, v0 in ((K, 1.5, MASS, V0), (3.0e7, 1.0, 2.0, 1.7)):
+        law = contact.ExactRestitution(stiffness=k, exponent=n, restitution=ce)
+        ours = single_impact(law, mass, v0)
+        ref = reference.single_impact("exact-restitution", mass, v0, rtol=1e-10, stiffness=k,
+                                      exponent=n, restitution=ce)
+        assert ref["restitution_effective"] == pytest.approx(ce, abs=1e-8), (k, n)
+        assert ours["restitution_effective"] == pytest.approx(ce, abs=1e-7), (k, n)
+        assert ours["v_out"] == pytest.approx(ref["v_out"], abs=1e-7 * v0), (k, n)
 
 
 def test_hertz_conserves_energy() -> None:

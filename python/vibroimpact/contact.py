@@ -41,9 +41,11 @@ __all__ = [
     "GEOMETRY_KINDS",
     "LAWS",
     "PAPER_LAWS",
+    "REMOVED_LAWS",
     "RESTITUTION_LAWS",
     "CarvalhoMartins",
     "ContactLaw",
+    "ExactRestitution",
     "Flores",
     "Geometry",
     "GharibHurmuzlu",
@@ -57,11 +59,12 @@ __all__ = [
     "LeeWang",
     "PowerLaw",
     "Rigid",
-    "SafaeifarKarimi",
     "Tabulated",
     "Ye",
     "ZhiyingQishao",
+    "kelvin_voigt_damping",
     "law_from_name",
+    "refuse_removed_law",
 ]
 
 GeometryKind = Literal[
@@ -280,9 +283,19 @@ class Hertz(PowerLaw):
 class KelvinVoigt(PowerLaw):
     """Linear spring–dashpot ``F = k δ + c δ̇`` (Kelvin–Voigt; the spring–damping description,
     paper Fig. 1b), clamped to zero when it would pull. ``stiffness`` in N/m, ``damping`` in
-    N·s/m. Its damping is a constant ``c``, independent of ``ce`` and ``v_imp`` (for a mass
-    ``m`` without clamping ``ce = exp(−ζπ/√(1−ζ²))``, ``ζ = c/(2√(k m))``); the force jumps to
-    ``c v_imp`` at first touch."""
+    N·s/m. Its damping is a constant ``c``, independent of ``ce`` and ``v_imp``; the force
+    jumps to ``c v_imp`` at first touch.
+
+    Restitution of one impact of a mass ``m`` on a rigid wall, with ``ζ = c/(2√(k m))``,
+    ``ω = √(k/m)``: the free response from ``δ = 0``, ``δ̇ = v_imp`` gives
+    ``F/m = ω² δ + 2ζω δ̇ ∝ sin(ω_d t)(1 − 2ζ²)/√(1 − ζ²) + 2ζ cos(ω_d t)``, which turns
+    tensile at ``ω_d t = 2 arccos ζ`` (before ``δ`` is back to 0, at ``π``). There the clamp
+    ends the contact force and ``δ̇ = −v_imp exp(−ζω t)``; the body then leaves at that speed:
+    ``e = exp(−2ζ arccos ζ/√(1 − ζ²))`` (``exp(−2)`` at ``ζ = 1``;
+    ``exp(−2ζ arccosh ζ/√(ζ² − 1))`` overdamped). The textbook ``e = exp(−ζπ/√(1 − ζ²))``
+    assumes the contact ends at ``δ = 0`` and would pull the body back meanwhile: with its
+    ``ζ`` the clamped contact restitutes more (0.253 for ce = 0.1). :func:`kelvin_voigt_damping`
+    inverts the clamped relation."""
 
     kind: ClassVar[str] = "kelvin-voigt"
     exponent: float = 1.0
@@ -300,6 +313,37 @@ class KelvinVoigt(PowerLaw):
 
     def to_spec(self) -> dict[str, Any]:
         return {**super().to_spec(), "damping": float(self.damping)}
+
+
+def _kelvin_voigt_log_restitution(zeta: float) -> float:
+    """``−ln e`` of one clamped Kelvin–Voigt impact at damping ratio ``ζ`` (:class:`KelvinVoigt`):
+    ``2ζ arccos ζ/√(1 − ζ²)``, continued through ``ζ = 1`` (2) to ``2ζ arccosh ζ/√(ζ² − 1)``."""
+    if zeta < 1.0:
+        return 2.0 * zeta * math.acos(zeta) / math.sqrt((1.0 - zeta) * (1.0 + zeta))
+    if zeta > 1.0:
+        return 2.0 * zeta * math.acosh(zeta) / math.sqrt((zeta - 1.0) * (zeta + 1.0))
+    return 2.0
+
+
+def kelvin_voigt_damping(restitution: float, stiffness: float, mass: float) -> float:
+    """The dashpot ``c`` (N·s/m) with which one impact of a body of ``mass`` (kg) on a rigid
+    wall through a Kelvin–Voigt contact of ``stiffness`` ``k`` (N/m) restitutes exactly
+    ``restitution`` ``ce``, the force clamped non-tensile as in a run (:class:`KelvinVoigt`):
+    ``c = 2ζ√(k m)`` with ``ζ`` the root of ``2ζ arccos ζ/√(1 − ζ²) = −ln ce`` (continued
+    past ``ζ = 1`` for ce < e⁻² ≈ 0.135), found by Brent's method; 0 for ce = 1."""
+    from scipy.optimize import brentq
+
+    _check_restitution(restitution)
+    _positive(stiffness, "law.stiffness", "N/m")
+    _positive(mass, "mass", "kg")
+    target = -math.log(restitution)
+    if target == 0.0:
+        return 0.0
+    # 2ζ arccosh ζ/√(ζ² − 1) >= 2 ln ζ, so ζ = e^(target/2) is past the root.
+    upper = max(1.0, math.exp(0.5 * target))
+    zeta = brentq(lambda z: _kelvin_voigt_log_restitution(z) - target, 0.0, upper,
+                  xtol=1e-300, rtol=4.0 * np.finfo(float).eps, maxiter=500)
+    return 2.0 * float(zeta) * math.sqrt(stiffness * mass)
 
 
 @dataclass(frozen=True)
@@ -459,16 +503,34 @@ class CarvalhoMartins(_RestitutionLaw):
 
 
 @dataclass(frozen=True)
-class SafaeifarKarimi(_RestitutionLaw):
-    """Safaeifar & Karimi (2020, Multibody Syst. Dyn. 50:233, doi 10.1007/s11044-020-09732-2),
-    a factor for the whole range of ce. Their closed form could not be checked: the public
-    copies found hold only the paper's introduction, the abstract of a 2024 follow-up
-    (Int. J. Optim. Civil Eng. 14(1), "Optimal model of the contact force ... by ICACO")
-    stops before any formula, and no public code or issue found implements or quotes it.
-    This law uses the exact relation such factors approximate: ``χ`` is the root of
-    ``χ − ln(1 + χ) = −χ ce − ln(1 − χ ce)``, so that one impact restitutes exactly ``ce``."""
+class ExactRestitution(_RestitutionLaw):
+    """``F = K δⁿ (1 + χ δ̇/v_imp)`` with the factor that makes one impact restitute exactly
+    ``ce``: ``χ`` is the root in ``(0, 1/ce)`` of ``χ − ln(1 + χ) = −χ ce − ln(1 − χ ce)``
+    (``χ = 0`` for ``ce = 1``), solved once when the law is built. Not a published closed
+    form but the relation that closed-form factors approximate (Carvalho & Martins 2019 is
+    one); near ce = 1, ``χ ≈ 3(1 − ce)/2``, Hunt–Crossley's factor.
 
-    kind: ClassVar[str] = "safaeifar-karimi"
+    Why the root restitutes ``ce`` (the energy integral in the phase plane of Hunt & Crossley
+    1975 and Lankarani & Nikravesh 1990): a free mass ``m`` meets a rigid wall at
+    ``δ̇ = v_imp`` with no other force, so ``m δ̈ = −K δⁿ (1 + χ δ̇/v_imp)``. With
+    ``δ̈ = δ̇ dδ̇/dδ`` and ``u = δ̇/v_imp`` this separates into
+    ``u du/(1 + χ u) = −K δⁿ dδ/(m v_imp²)``. Compression takes ``u`` from 1 to 0 while ``δ``
+    goes from 0 to ``δ_max``; restitution takes ``u`` from 0 to ``−e`` while ``δ`` returns to 0.
+    The right-hand sides of the two phases are the same integral with reversed limits, so
+    ``∫₀¹ u/(1 + χu) du = ∫₀^(−e) u/(1 + χu) du``; with
+    ``∫ u/(1 + χu) du = u/χ − ln(1 + χu)/χ²``, times ``χ²``:
+    ``χ − ln(1 + χ) = −χ e − ln(1 − χ e)``. ``K``, ``n``, ``m`` and ``v_imp`` have dropped out:
+    ``e`` depends on ``χ`` alone, and the ``χ`` solving this with ``e = ce`` gives
+    ``v_out/v_in = ce``. The bracket ``1 + χu >= 1 − χ ce > 0`` all through the restitution
+    phase, so the force never turns tensile, the non-tensile clamp never acts and the contact
+    ends at ``δ = 0``, where the integral ends. Gravity, a structure or other walls acting
+    during the contact change the balance; then ``e_eff`` differs from ``ce``.
+
+    Until it had a name of its own this relation was offered as ``safaeifar-karimi``, a
+    stand-in for the closed form of Safaeifar & Karimi (2020, Multibody Syst. Dyn. 50:233),
+    which no public copy found shows; that name is now refused (:data:`REMOVED_LAWS`)."""
+
+    kind: ClassVar[str] = "exact-restitution"
 
 
 def _curve(
@@ -632,7 +694,7 @@ class Rigid(ContactLaw):
 
 _ALL: tuple[type[ContactLaw], ...] = (
     Hertz, KelvinVoigt, HuntCrossley, HerbertMcWhannell, LeeWang, LankaraniNikravesh, Gonthier,
-    ZhiyingQishao, Flores, HuGuo, GharibHurmuzlu, Ye, CarvalhoMartins, SafaeifarKarimi,
+    ZhiyingQishao, Flores, HuGuo, GharibHurmuzlu, Ye, CarvalhoMartins, ExactRestitution,
     Tabulated, Rigid,
 )
 
@@ -652,9 +714,23 @@ RESTITUTION_LAWS: tuple[str, ...] = tuple(
 #: The paper's five laws, in its order (Table 2).
 PAPER_LAWS = ("hertz", "hunt-crossley", "lankarani-nikravesh", "gonthier", "flores")
 
+#: Law names no longer accepted, each with the one line that says why and what to use.
+REMOVED_LAWS: dict[str, str] = {
+    "safaeifar-karimi": "law 'safaeifar-karimi' was removed: it was a stand-in, not the "
+                        "published law; use 'exact-restitution' (the same relation under its "
+                        "own name)",
+}
+
+
+def refuse_removed_law(name: str) -> None:
+    """Raise the one-line :class:`ModelError` of :data:`REMOVED_LAWS` if ``name`` is removed."""
+    if name in REMOVED_LAWS:
+        raise ModelError(REMOVED_LAWS[name])
+
 
 def law_from_name(name: str, **params: Any) -> ContactLaw:
     """Build a law from its kebab-case name (``"lankarani-nikravesh"``) and parameters."""
+    refuse_removed_law(name)
     if name not in LAWS:
         raise ModelError(
             f"law.kind: {name!r} is not a known contact law; expected one of {', '.join(LAWS)}"

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
-from vibroimpact.contact import FORCE_LAWS, law_from_name
+from vibroimpact.contact import FORCE_LAWS, REMOVED_LAWS, kelvin_voigt_damping, law_from_name
+from vibroimpact.errors import ModelError
 from vibroimpact.impact import single_impact
 
 UNITS = {
@@ -15,6 +16,15 @@ UNITS = {
     "v_out": "m/s",
     "restitution_effective": "",
 }
+
+
+class LawNames(tuple[str, ...]):
+    """The force-law names of ``--law``/``--laws`` (shown in help and usage). A removed name
+    (:data:`~vibroimpact.contact.REMOVED_LAWS`) also passes argparse's check, so that the
+    command refuses it with the reason in one line instead of a usage message."""
+
+    def __contains__(self, name: object) -> bool:
+        return name in REMOVED_LAWS or tuple.__contains__(self, name)
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -28,10 +38,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
             "effective restitution v_out/V0."
         ),
     )
-    p.add_argument("--law", required=True, choices=sorted(FORCE_LAWS), help="contact law")
+    p.add_argument("--law", required=True, choices=LawNames(sorted(FORCE_LAWS)),
+                   help="contact law")
     p.add_argument("--stiffness", type=float, required=True, help="contact stiffness K, N/m^n")
     p.add_argument("--exponent", type=float, default=None, help="exponent n (default 1.5)")
-    p.add_argument("--restitution", type=float, default=None, help="restitution ce, 0 < ce <= 1")
+    p.add_argument("--restitution", type=float, default=None,
+                   help="restitution ce, 0 < ce <= 1 (kelvin-voigt: the dashpot c that gives "
+                        "it for this mass, instead of --damping)")
     p.add_argument(
         "--damping", type=float, default=None,
         help="damping: c in N s/m (kelvin-voigt) or b (hunt-crossley, instead of ce)",
@@ -50,6 +63,13 @@ def main(args: argparse.Namespace) -> int:
             params[name] = value
     if args.law == "kelvin-voigt":
         params.setdefault("exponent", 1.0)
+        if "restitution" in params:
+            if "damping" in params:
+                raise ModelError("law: kelvin-voigt takes one of --restitution or --damping; "
+                                 f"got restitution={args.restitution!r}, "
+                                 f"damping={args.damping!r}")
+            params["damping"] = kelvin_voigt_damping(params.pop("restitution"),
+                                                     args.stiffness, args.mass)
     law = law_from_name(args.law, **params)
     out = single_impact(law, mass=args.mass, velocity=args.velocity)
     if args.json:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
+from vibroimpact.cli.impact import LawNames
 from vibroimpact.contact import FORCE_LAWS, GEOMETRY_KINDS, Geometry
 from vibroimpact.errors import ModelError
 from vibroimpact.laws_compare import COMPARE_FIELDS, compare_laws, comparison_laws
@@ -42,7 +43,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--poisson2", type=float, help="Poisson's ratio of body 2 (default: body 1's)")
     p.add_argument("--exponent", type=float, default=None,
                    help="exponent n (default: 1.5, or the geometry's)")
-    p.add_argument("--laws", nargs="+", choices=list(FORCE_LAWS), metavar="LAW",
+    p.add_argument("--laws", nargs="+", choices=LawNames(FORCE_LAWS), metavar="LAW",
                    help="only these laws (default: all)")
     p.add_argument("--json", action="store_true", help="print a JSON object keyed by law")
     p.add_argument("--plot", metavar="FIGURE",

@@ -109,7 +109,8 @@ class Field:
     no value); ``when = (key, values)`` limits the key to tables whose sibling ``key`` has one
     of ``values`` (it is refused elsewhere); ``required_when`` likewise makes it required;
     ``rule`` states in words a check between keys that :func:`load_model` makes; ``open``
-    (tables only) passes keys the schema does not list on to the integrator.
+    (tables only) passes keys the schema does not list on to the integrator; ``removed`` maps
+    values no longer among the ``choices`` to the line that says why and what to use.
     """
 
     path: str
@@ -127,6 +128,7 @@ class Field:
     when: tuple[str, tuple[str, ...]] | None = None
     required_when: tuple[str, tuple[str, ...]] | None = None
     open: bool = False
+    removed: Mapping[str, str] = dataclasses.field(default_factory=dict, hash=False)
 
     @property
     def key(self) -> str:
@@ -431,7 +433,7 @@ SCHEMA: tuple[Field, ...] = (
     Field("gaps[].law", "table", "contact-force law (contact-laws.md)", default=REQUIRED),
     # [gaps.law]
     Field("gaps[].law.kind", "string", "contact-force law (vibroimpact.contact)",
-          default=REQUIRED, choices=_LAW_KINDS),
+          default=REQUIRED, choices=_LAW_KINDS, removed=contact.REMOVED_LAWS),
     Field("gaps[].law.stiffness", "number", "contact stiffness K", unit="N/m^n", minimum=0,
           minimum_inclusive=False, rule="or give geometry",
           when=("kind", _kinds_with("stiffness"))),
@@ -1002,7 +1004,10 @@ class _Checker:
             self.invalid(p, value, e.expected or r.expected(), e.shown)
             return
         if r.choices and converted not in r.choices:
-            self.invalid(p, value, r.expected())
+            if converted in r.removed:
+                self.add(p, f"{p}: {r.removed[converted]}")
+            else:
+                self.invalid(p, value, r.expected())
             return
         if isinstance(converted, (int, float)) and not r.in_range(converted):
             self.invalid(p, value, r.expected())

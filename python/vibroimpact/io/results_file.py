@@ -264,7 +264,7 @@ def metadata(ds: xr.Dataset) -> dict[str, Any]:
 def model_from_dataset(ds: xr.Dataset) -> tuple[Model, Integrator]:
     """Rebuild the :class:`~vibroimpact.Model` and the integrator a result was made with, so
     that any result file can be re-run: ``vi.simulate(model, ds.t_end, ds.dt, method)``."""
-    from vibroimpact.contact import LAWS
+    from vibroimpact.contact import LAWS, REMOVED_LAWS
     from vibroimpact.model import ConstantLoad, Gap, HarmonicLoad, Model, Structure, TableLoad
 
     meta = metadata(ds)
@@ -277,6 +277,8 @@ def model_from_dataset(ds: xr.Dataset) -> tuple[Model, Integrator]:
     gaps = []
     for g in spec["gaps"]:
         law_spec = {k: v for k, v in g["law"].items() if k != "kind" and v is not None}
+        if g["law"]["kind"] in REMOVED_LAWS:
+            raise ModelError(f"result file: {REMOVED_LAWS[g['law']['kind']]}")
         if g["law"]["kind"] not in LAWS:
             raise ModelError(f"result file: contact law {g['law']['kind']!r} is not known to "
                              "this vibroimpact version")

@@ -219,13 +219,12 @@ hysteresis_law!(
 );
 
 hysteresis_law!(
-    /// Safaeifar & Karimi (2020, Multibody Syst. Dyn. 50:233, "A new model of the contact
-    /// force for the collision between two solid bodies"), whose damping factor is built to
-    /// hold over the whole range of ce. The closed form of that paper could not be checked
-    /// against a public copy; this law uses the exact relation its factor approximates:
-    /// `χ` is the root of `χ − ln(1 + χ) = −χ ce − ln(1 − χ ce)` ([`exact_hysteresis_factor`]),
-    /// so one impact on a rigid wall restitutes exactly `ce`.
-    SafaeifarKarimi, "safaeifar-karimi", |ce| exact_hysteresis_factor(ce)
+    /// The Hunt–Crossley form with the factor that restitutes exactly `ce`: `χ` is the root
+    /// of `χ − ln(1 + χ) = −χ ce − ln(1 − χ ce)` in `(0, 1/ce)` ([`exact_hysteresis_factor`]),
+    /// so one impact of a free mass on a rigid wall restitutes `ce` for any `K`, `n`, mass
+    /// and approach speed (the energy integral of the module docs). Not a published closed
+    /// form: the relation the closed-form factors (Carvalho–Martins, Hu–Guo, ...) approximate.
+    ExactRestitution, "exact-restitution", |ce| exact_hysteresis_factor(ce)
 );
 
 /// How the Hunt–Crossley damping is given.

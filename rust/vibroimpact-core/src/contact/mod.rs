@@ -9,7 +9,7 @@
 //! the Hertzian laws with hysteresis damping `K δⁿ (1 + χ δ̇/v_imp)` in `hysteretic`
 //! ([`HuntCrossley`], [`HerbertMcWhannell`], [`LeeWang`], [`LankaraniNikravesh`],
 //! [`Gonthier`], [`ZhiyingQishao`], [`Flores`], [`HuGuo`], [`GharibHurmuzlu`], [`Ye`],
-//! [`CarvalhoMartins`], [`SafaeifarKarimi`]); and [`Tabulated`] loading/unloading curves.
+//! [`CarvalhoMartins`], [`ExactRestitution`]); and [`Tabulated`] loading/unloading curves.
 //! Stiffness from geometry and material is in `geometry`.
 
 mod geometry;
@@ -24,9 +24,9 @@ pub use geometry::{
 };
 pub use hertz::Hertz;
 pub use hysteretic::{
-    exact_hysteresis_factor, restitution_of_factor, CarvalhoMartins, Flores, GharibHurmuzlu,
-    Gonthier, HerbertMcWhannell, HuGuo, HuntCrossley, HuntCrossleyDamping, LankaraniNikravesh,
-    LeeWang, SafaeifarKarimi, Ye, ZhiyingQishao,
+    exact_hysteresis_factor, restitution_of_factor, CarvalhoMartins, ExactRestitution, Flores,
+    GharibHurmuzlu, Gonthier, HerbertMcWhannell, HuGuo, HuntCrossley, HuntCrossleyDamping,
+    LankaraniNikravesh, LeeWang, Ye, ZhiyingQishao,
 };
 pub use kelvin_voigt::KelvinVoigt;
 pub use rigid::Rigid;
@@ -146,7 +146,7 @@ pub enum Law {
     GharibHurmuzlu(GharibHurmuzlu),
     Ye(Ye),
     CarvalhoMartins(CarvalhoMartins),
-    SafaeifarKarimi(SafaeifarKarimi),
+    ExactRestitution(ExactRestitution),
     Tabulated(Tabulated),
     /// The massless bar: impulsive methods only (not in [`LAW_NAMES`], which lists the
     /// force laws; its name is [`RIGID_NAME`]).
@@ -171,7 +171,7 @@ pub const LAW_NAMES: [&str; 15] = [
     "gharib-hurmuzlu",
     "ye",
     "carvalho-martins",
-    "safaeifar-karimi",
+    "exact-restitution",
     "tabulated",
 ];
 
@@ -191,7 +191,7 @@ macro_rules! dispatch {
             Law::GharibHurmuzlu($law) => $body,
             Law::Ye($law) => $body,
             Law::CarvalhoMartins($law) => $body,
-            Law::SafaeifarKarimi($law) => $body,
+            Law::ExactRestitution($law) => $body,
             Law::Tabulated($law) => $body,
             Law::Rigid($law) => $body,
         }
@@ -233,7 +233,7 @@ impl Law {
             Law::GharibHurmuzlu(_) => 10,
             Law::Ye(_) => 11,
             Law::CarvalhoMartins(_) => 12,
-            Law::SafaeifarKarimi(_) => 13,
+            Law::ExactRestitution(_) => 13,
             Law::Tabulated(_) => 14,
             Law::Rigid(_) => return RIGID_NAME,
         };
@@ -264,7 +264,7 @@ impl Law {
             Law::GharibHurmuzlu(l) => Some(l.hysteresis_factor()),
             Law::Ye(l) => Some(l.hysteresis_factor()),
             Law::CarvalhoMartins(l) => Some(l.hysteresis_factor()),
-            Law::SafaeifarKarimi(l) => Some(l.hysteresis_factor()),
+            Law::ExactRestitution(l) => Some(l.hysteresis_factor()),
         }
     }
 
@@ -296,7 +296,7 @@ impl Law {
             "gharib-hurmuzlu" => GharibHurmuzlu::new(k, n, ce).map(Law::GharibHurmuzlu),
             "ye" => Ye::new(k, n, ce).map(Law::Ye),
             "carvalho-martins" => CarvalhoMartins::new(k, n, ce).map(Law::CarvalhoMartins),
-            "safaeifar-karimi" => SafaeifarKarimi::new(k, n, ce).map(Law::SafaeifarKarimi),
+            "exact-restitution" => ExactRestitution::new(k, n, ce).map(Law::ExactRestitution),
             _ => return None,
         })
     }
