@@ -50,6 +50,7 @@ from vibroimpact.model import (
     TableLoad,
     spd_solver,
 )
+from vibroimpact.simulate import check_run, contact_periods
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -1418,8 +1419,11 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
             initial_displacement=initial["displacement"],
             initial_velocity=initial["velocity"],
         )
-    except _CAUGHT as e:
-        raise ModelFileError([_reprefix(e, {}, "model")]) from None
+        # energies, forces and time scales that are not finite doubles (docs/model-file.md)
+        check_run(model, t_end, dt, method)
+        contact_periods(model)
+    except _CAUGHT as e:  # their messages start with the TOML path of the field
+        raise ModelFileError([_one_line(e)]) from None
     return ModelFile(
         model=model,
         t_end=t_end,
@@ -1721,6 +1725,26 @@ def render_reference() -> str:
         "  (with a DOF map: one row per DOF of it; CalculiX and ABAQUS files may omit trailing",
         "  zero rows); all three are symmetric and `structure.mass` is positive definite on the",
         "  DOFs that carry mass.",
+        "",
+        "## Numbers whose energy, force or time scale is not a double",
+        "",
+        "Every number must be finite, and so must what follows from them before the run, each",
+        "refused on one line naming the field responsible (`vibroimpact.simulate` and building a",
+        "`vibroimpact.Model` refuse the same with a `ModelError`):",
+        "",
+        "* `[initial]`: the kinetic energy `1/2 vᵀMv` (`initial.velocity`), the strain energy",
+        "  `1/2 xᵀKx` (`initial.displacement`) and, for each gap that the initial state already",
+        "  closes, the law's contact force at that penetration and speed.",
+        "* `[structure]`: on every DOF `K_ii / M_ii` (a squared natural frequency) and",
+        "  `C_ii / M_ii` (a decay rate).",
+        "* `[[loads]]`: the largest force (`scale` times the table's largest `|F|`) and the",
+        "  energy `1/2 (F t_end)² Σ 1/M_dd` that its impulse over the run would give the masses",
+        "  of its DOFs `d` if nothing held them (`amplitude`, or `scale` of a table).",
+        "* `[[gaps]]`: the estimated contact period `2π √(m_eff / k)` (effective mass, the",
+        "  law's secant stiffness at the penetration that stores the energy the run can bring,",
+        "  `vibroimpact.simulate.contact_periods`) is a finite number > 0.",
+        "* Time scale: `solver.dt` and `solver.t_end` are finite and > 0, `dt <= t_end`, and",
+        "  with fixed steps `t_end / dt` is at most 1e10 steps.",
         "",
         "## Massless DOFs",
         "",
