@@ -118,6 +118,21 @@ def test_bad_model_is_refused_with_every_error(path: Path) -> None:
     assert isinstance(info.value, ModelError)
 
 
+def test_keys_above_their_header_and_a_single_misplaced_key(tmp_path: Path) -> None:
+    """Several keys of another table: one line naming it (here: the header exists, the keys
+    are above it); a single key of another table keeps its own "unknown key" line."""
+    path = tmp_path / "model.toml"
+    path.write_text('kind = "sdof"\nmass = 1.0\n[structure]\nkind = "sdof"\nmass = 100.0\n'
+                    "[initial]\nvelocity = 1.0\nevery = 2\n[solver]\ndt = 1e-6\nt_end = 1e-5\n")
+    with pytest.raises(ModelFileError) as info:
+        load_model(path)
+    assert info.value.errors == [
+        "structure: kind, mass belong in [structure]: are they above its header? expected them "
+        "under the header [structure]",
+        "initial.every: unknown key; expected one of: displacement, velocity",
+    ]
+
+
 @pytest.fixture(scope="module")
 def cli_runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, tuple[Any, Path]]:
     """Run the sampled bad models through ``python -m vibroimpact run FILE -o OUT.csv``, a few

@@ -7,7 +7,7 @@ import math
 from typing import Any
 
 from vibroimpact.contact import ContactLaw
-from vibroimpact.errors import SolverError, require
+from vibroimpact.errors import ModelError, SolverError, require
 from vibroimpact.integrators import Newmark
 from vibroimpact.model import Gap, Model, Structure
 from vibroimpact.result import Result
@@ -21,9 +21,20 @@ STEPS_PER_CONTACT = 20_000
 
 def hertz_estimate(stiffness: float, exponent: float, mass: float, velocity: float) -> dict:
     """Undamped estimate: ``delta_max = ((n+1) m v²/(2K))^(1/(n+1))`` and a contact duration
-    of about ``3.2 delta_max / v`` (2.943 for n = 1.5, π for n = 1)."""
-    delta_max = ((exponent + 1) * mass * velocity**2 / (2 * stiffness)) ** (1 / (exponent + 1))
-    return {"delta_max": delta_max, "duration": 3.2 * delta_max / velocity}
+    of about ``3.2 delta_max / v`` (2.943 for n = 1.5, π for n = 1). Raises a
+    :class:`~vibroimpact.ModelError` naming ``velocity`` if either is not a finite number
+    > 0 (speed, mass and stiffness whose impact has no time scale in doubles)."""
+    # m v v, not m v²: a product of finite doubles overflows to inf, a power raises
+    energy = (exponent + 1) * mass * velocity * velocity / (2 * stiffness)
+    delta_max = energy ** (1 / (exponent + 1))
+    duration = 3.2 * delta_max / velocity
+    if not (0 < delta_max < math.inf and 0 < duration < math.inf):
+        raise ModelError(
+            f"velocity = {velocity:g}: the impact's peak penetration {delta_max:g} m and "
+            f"duration {duration:g} s (mass {mass:g} kg, law stiffness {stiffness:g}) are not "
+            "finite numbers > 0; expected a speed, mass and stiffness whose impact has a "
+            "finite time scale")
+    return {"delta_max": delta_max, "duration": duration}
 
 
 def _impact_model(law: ContactLaw, mass: float, velocity: float) -> Model:

@@ -88,6 +88,28 @@ def _matrix(value: Any, field_name: str, n: int | None = None) -> Matrix:
     return a
 
 
+def largest(values: ArrayLike | sp.sparray) -> float:
+    """The largest ``|value|`` of an array or sparse matrix (0 if empty), for error lines."""
+    data = values.data if sp.issparse(values) else np.asarray(values, dtype=float)
+    return float(np.abs(data).max(initial=0.0))
+
+
+def not_finite(field_name: str, shown: str, quantity: str, expected: str) -> ModelError:
+    """The one-line error for a derived ``quantity`` (energy, force, time scale) of the field
+    ``field_name`` (its value ``shown``) that is not a finite number."""
+    return ModelError(f"{field_name} = {shown}: {quantity} is not a finite number (overflows "
+                      f"a double); expected {expected}")
+
+
+def _shown(a: NDArray[np.float64]) -> str:
+    """An initial state in an error line: the number of a single DOF, else its largest
+    entry."""
+    if a.size == 1:
+        return f"{float(a[0]):g}"
+    k = int(np.argmax(np.abs(a)))
+    return f"{float(a[k]):g} (DOF {k})"
+
+
 def spd_solver(a: Matrix) -> Callable[[NDArray[np.float64]], NDArray[np.float64]] | None:
     """A solver of ``A x = b`` if the symmetric ``a`` is positive definite, else ``None``.
 
@@ -148,6 +170,7 @@ class Structure:
             raise ModelError(
                 "structure.mass: not positive definite; expected every DOF to carry mass"
             )
+        _check_rates(m, k, c)
         if not sparse:  # (SciPy canonicalises sparse arrays in place: left writable)
             for a in (m, k, c):
                 a.setflags(write=False)
@@ -183,6 +206,25 @@ class Structure:
         m, k, c = (a.toarray() if sp.issparse(a) else a for a in (self.mass, self.stiffness,
                                                                    self.damping))
         return m, k, c
+
+
+def _check_rates(m: Matrix, k: Matrix, c: Matrix) -> None:
+    """The structure's time scales, ``K_ii / M_ii`` (a squared natural frequency, 1/s²) and
+    ``C_ii / M_ii`` (a decay rate, 1/s) on every DOF, must be finite doubles."""
+    mass = m.diagonal()  # > 0: M is positive definite
+    for name, a, quantity, unit in (
+        ("structure.stiffness", k, "the squared frequency K_ii / M_ii", "N/m"),
+        ("structure.damping", c, "the decay rate C_ii / M_ii", "N·s/m"),
+    ):
+        with np.errstate(over="ignore"):
+            rate = np.abs(a.diagonal()) / mass
+        if not np.all(np.isfinite(rate)):
+            i = int(np.argmin(np.isfinite(rate)))
+            raise not_finite(
+                name, f"{float(a.diagonal()[i]):g}" + (f" (DOF {i})" if mass.size > 1 else ""),
+                f"{quantity} with structure.mass {float(mass[i]):g} kg",
+                f"a {name.split('.')[1]} in {unit} whose ratio to the mass is finite",
+            )
 
 
 def check_dof_units(value: Sequence[str] | None, n: int) -> tuple[str, ...]:
@@ -273,6 +315,11 @@ class Load:
     def dofs(self) -> tuple[int, ...]:
         return self.dof if isinstance(self.dof, tuple) else (int(self.dof),)  # type: ignore[arg-type]
 
+    @property
+    def peak(self) -> float:
+        """The largest ``|F|`` of the load, N."""
+        raise NotImplementedError
+
     def to_spec(self) -> dict[str, Any]:
         raise NotImplementedError
 
@@ -286,6 +333,10 @@ class ConstantLoad(Load):
     def __post_init__(self) -> None:
         super().__post_init__()
         _finite_number(self.amplitude, "load.amplitude", "a force in N")
+
+    @property
+    def peak(self) -> float:
+        return abs(float(self.amplitude))
 
     def to_spec(self) -> dict[str, Any]:
         return {"kind": "constant", "dofs": list(self.dofs), "amplitude": float(self.amplitude)}
@@ -305,6 +356,10 @@ class HarmonicLoad(Load):
         f = _finite_number(self.frequency, "load.frequency", "a frequency >= 0 in Hz")
         require(f >= 0, "load.frequency", self.frequency, "a frequency >= 0 in Hz")
         _finite_number(self.phase, "load.phase", "an angle in rad")
+
+    @property
+    def peak(self) -> float:
+        return abs(float(self.amplitude))
 
     def to_spec(self) -> dict[str, Any]:
         return {
@@ -342,8 +397,18 @@ class TableLoad(Load):
             "strictly increasing times in s",
         )
         require(bool(np.all(np.isfinite(f))), "load.table.force", "NaN", "finite forces in N")
+        scale = _finite_number(self.scale, "load.scale", "a finite factor")
+        with np.errstate(over="ignore"):
+            peak = scale * np.abs(f).max()
+        if not math.isfinite(peak):
+            raise not_finite("load.scale", f"{scale:g}", f"the largest force scale * |F| "
+                             f"(|F| up to {largest(f):g} N)", "a factor whose force is finite")
         object.__setattr__(self, "time", tuple(t.tolist()))
         object.__setattr__(self, "force", tuple(f.tolist()))
+
+    @property
+    def peak(self) -> float:
+        return abs(float(self.scale)) * max(abs(f) for f in self.force)
 
     def to_spec(self) -> dict[str, Any]:
         return {
@@ -398,6 +463,46 @@ class Model:
         v0 = _initial(self.initial_velocity, n, "initial.velocity", "m/s")
         object.__setattr__(self, "initial_displacement", x0)
         object.__setattr__(self, "initial_velocity", v0)
+        self._check_initial_state()
+
+    def _check_initial_state(self) -> None:
+        """The initial kinetic energy ``½ vᵀMv``, strain energy ``½ xᵀKx`` and the contact
+        force of every gap at the penetration ``x(0)`` gives it must be finite doubles."""
+        st = self.structure
+        x0, v0 = self.initial_displacement, self.initial_velocity
+        with np.errstate(all="ignore"):  # an overflow is an inf, refused here
+            kinetic = float(v0 @ (st.mass @ v0)) if v0.any() else 0.0
+            strain = float(x0 @ (st.stiffness @ x0)) if x0.any() else 0.0
+        for name, state, energy, matrix, quantity, what in (
+            ("initial.velocity", v0, kinetic, st.mass, "the kinetic energy 1/2 v^T M v",
+             "a speed whose energy is finite (structure.mass up to {:g} kg)"),
+            ("initial.displacement", x0, strain, st.stiffness, "the strain energy 1/2 x^T K x",
+             "a displacement whose energy is finite (structure.stiffness up to {:g} N/m)"),
+        ):
+            if not math.isfinite(energy):
+                raise not_finite(name, _shown(state), quantity, what.format(largest(matrix)))
+        for g, gap in enumerate(self.gaps):
+            if gap.law.impulsive:
+                continue
+            b = np.asarray(gap.coefficients, dtype=float)
+            with np.errstate(over="ignore", invalid="ignore"):
+                u, rate = float(b @ x0[list(gap.dofs)]), float(b @ v0[list(gap.dofs)])
+            clearance = float(gap.clearance)
+            for sign in {"positive": (1,), "negative": (-1,), "both": (1, -1)}[gap.side]:
+                penetration = sign * u - clearance
+                if not penetration > 0:
+                    continue
+                # at rest first (the displacement's fault), then at the gap's speed
+                for name, state, speed in (("initial.displacement", x0, 0.0),
+                                           ("initial.velocity", v0, sign * rate)):
+                    finite = math.isfinite(penetration) and math.isfinite(speed)
+                    if finite and math.isfinite(
+                            gap.law.force(penetration, speed, abs(speed) or 1.0)[0]):
+                        continue
+                    raise not_finite(
+                        name, _shown(state), f"the contact force of gaps[{g}] "
+                        f"({gap.law.kind}) at the initial penetration {penetration:g} m and "
+                        f"speed {speed:g} m/s", "a state whose contact force is finite")
 
     @property
     def n_dof(self) -> int:
@@ -417,6 +522,18 @@ class Model:
         for g, gap in enumerate(self.gaps):
             for d, c in zip(gap.dofs, gap.coefficients or (1.0,) * len(gap.dofs), strict=True):
                 b[d, g] += c
+        with np.errstate(all="ignore"):  # absurd masses: infs, refused by contact_periods
+            out = self._flexibility(b)
+        for a in out:
+            a.setflags(write=False)
+        if not st.is_sparse:
+            object.__setattr__(self, "_gap_flexibility", out)
+        return out
+
+    def _flexibility(self, b: NDArray[np.float64]) -> tuple[NDArray[np.float64],
+                                                           NDArray[np.float64]]:
+        """:meth:`gap_flexibility` for the gaps' coefficient columns ``b``, computed."""
+        st = self.structure
         mass = st.mass
         diagonal = mass.diagonal()
         nonzero = mass.count_nonzero() if sp.issparse(mass) else np.count_nonzero(mass)
@@ -426,15 +543,10 @@ class Model:
             solve_mass = spd_solver(mass)
             assert solve_mass is not None  # checked by Structure
             flexibility = np.einsum("ig,ig->g", b, solve_mass(b))
-        compliance = np.full(n_gaps, math.inf)
+        compliance = np.full(b.shape[1], math.inf)
         if abs(st.stiffness).max() > 0 and (solve_stiffness := spd_solver(st.stiffness)):
             compliance = np.einsum("ig,ig->g", b, solve_stiffness(b))
-        out = (flexibility, compliance)
-        for a in out:
-            a.setflags(write=False)
-        if not st.is_sparse:
-            object.__setattr__(self, "_gap_flexibility", out)
-        return out
+        return flexibility, compliance
 
     def _run_spec(self) -> dict[str, Any]:
         """:meth:`to_spec` for a run: with a dense structure (nothing in the model can then

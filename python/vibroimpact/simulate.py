@@ -27,11 +27,13 @@ from vibroimpact.errors import (
     require,
 )
 from vibroimpact.integrators import Integrator, Newmark
-from vibroimpact.model import Model
+from vibroimpact.model import Model, TableLoad, not_finite
 from vibroimpact.result import Result
 
 __all__ = [
+    "MAX_STEPS",
     "ProgressBar",
+    "check_run",
     "contact_periods",
     "pre_run_warnings",
     "simulate",
@@ -40,6 +42,9 @@ __all__ = [
 
 #: The method of a run given none (integrators are immutable: one instance serves all runs).
 _DEFAULT_METHOD = Newmark()
+
+#: The most fixed steps a run may take (the core refuses more as well).
+MAX_STEPS = 1e10
 
 #: Fewer steps than this per estimated contact period draws a :class:`ContactResolutionWarning`.
 STEPS_PER_CONTACT_PERIOD = 10
@@ -53,41 +58,80 @@ def contact_periods(model: Model) -> list[float | None]:
     energy ``E`` the run can bring to a gap: the initial kinetic and strain energy plus, for
     each load, its amplitude times the largest clearance. (For a Hertz impact this is within 5 %
     of twice the contact duration.) ``None`` for a gap whose law has no stiffness, when no
-    energy enters the model, or when the structure is stiff enough (positive definite ``K``)
-    that this energy cannot close the gap: ``E < d² / (2 b K⁻¹ bᵀ)``."""
+    energy enters the model (or ``δ`` underflows to 0), or when the structure is stiff enough
+    (positive definite ``K``) that this energy cannot close the gap:
+    ``E < d² / (2 b K⁻¹ bᵀ)``. Raises :class:`~vibroimpact.ModelError` naming the gap's law
+    if an estimate is not a finite number > 0 (absurd stiffness or masses)."""
     if not model.gaps:
         return []
     st = model.structure
     x0 = np.asarray(model.initial_displacement, dtype=float)
     v0 = np.asarray(model.initial_velocity, dtype=float)
-    energy = 0.5 * float(v0 @ st.mass @ v0) + 0.5 * float(x0 @ st.stiffness @ x0)
-    reach = max((float(g.clearance) for g in model.gaps), default=0.0)
-    for load in model.loads:
-        amplitude = getattr(load, "amplitude", None)
-        if amplitude is None:  # a table: its largest force
-            amplitude = float(np.max(np.abs(getattr(load, "force", (0.0,))))) * float(
-                getattr(load, "scale", 1.0))
-        energy += abs(float(amplitude)) * len(load.dofs) * max(reach, 1e-3)
+    reach = max(max(float(g.clearance) for g in model.gaps), 1e-3)
     flexibility, compliance = model.gap_flexibility()
     periods: list[float | None] = []
-    for g, gap in enumerate(model.gaps):
-        try:
-            stiffness, exponent = float(gap.law.contact_stiffness), float(gap.law.exponent)
-        except (AttributeError, NotImplementedError):
-            periods.append(None)
-            continue
-        if not (energy > 0 and stiffness > 0 and flexibility[g] > 0):
-            periods.append(None)
-            continue
-        if 0 < compliance[g] < math.inf and (
-                energy < float(gap.clearance) ** 2 / (2.0 * compliance[g])):
-            periods.append(None)  # the gap cannot close
-            continue
-        m_eff = 1.0 / flexibility[g]
-        delta = ((exponent + 1.0) * energy / stiffness) ** (1.0 / (exponent + 1.0))
-        k = stiffness * delta ** (exponent - 1.0)
-        periods.append(2.0 * math.pi * math.sqrt(m_eff / k))
+    # in doubles without warnings: an overflow is an inf (refused below), never an exception
+    with np.errstate(all="ignore"):
+        energy = 0.5 * np.float64(v0 @ (st.mass @ v0)) + 0.5 * np.float64(x0 @ (st.stiffness @ x0))
+        for load in model.loads:
+            energy += np.float64(load.peak) * len(load.dofs) * reach
+        for g, gap in enumerate(model.gaps):
+            try:
+                stiffness = np.float64(gap.law.contact_stiffness)
+                exponent = np.float64(gap.law.exponent)
+            except (AttributeError, NotImplementedError):
+                periods.append(None)
+                continue
+            if not (energy > 0 and stiffness > 0 and flexibility[g] > 0):
+                periods.append(None)
+                continue
+            if 0 < compliance[g] < math.inf and (
+                    energy < np.float64(gap.clearance) ** 2 / (2.0 * compliance[g])):
+                periods.append(None)  # the gap cannot close
+                continue
+            m_eff = 1.0 / flexibility[g]
+            delta = ((exponent + 1.0) * energy / stiffness) ** (1.0 / (exponent + 1.0))
+            if delta == 0:
+                periods.append(None)  # too little energy to tell
+                continue
+            k = stiffness * delta ** (exponent - 1.0)
+            period = 2.0 * np.pi * np.sqrt(m_eff / k)
+            if not 0 < period < math.inf:
+                raise ModelError(
+                    f"gaps[{g}].law: the estimated contact period 2 pi sqrt(m_eff / k) = "
+                    f"{float(period):g} s (law stiffness {float(stiffness):g}, exponent "
+                    f"{float(exponent):g}, effective mass {float(m_eff):g} kg, energy "
+                    f"{float(energy):g} J) is not a finite number > 0; expected a law "
+                    "stiffness and masses whose contact time scale is a finite double")
+            periods.append(float(period))
     return periods
+
+
+def check_run(model: Model, t_end: float, dt: float, method: Integrator) -> None:
+    """Refuse (:class:`~vibroimpact.ModelError`, naming the field) a run of ``model`` whose
+    time scale or loads' energy is not a finite double (``dt`` and ``t_end`` already finite
+    and > 0): with fixed steps at most :data:`MAX_STEPS` steps ``t_end / dt``; for each load
+    ``½ (F t_end)² Σ_d 1/M_dd`` finite, the kinetic energy its impulse over the run (peak
+    force ``F``, :attr:`~vibroimpact.model.Load.peak`) would give the masses of its DOFs
+    ``d`` if nothing held them."""
+    steps = t_end / dt
+    if method.adaptive is None and steps > MAX_STEPS:
+        raise ModelError(
+            f"solver.dt = {dt:g}: t_end / dt = {steps:.3g} steps (t_end = {t_end:g} s) is more "
+            f"than {MAX_STEPS:g}; expected a time step giving at most {MAX_STEPS:g} steps")
+    if not model.loads:
+        return
+    mass = model.structure.mass.diagonal().tolist()
+    for i, load in enumerate(model.loads):
+        impulse = load.peak * t_end  # Python floats: an overflow is an inf, without a warning
+        energy = 0.5 * impulse * impulse * sum(1.0 / mass[d] for d in load.dofs)
+        if not math.isfinite(energy):
+            key = "scale" if isinstance(load, TableLoad) else "amplitude"
+            value = load.scale if isinstance(load, TableLoad) else load.amplitude
+            raise not_finite(
+                f"loads[{i}].{key}", f"{float(value):g}", f"the energy 1/2 (F t_end)^2 / m of "
+                f"its impulse over the run (peak force F = {load.peak:g} N, t_end = "
+                f"{t_end:g} s)", "a force whose energy over the run is finite")
 
 
 def contact_resolution_messages(model: Model, dt: float) -> list[str]:
@@ -368,6 +412,7 @@ def simulate(
     )
     method = _DEFAULT_METHOD if method is None else method
     require(isinstance(method, Integrator), "solver.method", method, "a vibroimpact integrator")
+    check_run(model, float(t_end), float(dt), method)
     n = model.n_dof
     if dofs is None:
         record = list(range(n))

@@ -50,6 +50,7 @@ from vibroimpact.model import (
     TableLoad,
     spd_solver,
 )
+from vibroimpact.simulate import check_run, contact_periods
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -569,6 +570,22 @@ def _children() -> dict[str, tuple[Field, ...]]:
 _CHILDREN = _children()
 
 
+def _table_keys() -> dict[str, frozenset[str]]:
+    """The keys of every table of the schema, by its path (``gaps[]``, ``gaps[].law``); the
+    open ``[solver]`` also takes every method's options."""
+    options = {k for m in integrators.METHODS for k in integrators.method_options(m)}
+    out: dict[str, frozenset[str]] = {}
+    for f in SCHEMA:
+        if f.type in ("table", "tables"):
+            path = f.path + "[]" * (f.type == "tables")
+            keys = {c.key for c in _CHILDREN.get(path, ())} | (options if f.open else set())
+            out[path] = frozenset(keys)
+    return out
+
+
+_TABLE_KEYS = _table_keys()
+
+
 # --------------------------------------------------------------------------------------------
 # Value types
 # --------------------------------------------------------------------------------------------
@@ -868,6 +885,8 @@ class _Checker:
         # values outside the table being checked that decide which keys apply
         # ("structure.kind" for [[gaps]] and [[loads]]) and the beam once built ("beam")
         self.context: dict[str, Any] = {}
+        # the data paths of tables reported as having lost their header (not also missing)
+        self.headerless: set[str] = set()
 
     # ---- recording ----
 
@@ -885,6 +904,37 @@ class _Checker:
         hint = f"did you mean '{close[0]}'? " if close else ""
         known = ", ".join(candidates) if candidates else "no keys here"
         self.add(path, f"{path}: unknown key; {hint}expected one of: {known}")
+
+    def unknown_keys(self, spath: str, dpath: str, unknown: Mapping[str, Sequence[str]],
+                     doc: Mapping[str, Any]) -> None:
+        """Report the keys ``unknown`` (key -> the keys expected instead) of the table at
+        ``dpath`` (schema table ``spath``, its keys ``doc``). When several of them are the
+        keys of another table (the one with most of them first), one line says that they
+        belong there and that its header is missing, instead of a line each."""
+        left = dict(unknown)
+        while len(left) >= 2:
+            table, keys = max(_TABLE_KEYS.items(), key=lambda t: len(t[1] & left.keys()))
+            hit = [k for k in left if k in keys]
+            if len(hit) < 2:
+                break
+            name = _table_name(table.removesuffix("[]"))
+            header = f"[[{name}]]" if table.endswith("[]") else f"[{name}]"
+            parent, _, key = table.removesuffix("[]").rpartition(".")
+            if parent.removesuffix("[]") == spath.removesuffix("[]"):  # a table of this one
+                where = _join(dpath, key)
+                question = "is its header missing?" if key not in doc else (
+                    "are they above its header?")
+                self.headerless.add(where)
+            else:  # another table's keys, after the header of this one
+                where, question = dpath, "is its header missing?"
+                if not parent:
+                    self.headerless.add(key)
+            self.add(where or name, f"{where or name}: {', '.join(hit)} belong in {header}: "
+                     f"{question} expected them under the header {header}")
+            for k in hit:
+                del left[k]
+        for key, candidates in left.items():
+            self.unknown(_join(dpath, key), key, candidates)
 
     def lines(self) -> list[str]:
         """The error lines, by table in the order of the reference, then as found."""
@@ -942,6 +992,7 @@ class _Checker:
             known = out if key in out else self.context
             return None if key not in known else known[key] in values
 
+        unknown: dict[str, list[str]] = {}
         for key, value in doc.items():
             if key in deciders:
                 continue
@@ -951,8 +1002,7 @@ class _Checker:
                 if any(r.open for r in _FIELDS_BY_PATH.get(spath, ())):
                     out.setdefault(_EXTRA, {})[key] = value
                     continue
-                candidates = list(dict.fromkeys(r.key for r in rows if applies(r) is not False))
-                self.unknown(p, key, candidates)
+                unknown[key] = list(dict.fromkeys(r.key for r in rows if applies(r) is not False))
                 continue
             fits = [r for r in named if applies(r)]
             if fits:
@@ -966,10 +1016,13 @@ class _Checker:
                     f"no {key} when {decider} = {_toml({**self.context, **out}[decider])} "
                     f"(it applies to {_cond((decider, values))})",
                 )
+        self.unknown_keys(spath, dpath, unknown, doc)
         for r in rows:
             if r.key in doc or r.key in out or not applies(r):
                 continue
             p = _join(dpath, r.key)
+            if p in self.headerless:
+                continue
             if r.required({**self.context, **out}):
                 what = r.expected()
                 if r.type == "table":
@@ -1361,6 +1414,7 @@ def _build_method(ck: _Checker, solver: Mapping[str, Any]) -> Integrator | None:
         return None
     known = _option_types(name)
     before = len(ck.errors)
+    unknown: dict[str, list[str]] = {}
     for key, value in options.items():
         p = _join("solver", key)
         check = _ANNOTATION_CHECKS.get(known.get(key, ""))
@@ -1373,11 +1427,12 @@ def _build_method(ck: _Checker, solver: Mapping[str, Any]) -> Integrator | None:
             method_from_options(name, {**context, key: value})
         except _CAUGHT as e:
             if known and key not in known:
-                ck.unknown(p, key, ["method", "dt", "t_end", *known])
+                unknown[key] = ["method", "dt", "t_end", *known]
             elif isinstance(e, ModelError):
                 ck.add(p, _reprefix(e, {}, p))
             else:
                 ck.invalid(p, value, f"a valid {key} for method {name!r} ({_one_line(e)})")
+    ck.unknown_keys("solver", "solver", unknown, solver)
     if len(ck.errors) > before:
         return None
     try:
@@ -1423,8 +1478,11 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
             initial_displacement=initial["displacement"],
             initial_velocity=initial["velocity"],
         )
-    except _CAUGHT as e:
-        raise ModelFileError([_reprefix(e, {}, "model")]) from None
+        # energies, forces and time scales that are not finite doubles (docs/model-file.md)
+        check_run(model, t_end, dt, method)
+        contact_periods(model)
+    except _CAUGHT as e:  # their messages start with the TOML path of the field
+        raise ModelFileError([_one_line(e)]) from None
     return ModelFile(
         model=model,
         t_end=t_end,
@@ -1727,6 +1785,26 @@ def render_reference() -> str:
         "  zero rows); all three are symmetric and `structure.mass` is positive definite on the",
         "  DOFs that carry mass.",
         "",
+        "## Numbers whose energy, force or time scale is not a double",
+        "",
+        "Every number must be finite, and so must what follows from them before the run, each",
+        "refused on one line naming the field responsible (`vibroimpact.simulate` and building a",
+        "`vibroimpact.Model` refuse the same with a `ModelError`):",
+        "",
+        "* `[initial]`: the kinetic energy `1/2 vᵀMv` (`initial.velocity`), the strain energy",
+        "  `1/2 xᵀKx` (`initial.displacement`) and, for each gap that the initial state already",
+        "  closes, the law's contact force at that penetration and speed.",
+        "* `[structure]`: on every DOF `K_ii / M_ii` (a squared natural frequency) and",
+        "  `C_ii / M_ii` (a decay rate).",
+        "* `[[loads]]`: the largest force (`scale` times the table's largest `|F|`) and the",
+        "  energy `1/2 (F t_end)² Σ 1/M_dd` that its impulse over the run would give the masses",
+        "  of its DOFs `d` if nothing held them (`amplitude`, or `scale` of a table).",
+        "* `[[gaps]]`: the estimated contact period `2π √(m_eff / k)` (effective mass, the",
+        "  law's secant stiffness at the penetration that stores the energy the run can bring,",
+        "  `vibroimpact.simulate.contact_periods`) is a finite number > 0.",
+        "* Time scale: `solver.dt` and `solver.t_end` are finite and > 0, `dt <= t_end`, and",
+        "  with fixed steps `t_end / dt` is at most 1e10 steps.",
+        "",
         "## Massless DOFs",
         "",
         "A DOF whose row of `structure.mass` is zero (e.g. a rotation of a lumped-mass FE model)",
@@ -1776,6 +1854,14 @@ def render_reference() -> str:
         "gaps[0].clearence: unknown key; did you mean 'clearance'? expected one of: dof, "
         "coefficients, clearance, side, name, law",
         "solver.dt: missing; expected a number > 0 in s",
+        "```",
+        "",
+        "Several keys of one table found in another (or at the top level) are one line saying",
+        "where they belong, as when a header is missing:",
+        "",
+        "```text",
+        "structure: kind, mass, stiffness, damping belong in [structure]: is its header missing?"
+        " expected them under the header [structure]",
         "```",
         "",
     ]

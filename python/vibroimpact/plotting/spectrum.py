@@ -57,11 +57,15 @@ def spectrum(
     mask = time_mask(ds, t_min, t_max)
     t = ds["time"].values[mask]
     chosen = select(ds, dim, dofs if dim == "dof" else gaps)
+    positive = False
     for pos, index in chosen:
         f, a = amplitude_spectrum(t, ds[var].values[mask, pos])
         if f_max is not None:
             a, f = a[f <= f_max], f[f <= f_max]
-        ax.semilogy(f[1:], a[1:], label=line_label(label, dim, index, len(chosen) > 1), **style)
+        ax.plot(f[1:], a[1:], label=line_label(label, dim, index, len(chosen) > 1), **style)
+        positive = positive or bool(np.any(a[1:] > 0))
+    # log scale, unless nothing is > 0 (a body at rest): matplotlib cannot log-scale that
+    ax.set_yscale("log" if positive else "linear")
     ax.set_xlabel("frequency [Hz]")
     name, unit = axis_label(ds, quantity, [pos for pos, _ in chosen]).split(" [", 1)
     ax.set_ylabel(f"{name.split(' (')[0]} amplitude [{unit.split(']')[0]}]")
