@@ -1859,6 +1859,7 @@ def render_reference() -> str:
         "Several keys of one table found in another (or at the top level) are one line saying",
         "where they belong, as when a header is missing:",
         "",
+        "<!-- fragment: what tests/bad_models/structure_header_missing.toml prints -->",
         "```text",
         "structure: kind, mass, stiffness, damping belong in [structure]: is its header missing?"
         " expected them under the header [structure]",
