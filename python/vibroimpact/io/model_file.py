@@ -1212,7 +1212,8 @@ def _on_mass(
 
 def _dof_label(ck: _Checker, dof: int) -> str:
     dm = ck.context["fe"].dof_map
-    at = "" if dm is None else f" (node {dm.nodes[dof]} direction {dm.directions[dof]!r})"
+    layer = "" if dm is None or not dm.layers[dof] else f" layer {dm.layers[dof]}"
+    at = "" if dm is None else f" (node {dm.nodes[dof]} direction {dm.directions[dof]!r}{layer})"
     return f"DOF {dof}{at}"
 
 
