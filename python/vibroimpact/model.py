@@ -110,14 +110,20 @@ def _shown(a: NDArray[np.float64]) -> str:
     return f"{float(a[k]):g} (DOF {k})"
 
 
-def spd_solver(a: Matrix) -> Callable[[NDArray[np.float64]], NDArray[np.float64]] | None:
+def spd_solver(
+    a: Matrix, rtol: float = 0.0
+) -> Callable[[NDArray[np.float64]], NDArray[np.float64]] | None:
     """A solver of ``A x = b`` if the symmetric ``a`` is positive definite, else ``None``.
 
     Dense: Cholesky. Sparse (never densified): SuperLU with diagonal pivots only
     (``diag_pivot_thresh=0``, symmetric mode) in a fill-reducing symmetric ordering, so that
     ``P A Pᵀ = L D Lᵀ`` with ``D`` the diagonal of ``U``: by Sylvester's law of inertia ``A``
     is positive definite iff the row and column orders agree and every pivot is > 0
-    (Golub & Van Loan, *Matrix Computations*, 4th ed., §4.2)."""
+    (Golub & Van Loan, *Matrix Computations*, 4th ed., §4.2). ``rtol``: every pivot must
+    exceed ``rtol`` times the largest diagonal entry (a numerically singular matrix, whose
+    round-off pivots may be positive, is then not definite)."""
+    scale = float(np.abs(a.diagonal() if sp.issparse(a) else np.diag(a)).max(initial=0.0))
+    floor = rtol * scale
     if sp.issparse(a):
         try:
             lu = spla.splu(sp.csc_array(a), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
@@ -125,12 +131,14 @@ def spd_solver(a: Matrix) -> Callable[[NDArray[np.float64]], NDArray[np.float64]
         except RuntimeError:  # an exactly zero pivot
             return None
         pivots = lu.U.diagonal()
-        if not (np.array_equal(lu.perm_r, lu.perm_c) and np.all(pivots > 0)):
+        if not (np.array_equal(lu.perm_r, lu.perm_c) and np.all(pivots > floor)):
             return None
         return lu.solve  # type: ignore[no-any-return]
     try:
         factor = scipy.linalg.cho_factor(a)
     except np.linalg.LinAlgError:
+        return None
+    if not np.all(np.diag(factor[0]) ** 2 > floor):
         return None
     return lambda b: scipy.linalg.cho_solve(factor, b)  # type: ignore[no-any-return]
 

@@ -51,7 +51,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibroimpact.contact import ContactLaw
 from vibroimpact.errors import ModelError
-from vibroimpact.fe.damping import Damping, ModalDamping, Rayleigh
+from vibroimpact.fe.damping import Damping, damping_from_table
 from vibroimpact.fe.dofs import DIRECTIONS, DofMap, FEStructure, direction_name
 from vibroimpact.model import Gap, Load, Model, Structure
 
@@ -864,28 +864,6 @@ def _section_from_table(s: Mapping[str, Any]) -> Section:
     )
 
 
-def _damping_from_table(d: Mapping[str, Any]) -> Damping:
-    p = "structure.damping"
-    if d.get("kind") == "modal":
-        return ModalDamping(list(d["ratios"]))
-    has_coeff = "alpha" in d or "beta" in d
-    has_freq = "frequencies" in d or "ratios" in d
-    if has_coeff == has_freq:
-        raise ModelError(
-            f"{p}: {sorted(k for k in d if k != 'kind')} is not valid; expected alpha/beta or "
-            'frequencies and ratios for kind = "rayleigh"'
-        )
-    if has_coeff:
-        return Rayleigh(float(d.get("alpha", 0.0)), float(d.get("beta", 0.0)))
-    f, z = d.get("frequencies"), d.get("ratios")
-    if f is None or z is None or len(f) != 2 or len(z) != 2:
-        raise ModelError(
-            f"{p}.frequencies: {f!r} is not valid; expected two frequencies in Hz with two "
-            "ratios (frequencies = [f1, f2], ratios = [z1, z2])"
-        )
-    return Rayleigh.from_frequencies(f[0], f[1], z[0], z[1])
-
-
 def beam_from_table(s: Mapping[str, Any]) -> Beam:
     """A :class:`Beam` from the checked values of a model file's ``[structure]`` table with
     ``kind = "beam"`` (docs/model-file.md); errors name the TOML path."""
@@ -918,7 +896,7 @@ def beam_from_table(s: Mapping[str, Any]) -> Beam:
         )
         for t in s.get("masses", [])
     ]
-    damping = _damping_from_table(s["damping"]) if s.get("damping") else None
+    damping = damping_from_table(s["damping"]) if s.get("damping") else None
     return Beam(
         length=s["length"],
         elements=s["elements"],

@@ -24,6 +24,24 @@ the retained ones (:class:`DofRecovery`).
 ``K_ss`` is factorised once (sparse LU with symmetric pivoting, which keeps ``K_ss``'s
 definiteness visible on the pivots); only the master columns that ``K_sm`` couples are solved
 for, so ``T`` and the reduced matrices stay sparse where the model is.
+
+**A general null space.** A consistent mass can be singular without zero rows: reduced
+integration (CalculiX's C3D20R: 8 points for 20 nodes, rank 24 of 60 per element) and expanded
+shells (S8R) give a positive semi-definite ``M`` whose null space mixes the DOFs. The same
+condensation then runs in the eigenvectors of ``M`` (dense, :func:`condense_null_space`):
+``M = R Λ Rᵀ`` with ``R`` the orthonormal eigenvectors of the eigenvalues above
+``NULL_SPACE_RTOL · λ_max`` and ``Z`` those of the others (an eigenvalue below
+``-NULL_SPACE_RTOL · λ_max`` is refused: ``M`` is indefinite), ``x = R q + Z s``; the rows ``Z``
+read ``Zᵀ K x = Zᵀ f`` (``Zᵀ M = 0``), so with no force there ``s = -(ZᵀKZ)⁻¹ ZᵀKR q`` and
+
+    x = T q,   T = R - Z (ZᵀKZ)⁻¹ ZᵀKR,   M_r = TᵀMT,   K_r = TᵀKT,   C_r = TᵀCT,
+
+the massless-DOF case with ``R``, ``Z`` the unit vectors of the DOFs with and without mass.
+The finite eigenvalues of ``(K, M)`` are exactly those of ``(K_r, M_r)``. The coordinates
+``q = Rᵀ x`` are generalized (the retained DOFs are none); a gap, a load or an initial state
+must have no part in the null space (``Zᵀ b = 0``: a force there would move ``s`` without
+inertia), which rules out single nodes of such elements (their DOFs all have one): for
+contacts, export fully integrated elements (C3D20) or a lumped mass.
 """
 
 from __future__ import annotations
@@ -35,6 +53,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+import scipy.linalg
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numpy.typing import ArrayLike, NDArray
@@ -42,7 +61,8 @@ from numpy.typing import ArrayLike, NDArray
 from vibroimpact.errors import ModelError
 
 if TYPE_CHECKING:
-    from vibroimpact.fe.dofs import FEStructure
+    from vibroimpact.fe.dofs import DofMap, FEStructure
+    from vibroimpact.model import Gap, Load
     from vibroimpact.result import Result
 
 __all__ = [
@@ -50,11 +70,22 @@ __all__ = [
     "DofRecovery",
     "StaticCondensation",
     "condense_massless",
+    "condense_null_space",
     "massless_dofs",
+    "weighted_gap",
+    "weighted_loads",
 ]
 
 #: ``C_s· T`` relative to ``C`` above this is reported as inexact damping.
 DAMPING_TOLERANCE = 1e-9
+#: Eigenvalues of ``M`` at or below this times the largest span its null space; a mass whose
+#: pivots fall below it (relative to the largest diagonal entry) is singular.
+NULL_SPACE_RTOL = 1e-10
+#: A gap, load or initial state whose part in the null space of ``M`` exceeds this fraction
+#: of it is refused.
+NULL_PART_TOLERANCE = 1e-9
+#: The general null-space condensation is dense; above this many DOFs it refuses.
+NULL_SPACE_LIMIT = 6000
 
 
 class CondensationWarning(UserWarning):
@@ -66,12 +97,15 @@ class CondensationWarning(UserWarning):
 class StaticCondensation:
     """The result of :func:`condense_massless`.
 
-    ``structure``: the reduced :class:`~vibroimpact.fe.FEStructure` on the retained DOFs (its
-    DOF map, hence its ``dof_units``, is the full map's retained rows);
+    ``structure``: the reduced :class:`~vibroimpact.fe.FEStructure` (massless DOFs: on the
+    retained DOFs, its DOF map, hence its ``dof_units``, the full map's retained rows; a general
+    null space: on generalized coordinates, no DOF map);
     ``retained``/``condensed``: DOF indices of the full structure (retained DOF ``k`` of the
-    reduced model is full DOF ``retained[k]``); ``transform``: ``T`` (n × n_retained,
-    sparse), ``x = T x_r``; ``damping_residual``: ``‖C_s· T‖ / ‖C‖`` (max-abs norms; 0 when
-    the condensation is exact).
+    reduced model is full DOF ``retained[k]``; none for a general null space) and its massless
+    DOFs (zero rows of ``M``); ``transform``: ``T`` (n × n_reduced, sparse), ``x = T q``;
+    ``damping_residual``: ``‖Zᵀ C T‖ / ‖C‖`` (max-abs norms; 0 when the condensation is exact);
+    ``projection``: ``q = P x`` for a state without a null-space part (``Rᵀ``, n_reduced × n);
+    ``null_space``: ``Z`` (n × the nullity), orthonormal.
     """
 
     full: FEStructure
@@ -80,6 +114,61 @@ class StaticCondensation:
     condensed: NDArray[np.int64]
     transform: sp.csr_array
     damping_residual: float
+    projection: sp.csr_array | NDArray[np.float64]
+    null_space: sp.csr_array | NDArray[np.float64]
+
+    def null_part(self, vector: ArrayLike) -> float:
+        """``‖Zᵀ b‖ / ‖b‖``: how much of a force or state ``b`` (full DOFs) lies in the null
+        space of ``M`` (0 for ``b = 0``)."""
+        b = np.asarray(vector, dtype=float)
+        size = float(np.linalg.norm(b))
+        return float(np.linalg.norm(self.null_space.T @ b)) / size if size > 0 else 0.0
+
+    def forcing_problem(self, vector: ArrayLike, what: str) -> str | None:
+        """Why ``what`` (``"a gap on DOF 9 (node 5 direction 'x')"``) acting along ``vector``
+        (full DOFs) cannot be condensed, as the "expected ..." of an error line; None if it
+        can (no part in the null space of ``M``)."""
+        b = np.asarray(vector, dtype=float)
+        if np.any(b[self.condensed] != 0):
+            return (f"a DOF that carries mass ({what}, which is massless and condensed out "
+                    "statically)")
+        part = self.null_part(b)
+        if part > NULL_PART_TOLERANCE:
+            return (f"DOFs with no part in the null space of the mass matrix ({what}: "
+                    f"{part:.2g} of it lies in the {self.null_space.shape[1]} massless modes, "
+                    "where a force meets no inertia; reduced-integration and expanded-shell "
+                    "masses have this at every node: export fully integrated elements, e.g. "
+                    "C3D20, or a lumped mass)")
+        return None
+
+    def _checked(self, vector: NDArray[np.float64], what: str) -> None:
+        problem = self.forcing_problem(vector, what)
+        if problem is not None:
+            raise ModelError(f"dof: {what} is not valid; expected {problem}")
+
+    def _vector(self, dofs: Sequence[int], weights: Sequence[float]) -> NDArray[np.float64]:
+        b = np.zeros(self.full.n_dof)
+        np.add.at(b, np.asarray(dofs, dtype=np.int64), np.asarray(weights, dtype=float))
+        return b
+
+    def reduce_gap(self, gap: Gap) -> Gap:
+        """``gap`` (on full DOFs) on the reduced coordinates: ``u = bᵀx = (Tᵀb)ᵀq``."""
+        b = self._vector(gap.dofs, gap.coefficients or (1.0,) * len(gap.dofs))
+        self._checked(b, f"the gap {gap.name or ''}".rstrip())
+        return weighted_gap(gap, np.asarray(self.transform.T @ b))
+
+    def reduce_load(self, load: Load) -> list[Load]:
+        """``load`` (on full DOFs) as loads on the reduced coordinates with the generalized
+        force ``Tᵀf`` (:func:`weighted_loads`)."""
+        b = self._vector(load.dofs, (1.0,) * len(load.dofs))
+        self._checked(b, "the load")
+        return weighted_loads(load, np.asarray(self.transform.T @ b))
+
+    def reduce_state(self, x: ArrayLike) -> NDArray[np.float64]:
+        """The reduced state ``q = P x`` of a full state with no part in the null space."""
+        v = np.asarray(x, dtype=float)
+        self._checked(v, "the state")
+        return np.asarray(self.projection @ v)
 
     def reduced_index(self, dof: int) -> int:
         """The reduced index of the full DOF ``dof``; a :class:`ModelError` if it was
@@ -183,11 +272,12 @@ def massless_dofs(mass: sp.csr_array) -> NDArray[np.int64]:
 
 
 def condense_massless(fe: FEStructure, keep: Iterable[int] = ()) -> StaticCondensation:
-    """Condense the massless DOFs of ``fe`` statically (module docstring). ``keep``: DOFs
-    that must stay (gaps, loads); a massless one among them is refused with a
+    """Condense the massless DOFs of ``fe`` statically (module docstring), or, if ``M`` on the
+    other DOFs is singular too, its whole null space (:func:`condense_null_space`). ``keep``:
+    DOFs that must stay (gaps, loads); a massless one among them is refused with a
     :class:`ModelError`. Raises a :class:`ModelError` if ``K`` does not hold the massless
     DOFs (``K_ss`` singular or not positive definite)."""
-    from vibroimpact.fe.dofs import FEStructure
+    from vibroimpact.model import spd_solver
 
     n = fe.n_dof
     s = massless_dofs(fe.mass)
@@ -201,6 +291,8 @@ def condense_massless(fe: FEStructure, keep: Iterable[int] = ()) -> StaticConden
     m_idx = np.setdiff1d(np.arange(n), s)
     if len(m_idx) == 0:
         raise ModelError("structure.mass: all zero; expected at least one DOF with mass")
+    if spd_solver(fe.mass[m_idx][:, m_idx], NULL_SPACE_RTOL) is None:
+        return condense_null_space(fe, keep)
     k = sp.csr_array(fe.stiffness)
     ts = _slave_transform(k, s, m_idx, fe)
     eye = sp.identity(len(m_idx), format="csr")
@@ -209,31 +301,140 @@ def condense_massless(fe: FEStructure, keep: Iterable[int] = ()) -> StaticConden
     order = np.argsort(np.concatenate([m_idx, s]))
     t = sp.csr_array(blocks[order])
     t.eliminate_zeros()
-    tt = t.T.tocsr()
-    m_r = sp.csr_array(fe.mass[m_idx][:, m_idx])
-    k_r = _symmetric(sp.csr_array(tt @ k @ t))
-    c_r = None
-    residual = 0.0
-    if fe.damping is not None:
-        c = sp.csr_array(fe.damping)
-        c_r = _symmetric(sp.csr_array(tt @ c @ t))
-        if len(s):
-            r = sp.csr_array(c[s] @ t)
-            scale = float(abs(c).max()) or 1.0
-            residual = float(abs(r).max()) / scale if r.nnz else 0.0
-    if residual > DAMPING_TOLERANCE:
-        warnings.warn(
-            f"structure.damping: acts on {len(s)} massless DOFs (‖C_s·T‖/‖C‖ = {residual:.2e}); "
-            "the static condensation neglects those damping forces (exact only for no damping, "
-            "Rayleigh or modal damping on them)",
-            CondensationWarning,
-            stacklevel=2,
-        )
+    projection = sp.csr_array(sp.identity(n, format="csr")[m_idx])
+    null_space = sp.csr_array(sp.identity(n, format="csr")[:, s])
     dof_map = None if fe.dof_map is None else fe.dof_map.take(m_idx.tolist())
     declared = (None if fe.declared_units is None
                 else tuple(fe.declared_units[i] for i in m_idx.tolist()))
+    return _condensation(fe, t, m_idx, s, projection, null_space, dof_map, declared)
+
+
+def condense_null_space(fe: FEStructure, keep: Iterable[int] = ()) -> StaticCondensation:
+    """Condense the whole null space of a positive semi-definite ``M`` statically (module
+    docstring, "A general null space"; dense, at most :data:`NULL_SPACE_LIMIT` DOFs). The
+    reduced coordinates are generalized (``q = Rᵀx``); ``keep``: DOFs that gaps or loads act
+    on, refused if they have a part in the null space. A :class:`ModelError` names the
+    negative eigenvalue of an indefinite ``M``, or says that ``K`` does not hold the
+    massless modes."""
+    n = fe.n_dof
+    if n > NULL_SPACE_LIMIT:
+        raise ModelError(
+            f"structure.mass: singular (not definite on the DOFs with mass) with {n} DOFs; "
+            f"expected at most {NULL_SPACE_LIMIT} DOFs for the dense condensation of its null "
+            "space (export a lumped or a fully integrated mass instead)"
+        )
+    lam, vec = scipy.linalg.eigh(fe.mass.toarray())
+    top = float(lam[-1])
+    if top <= 0:
+        raise ModelError("structure.mass: all zero; expected at least one DOF with mass")
+    tol = NULL_SPACE_RTOL * top
+    if lam[0] < -tol:
+        raise ModelError(
+            f"structure.mass: not positive semi-definite (eigenvalue {lam[0]:.6g}, the largest "
+            f"being {top:.6g}: {int(np.count_nonzero(lam < -tol))} below -{NULL_SPACE_RTOL:g} "
+            "times it); expected a symmetric positive semi-definite mass matrix"
+        )
+    null = lam <= tol
+    z, r = vec[:, null], vec[:, ~null]
+    k = fe.stiffness.toarray()
+    kzz = z.T @ k @ z
+    factor = None
+    if z.shape[1]:
+        try:
+            factor = scipy.linalg.cho_factor(kzz)
+            if not np.all(np.diag(factor[0]) ** 2 > 1e-12 * float(np.abs(np.diag(kzz)).max())):
+                factor = None
+        except np.linalg.LinAlgError:
+            factor = None
+        if factor is None:
+            raise ModelError(
+                f"structure.stiffness: does not hold the {z.shape[1]} massless modes of the "
+                "mass matrix (its null space); expected K restricted to them to be positive "
+                "definite (support the structure, or give it mass there)"
+            )
+    t = r if factor is None else r - z @ scipy.linalg.cho_solve(factor, z.T @ k @ r)
+    cond_units = fe.dof_units
+    # a generalized coordinate takes the unit of its largest component
+    declared = tuple(cond_units[i] for i in np.argmax(np.abs(r), axis=0))
+    for d in sorted({int(d) for d in keep}):
+        problem_vector = np.zeros(n)
+        problem_vector[d] = 1.0
+        part = float(np.linalg.norm(z.T @ problem_vector))
+        if part > NULL_PART_TOLERANCE:
+            raise ModelError(
+                f"dof: {d} ({_label(fe, d)}) is not valid; expected a DOF with no part in the "
+                f"null space of the mass matrix for a gap or a load ({part:.2g} of it lies there)"
+            )
+    return _condensation(fe, sp.csr_array(t), np.zeros(0, dtype=np.int64),
+                         massless_dofs(fe.mass), r.T, z, None, declared)
+
+
+def _condensation(
+    fe: FEStructure,
+    t: sp.csr_array,
+    retained: NDArray[np.int64],
+    condensed: NDArray[np.int64],
+    projection: sp.csr_array | NDArray[np.float64],
+    null_space: sp.csr_array | NDArray[np.float64],
+    dof_map: DofMap | None,
+    declared: tuple[str, ...] | None,
+) -> StaticCondensation:
+    """``M_r = TᵀMT``, ``K_r = TᵀKT``, ``C_r = TᵀCT`` and the damping residual
+    ``‖Zᵀ C T‖/‖C‖`` (a :class:`CondensationWarning` above :data:`DAMPING_TOLERANCE`)."""
+    from vibroimpact.fe.dofs import FEStructure
+
+    tt = t.T.tocsr()
+    m_r = _symmetric(sp.csr_array(tt @ sp.csr_array(fe.mass) @ t))
+    k_r = _symmetric(sp.csr_array(tt @ sp.csr_array(fe.stiffness) @ t))
+    c_r = None
+    residual = 0.0
+    nullity = null_space.shape[1]
+    if fe.damping is not None:
+        c = sp.csr_array(fe.damping)
+        c_r = _symmetric(sp.csr_array(tt @ c @ t))
+        if nullity:
+            r = np.abs(sp.csr_array(null_space.T @ c @ t) if sp.issparse(null_space)
+                       else null_space.T @ (c @ t.toarray()))
+            scale = float(abs(c).max()) or 1.0
+            residual = float(r.max()) / scale if r.size else 0.0
+    if residual > DAMPING_TOLERANCE:
+        what = (f"{len(condensed)} massless DOFs" if len(retained) else
+                f"the {nullity} massless modes of the mass matrix")
+        warnings.warn(
+            f"structure.damping: acts on {what} (‖Zᵀ·C·T‖/‖C‖ = {residual:.2e}); the static "
+            "condensation neglects those damping forces (exact only for no damping, Rayleigh or "
+            "modal damping on them)",
+            CondensationWarning,
+            stacklevel=3,
+        )
     reduced = FEStructure(m_r, k_r, c_r, dof_map, declared)
-    return StaticCondensation(fe, reduced, m_idx, s, t, residual)
+    return StaticCondensation(fe, reduced, retained, condensed, t, residual, projection,
+                              null_space)
+
+
+def weighted_gap(gap: Gap, row: NDArray[np.float64]) -> Gap:
+    """``gap`` on the coordinates ``q`` with ``u = row · q`` (entries below 1e-14 of the
+    largest dropped)."""
+    keep = np.flatnonzero(np.abs(row) > 1e-14 * np.abs(row).max())
+    dofs = [int(j) for j in keep]
+    return dataclasses.replace(gap, dof=dofs if len(dofs) > 1 else dofs[0],
+                               coefficients=[float(row[j]) for j in keep])
+
+
+def weighted_loads(load: Load, weights: NDArray[np.float64]) -> list[Load]:
+    """Loads of the kind of ``load`` giving the generalized force ``weights · F(t)``: one per
+    distinct weight (entries below 1e-14 of the largest dropped)."""
+    w = np.array(weights, dtype=float)
+    scale = float(np.abs(w).max()) or 1.0
+    w[np.abs(w) <= 1e-14 * scale] = 0.0
+    groups: dict[float, list[int]] = {}
+    for j in np.flatnonzero(w):
+        groups.setdefault(float(w[j]), []).append(int(j))
+    names = {f.name for f in dataclasses.fields(load)}
+    key = "amplitude" if "amplitude" in names else "scale"
+    base = float(getattr(load, key))
+    return [dataclasses.replace(load, **{key: base * g, "dof": js if len(js) > 1 else js[0]})
+            for g, js in groups.items()]
 
 
 def _slave_transform(

@@ -12,7 +12,7 @@ Example::
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from vibroimpact.errors import ModelError
 
-__all__ = ["Damping", "ModalDamping", "Rayleigh"]
+__all__ = ["Damping", "ModalDamping", "Rayleigh", "damping_from_table"]
 
 #: Modal damping builds ``C`` from every mode (dense); above this many DOFs it refuses.
 MODAL_DAMPING_LIMIT = 4000
@@ -136,3 +136,28 @@ class ModalDamping(Damping):
         mp = m @ phi
         c = (mp * d) @ mp.T
         return 0.5 * (c + c.T)
+
+
+def damping_from_table(d: Mapping[str, Any]) -> Damping:
+    """The rule of a model file's checked ``[structure.damping]`` table (beams, matrices):
+    ``kind = "modal"`` with ``ratios``, or ``"rayleigh"`` with ``alpha``/``beta`` or with
+    ``frequencies`` and ``ratios``; errors name the TOML path."""
+    p = "structure.damping"
+    if d.get("kind") == "modal":
+        return ModalDamping(list(d["ratios"]))
+    has_coeff = "alpha" in d or "beta" in d
+    has_freq = "frequencies" in d or "ratios" in d
+    if has_coeff == has_freq:
+        raise ModelError(
+            f"{p}: {sorted(k for k in d if k != 'kind')} is not valid; expected alpha/beta or "
+            'frequencies and ratios for kind = "rayleigh"'
+        )
+    if has_coeff:
+        return Rayleigh(float(d.get("alpha", 0.0)), float(d.get("beta", 0.0)))
+    f, z = d.get("frequencies"), d.get("ratios")
+    if f is None or z is None or len(f) != 2 or len(z) != 2:
+        raise ModelError(
+            f"{p}.frequencies: {f!r} is not valid; expected two frequencies in Hz with two "
+            "ratios (frequencies = [f1, f2], ratios = [z1, z2])"
+        )
+    return Rayleigh.from_frequencies(f[0], f[1], z[0], z[1])

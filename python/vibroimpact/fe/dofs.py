@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import csv
 import os
+from collections import Counter
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -74,31 +75,78 @@ class DofMap:
     """The ``(node, direction)`` of every DOF (row of ``M, C, K``), in DOF order.
 
     ``nodes``: node label per DOF (an integer: the beam's node index, or the node number of
-    the FE program); ``directions``: direction per DOF (:func:`direction_name`).
+    the FE program); ``directions``: direction per DOF (:func:`direction_name`); ``layers``:
+    per DOF 0, or the layer ``1, 2, ...`` of a node/direction that has several DOFs (CalculiX
+    expands a shell node into two or three node layers through the thickness and its
+    ``job.dof`` gives each the shell node's label: the layers are numbered in file order).
+    A pair with layers is addressed by DOF index (:meth:`layer_dofs` lists them).
     """
 
     nodes: tuple[int, ...]
     directions: tuple[str, ...]
+    layers: tuple[int, ...]
     _index: dict[tuple[int, str], int] = field(init=False, repr=False, compare=False)
+    _layered: dict[tuple[int, str], list[int]] = field(init=False, repr=False, compare=False)
 
-    def __init__(self, nodes: Iterable[int], directions: Iterable[str | int]) -> None:
+    def __init__(
+        self,
+        nodes: Iterable[int],
+        directions: Iterable[str | int],
+        layers: Iterable[int] | None = None,
+    ) -> None:
         n = tuple(int(x) for x in nodes)
         d = tuple(direction_name(x) for x in directions)
         if len(n) != len(d):
             raise ModelError(
                 f"dof_map: {len(n)} nodes and {len(d)} directions; expected one of each per DOF"
             )
+        lay = tuple(int(x) for x in layers) if layers is not None else (0,) * len(n)
+        if len(lay) != len(n):
+            raise ModelError(
+                f"dof_map: {len(lay)} layers for {len(n)} DOFs; expected one layer per DOF"
+            )
         index: dict[tuple[int, str], int] = {}
+        layered: dict[tuple[int, str], list[int]] = {}
+        seen: dict[tuple[int, str, int], int] = {}
         for i, key in enumerate(zip(n, d, strict=True)):
-            if key in index:
+            full = (*key, lay[i])
+            if full in seen:
+                first = seen[full]
+                layer = f" layer {lay[i]}" if lay[i] else ""
                 raise ModelError(
-                    f"dof_map: node {key[0]} direction {key[1]!r} appears twice (DOFs "
-                    f"{index[key]} and {i}); expected each node/direction once"
+                    f"dof_map: node {key[0]} direction {key[1]!r}{layer} appears twice (DOFs "
+                    f"{first} and {i}); expected each node/direction once"
                 )
-            index[key] = i
+            seen[full] = i
+            if lay[i]:
+                layered.setdefault(key, []).append(i)
+            else:
+                index[key] = i
+        both = sorted(set(index) & set(layered))
+        if both:
+            raise ModelError(
+                f"dof_map: node {both[0][0]} direction {both[0][1]!r} has a DOF with and one "
+                "without a layer; expected layers on all of its DOFs or on none"
+            )
         object.__setattr__(self, "nodes", n)
         object.__setattr__(self, "directions", d)
+        object.__setattr__(self, "layers", lay)
         object.__setattr__(self, "_index", index)
+        object.__setattr__(self, "_layered", layered)
+
+    @classmethod
+    def numbered_layers(cls, nodes: Sequence[int], directions: Sequence[str | int]) -> DofMap:
+        """A map in which a node/direction that occurs more than once gets layers 1, 2, ...
+        in order of occurrence (CalculiX's ``job.dof`` of expanded shells); one that occurs
+        once gets layer 0."""
+        keys = [(int(x), direction_name(y)) for x, y in zip(nodes, directions, strict=True)]
+        counts = Counter(keys)
+        seen: Counter[tuple[int, str]] = Counter()
+        layers = []
+        for key in keys:
+            seen[key] += 1
+            layers.append(seen[key] if counts[key] > 1 else 0)
+        return cls(nodes, directions, layers)
 
     def __len__(self) -> int:
         return len(self.nodes)
@@ -108,6 +156,10 @@ class DofMap:
         """The distinct node labels, in order of first appearance."""
         return list(dict.fromkeys(self.nodes))
 
+    def layer_dofs(self, node: int, direction: str | int) -> list[int]:
+        """The DOF indices of the layers of ``(node, direction)`` (empty if it has none)."""
+        return list(self._layered.get((int(node), direction_name(direction)), []))
+
     def index(self, node: int, direction: str | int) -> int:
         """The DOF index of ``(node, direction)``; a :class:`ModelError` names what exists."""
         d = direction_name(direction)
@@ -115,7 +167,15 @@ class DofMap:
             return self._index[(int(node), d)]
         except (KeyError, TypeError, ValueError):
             pass
-        have = sorted({dd for (nn, dd) in self._index if nn == node}, key=_direction_order)
+        layered = self._layered.get((node, d))
+        if layered:
+            raise ModelError(
+                f"node: {node!r} is not valid with direction {d!r} alone; expected a DOF "
+                f"index (its {len(layered)} layers through the thickness, as CalculiX expanded "
+                f"the shell node, are DOFs {', '.join(map(str, layered))})"
+            )
+        have = sorted({dd for (nn, dd) in (*self._index, *self._layered) if nn == node},
+                      key=_direction_order)
         if have:
             raise ModelError(
                 f"direction: {direction!r} is not valid at node {node}; expected one of "
@@ -132,9 +192,20 @@ class DofMap:
         """The DOF indices of ``direction`` at each of ``nodes``."""
         return [self.index(n, direction) for n in nodes]
 
+    def all_dofs(self, nodes: Iterable[int], directions: Iterable[str | int]) -> list[int]:
+        """Every DOF of ``directions`` at ``nodes``, layers included (node by node, in the
+        order given); a :class:`ModelError` if a pair has no DOF."""
+        out: list[int] = []
+        for node in nodes:
+            for direction in directions:
+                layered = self.layer_dofs(node, direction)
+                out += layered or [self.index(node, direction)]
+        return out
+
     def take(self, dofs: Sequence[int]) -> DofMap:
         """The map of the DOFs ``dofs`` (in that order), e.g. after a reduction."""
-        return DofMap([self.nodes[i] for i in dofs], [self.directions[i] for i in dofs])
+        return DofMap([self.nodes[i] for i in dofs], [self.directions[i] for i in dofs],
+                      [self.layers[i] for i in dofs])
 
     def units(self) -> tuple[str, ...]:
         """The unit of each DOF's displacement: ``"rad"`` for the rotations ``rx, ry, rz``
@@ -142,16 +213,20 @@ class DofMap:
         return tuple("rad" if d in ROTATIONS else "m" for d in self.directions)
 
     def labels(self) -> list[str]:
-        """``"node.direction"`` per DOF (``"12.x"``)."""
-        return [f"{n}.{d}" for n, d in zip(self.nodes, self.directions, strict=True)]
+        """``"node.direction"`` per DOF (``"12.x"``; a layer as ``"12.x@2"``)."""
+        return [f"{n}.{d}" + (f"@{k}" if k else "")
+                for n, d, k in zip(self.nodes, self.directions, self.layers, strict=True)]
 
     def write_csv(self, path: str | os.PathLike[str]) -> None:
-        """Write ``dof,node,direction`` rows (DOF index from 0)."""
+        """Write ``dof,node,direction`` rows (DOF index from 0; a ``layer`` column too if any
+        DOF has a layer)."""
+        with_layers = any(self.layers)
         with open(path, "w", newline="", encoding="utf-8") as f:
             w = csv.writer(f)
-            w.writerow(["dof", "node", "direction"])
-            for i, (n, d) in enumerate(zip(self.nodes, self.directions, strict=True)):
-                w.writerow([i, n, d])
+            w.writerow(["dof", "node", "direction", *(["layer"] if with_layers else [])])
+            for i, (n, d, k) in enumerate(zip(self.nodes, self.directions, self.layers,
+                                              strict=True)):
+                w.writerow([i, n, d, *([k] if with_layers else [])])
 
     @classmethod
     def read_csv(cls, path: str | os.PathLike[str]) -> DofMap:
@@ -160,7 +235,8 @@ class DofMap:
             rows = list(csv.DictReader(f))
         try:
             rows.sort(key=lambda r: int(r["dof"]))
-            return cls([int(r["node"]) for r in rows], [r["direction"] for r in rows])
+            layers = [int(r["layer"]) for r in rows] if rows and "layer" in rows[0] else None
+            return cls([int(r["node"]) for r in rows], [r["direction"] for r in rows], layers)
         except (KeyError, ValueError, TypeError):
             raise ModelError(
                 f"dof_map: {str(path)!r} is not valid; expected CSV rows dof,node,direction"
@@ -284,9 +360,22 @@ class FEStructure:
 
         return massless_dofs(self.mass).tolist()
 
+    @property
+    def singular_mass(self) -> bool:
+        """Whether ``M`` is singular: massless DOFs (zero rows), or ``M`` on the other DOFs
+        not definite (to :data:`~vibroimpact.fe.condensation.NULL_SPACE_RTOL`: reduced
+        integration, expanded shells); :meth:`condense_massless` removes either."""
+        from vibroimpact.fe.condensation import NULL_SPACE_RTOL
+        from vibroimpact.model import spd_solver
+
+        if self.massless_dofs:
+            return True
+        return spd_solver(self.mass, NULL_SPACE_RTOL) is None
+
     def condense_massless(self, keep: Iterable[int] = ()) -> StaticCondensation:
-        """Static (Guyan) condensation of the massless DOFs; ``keep``: DOFs that must stay
-        (see :func:`vibroimpact.fe.condensation.condense_massless`)."""
+        """Static (Guyan) condensation of the massless DOFs, or of the whole null space of a
+        singular ``M``; ``keep``: DOFs that must stay (see
+        :func:`vibroimpact.fe.condensation.condense_massless`)."""
         from vibroimpact.fe.condensation import condense_massless
 
         return condense_massless(self, keep)
@@ -299,6 +388,12 @@ class FEStructure:
             raise ModelError(
                 f"structure.mass: {len(massless)} massless DOFs (first: {massless[0]}); expected "
                 "every DOF to carry mass (condense them with FEStructure.condense_massless())"
+            )
+        if self.singular_mass:
+            raise ModelError(
+                "structure.mass: singular (massless modes without zero rows, e.g. reduced "
+                "integration); expected a positive definite mass (condense its null space "
+                "with FEStructure.condense_massless())"
             )
         return Structure(self.mass, self.stiffness, self.damping, self.dof_units)
 

@@ -9,12 +9,17 @@ node/direction pairs):
 * **numpy**: ``.npy`` (one dense array), ``.npz`` written by :func:`scipy.sparse.save_npz`,
   or an ``.npz`` of named arrays (``mass``, ``stiffness``, optional ``damping``, optional
   ``dof_nodes``/``dof_directions``): :func:`read_numpy`, :func:`load_npz`, :func:`save_npz`.
-* **CalculiX** ``*MATRIX STORAGE`` (in older versions ``*FREQUENCY, SOLVER=MATRIXSTORAGE``):
-  ccx writes ``job.sti`` (stiffness), ``job.mas`` (mass) and ``job.dof``. Read from ccx's
-  ``matrixstorage.c``: the ``.sti``/``.mas`` files hold one entry per line, ``row column
-  value`` (1-based equation numbers, ``%d %d %20.13e``), the diagonal and one triangle of the
-  symmetric matrix; line ``k`` of ``.dof`` is ``node.direction`` of equation ``k`` (direction
-  1–3 translations, 4–6 rotations, 0 temperature). :func:`read_calculix`, :func:`write_calculix`.
+* **CalculiX** ``*FREQUENCY, SOLVER=MATRIXSTORAGE`` (a step of its own, without a data
+  line; checked with CalculiX 2.20, Debian's ``calculix-ccx``, whose reader refuses a
+  ``*MATRIX STORAGE`` card): ccx writes ``job.sti`` (stiffness), ``job.mas`` (mass) and
+  ``job.dof``, then stops. Read from ccx's ``matrixstorage.c``: the ``.sti``/``.mas`` files hold
+  one entry per line, ``row column value`` (1-based equation numbers, ``%d %d %20.13e``), the
+  diagonal and one triangle of the symmetric matrix, constrained DOFs removed; line ``k`` of
+  ``.dof`` is ``node.direction`` of equation ``k`` (direction 1–3 translations, 4–6
+  rotations, 0 temperature). Expanded shell and beam elements (S8R, B32R, ...) give each of a
+  node's layers through the thickness the original node's label: those DOFs get layers 1, 2,
+  ... in file order (:class:`~vibroimpact.fe.DofMap`). :func:`read_calculix`,
+  :func:`write_calculix`.
 * **ABAQUS** ``*MATRIX GENERATE`` with ``*MATRIX OUTPUT, STIFFNESS, MASS``: files
   ``job_STIF1.mtx`` and ``job_MASS1.mtx`` (``1`` = step number). ``FORMAT=MATRIX INPUT`` (the
   default) writes one entry per line, ``row node, row DOF, column node, column DOF, value``
@@ -26,19 +31,24 @@ node/direction pairs):
 Any mix of these (and arrays) is read as one structure by :func:`read_structure` /
 :func:`read_matrix_files` (what model files use): the format by suffix and content
 (:func:`detect_format`), the DOF map given (:func:`read_dof_map`) or carried by the files.
-Massless DOFs (zero rows of ``M``, e.g. the rotations of a lumped-mass export) are kept; condense
-them with :meth:`FEStructure.condense_massless` (:mod:`vibroimpact.fe.condensation`).
+Massless DOFs (zero rows of ``M``, e.g. the rotations of a lumped-mass export) and any other
+null space of a positive semi-definite ``M`` (the consistent mass of reduced-integration solids
+such as C3D20R, of expanded shells such as S8R) are kept; condense them with
+:meth:`FEStructure.condense_massless` (:mod:`vibroimpact.fe.condensation`).
 
 A one-triangle file is mirrored; a square file must be symmetric. Sparse matrices stay sparse
 through :meth:`FEStructure.to_structure` into the core (Newmark-family methods on a banded
 factor); the dense-only methods (precise, Bathe, impulsive) need a reduced model above 5,000
 DOFs (:func:`vibroimpact.fe.craig_bampton`).
 
-Recipe for a CalculiX fixture (what the tests do, no ccx needed): build any structure, write
-it with :func:`write_calculix` (the exact ``fprintf`` layout of ccx), read it back. With ccx::
+Recipe for a CalculiX fixture (what most tests do, no ccx needed): build any structure, write
+it with :func:`write_calculix` (the exact ``fprintf`` layout of ccx), read it back. With ccx
+(``tests/test_calculix.py`` runs it when ``ccx`` is installed), after the model data::
 
+    *BOUNDARY
+    FIXED, 1, 3
     *STEP
-    *MATRIX STORAGE
+    *FREQUENCY, SOLVER=MATRIXSTORAGE
     *END STEP
 
 in ``job.inp``, then ``ccx job`` writes ``job.sti``, ``job.mas``, ``job.dof``.
@@ -179,6 +189,8 @@ def save_npz(path: PathLike, structure: FEStructure) -> None:
     if structure.dof_map is not None:
         arrays["dof_nodes"] = np.asarray(structure.dof_map.nodes, dtype=np.int64)
         arrays["dof_directions"] = np.asarray(structure.dof_map.directions, dtype="U8")
+        if any(structure.dof_map.layers):
+            arrays["dof_layers"] = np.asarray(structure.dof_map.layers, dtype=np.int64)
     np.savez(os.fspath(path), **arrays)
 
 
@@ -197,7 +209,9 @@ def load_npz(path: PathLike) -> FEStructure:
             c = z["damping"] if "damping" in files else None
             dm = None
             if "dof_nodes" in files and "dof_directions" in files:
-                dm = DofMap(z["dof_nodes"].tolist(), [str(d) for d in z["dof_directions"]])
+                layers = z["dof_layers"].tolist() if "dof_layers" in files else None
+                dm = DofMap(z["dof_nodes"].tolist(), [str(d) for d in z["dof_directions"]],
+                            layers)
     except ModelError:
         raise
     except Exception as e:
@@ -256,7 +270,9 @@ def read_calculix(job: PathLike) -> FEStructure:
 
 
 def read_calculix_dofs(path: PathLike) -> DofMap:
-    """A CalculiX ``job.dof`` file: line ``k`` is ``node.direction`` of equation ``k``."""
+    """A CalculiX ``job.dof`` file: line ``k`` is ``node.direction`` of equation ``k``; a
+    node/direction given more than once (the layers of an expanded shell node) gets layers
+    1, 2, ... in file order (:meth:`DofMap.numbered_layers`)."""
     nodes, dirs = [], []
     for lineno, line in enumerate(_open_text(path), 1):
         s = line.strip()
@@ -269,7 +285,7 @@ def read_calculix_dofs(path: PathLike) -> DofMap:
             )
         nodes.append(int(m.group(1)))
         dirs.append(int(m.group(2)))
-    return DofMap(nodes, dirs)
+    return DofMap.numbered_layers(nodes, dirs)
 
 
 def _upper_triplets(
@@ -438,7 +454,7 @@ def detect_format(path: PathLike) -> str:
 def read_dof_map(value: PathLike | Sequence[str]) -> DofMap:
     """A DOF map from a ``.csv`` file (:meth:`DofMap.write_csv`), a CalculiX ``.dof`` file
     (:func:`read_calculix_dofs`) or a list of ``"node.direction"`` labels (``"12.x"``,
-    ``"12.5"``; :meth:`DofMap.labels`)."""
+    ``"12.5"``, a layer ``"12.x@2"``; :meth:`DofMap.labels`)."""
     if isinstance(value, (str, os.PathLike)):
         p = os.fspath(value)
         if p.lower().endswith(".dof"):
@@ -447,17 +463,18 @@ def read_dof_map(value: PathLike | Sequence[str]) -> DofMap:
             _open_text(p)  # a clear error for a missing file
             return DofMap.read_csv(p)
         raise ModelError(f"dof_map: {p!r} is not valid; expected a .csv or .dof file")
-    nodes, dirs = [], []
+    nodes, dirs, layers = [], [], []
     for i, label in enumerate(value):
-        m = re.fullmatch(r"\s*(-?\d+)\.(\w+)\s*", str(label))
+        m = re.fullmatch(r"\s*(-?\d+)\.(\w+)(?:@(\d+))?\s*", str(label))
         if m is None:
             raise ModelError(
                 f"dof_map[{i}]: {label!r} is not valid; expected \"node.direction\" "
-                "(\"12.x\" or \"12.1\")"
+                "(\"12.x\" or \"12.1\"; a layer: \"12.x@2\")"
             )
         nodes.append(int(m.group(1)))
         dirs.append(m.group(2))
-    return DofMap(nodes, dirs)
+        layers.append(int(m.group(3) or 0))
+    return DofMap(nodes, dirs, layers)
 
 
 @dataclass(frozen=True)
@@ -499,8 +516,9 @@ def read_matrix_files(
     """Read the matrices ``sources`` (name -> a path or an array/scipy.sparse matrix) as one
     structure. ``format`` applies to every file (``auto``: :func:`detect_format` per file).
 
-    The DOF map is ``dof_map`` if given, else the CalculiX ``job.dof`` beside a ``.sti``/
-    ``.mas`` file, the ``dof_nodes``/``dof_directions`` of an ``.npz`` archive, or the
+    The DOF map is ``dof_map`` if given (the files' own maps are then not read), else the
+    CalculiX ``job.dof`` beside a ``.sti``/``.mas`` file, the ``dof_nodes``/``dof_directions``
+    of an ``.npz`` archive, or the
     ``(node, DOF)`` pairs of the ABAQUS node-keyed files (sorted; their union, so a mass file
     without the massless DOFs still fits). The size is the map's, else the largest matrix's;
     a triplet file (CalculiX, ABAQUS) may stop short of it (its trailing rows are zero).
@@ -520,7 +538,8 @@ def read_matrix_files(
         p = os.fspath(src)
         try:
             fmt = detect_format(p) if format == "auto" else format
-            parsed[name] = _parse_file(p, fmt, name, found_maps)
+            carried = None if dof_map is not None else found_maps
+            parsed[name] = _parse_file(p, fmt, name, carried)
         except ModelError as e:
             errors[name] = f"{label}: {_strip(str(e), p)}"
     if dof_map is None and found_maps:
@@ -551,7 +570,9 @@ def _is_path(src: Any) -> bool:
     return isinstance(src, (str, os.PathLike))
 
 
-def _parse_file(p: str, fmt: str, name: str, found_maps: list[DofMap]) -> Any:
+def _parse_file(p: str, fmt: str, name: str, found_maps: list[DofMap] | None) -> Any:
+    """One matrix file; the DOF map it carries (job.dof beside CalculiX files, an .npz's)
+    is appended to ``found_maps`` (None: a map was given, the files' own are not read)."""
     if fmt == "mtx":
         return read_matrix_market(p)
     if fmt == "npy":
@@ -559,12 +580,12 @@ def _parse_file(p: str, fmt: str, name: str, found_maps: list[DofMap]) -> Any:
     if fmt == "npz":
         with np.load(p, allow_pickle=False) as z:
             files = set(z.files)
-        if "dof_nodes" in files and "dof_directions" in files:
+        if found_maps is not None and {"dof_nodes", "dof_directions"} <= files:
             found_maps.append(load_npz(p).dof_map)  # type: ignore[arg-type]
         return read_numpy(p, None if {"format", "shape"} <= files else name)
     if fmt == "calculix":
         dof = Path(p).with_suffix(".dof")
-        if dof.is_file():
+        if found_maps is not None and dof.is_file():
             found_maps.append(read_calculix_dofs(dof))
         r, c, v = _read_triplets(p, p)
         return _Pending(r, c, v)

@@ -151,11 +151,12 @@ def modes(
     about ``-shift`` rad²/s²) or ``"auto"`` (dense up to :data:`DENSE_MODAL_LIMIT` DOFs).
     ``rigid_body_modes``: the number of rigid-body modes if known (otherwise detected).
 
-    An :class:`~vibroimpact.fe.FEStructure` with massless DOFs is condensed first
-    (:meth:`~vibroimpact.fe.FEStructure.condense_massless`, exact for the modes: a massless
-    row reads ``K_s· φ = 0``) and its shapes are expanded back to every DOF (``φ = T φ_r``).
+    An :class:`~vibroimpact.fe.FEStructure` with a singular mass (massless DOFs, or any null
+    space of ``M``) is condensed first (:meth:`~vibroimpact.fe.FEStructure.condense_massless`,
+    exact for the finite eigenvalues: the massless rows read ``Zᵀ K φ = 0``) and its shapes are
+    expanded back to every DOF (``φ = T φ_r``).
     """
-    if isinstance(structure, FEStructure) and structure.massless_dofs:
+    if isinstance(structure, FEStructure) and structure.singular_mass:
         c = structure.condense_massless()
         md = modes(c.structure, n_modes, method=method, rigid_body_modes=rigid_body_modes,
                    shift=shift)
@@ -195,7 +196,7 @@ def highest_angular_frequency(structure: Any) -> float:
     0 if no eigenvalue ``ω²`` is positive: LAPACK's largest eigenvalue up to
     :data:`DENSE_MODAL_LIMIT` DOFs, else ARPACK's (:func:`scipy.sparse.linalg.eigsh`,
     ``which="LA"``)."""
-    if isinstance(structure, FEStructure) and structure.massless_dofs:
+    if isinstance(structure, FEStructure) and structure.singular_mass:
         return highest_angular_frequency(structure.condense_massless().structure)
     k, m, _ = _matrices(structure)
     n = int(m.shape[0])

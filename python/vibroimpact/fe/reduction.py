@@ -40,6 +40,7 @@ import scipy.sparse.linalg as spla
 from numpy.typing import ArrayLike, NDArray
 
 from vibroimpact.errors import ModelError
+from vibroimpact.fe.condensation import weighted_gap, weighted_loads
 from vibroimpact.fe.dofs import DofMap, FEStructure
 from vibroimpact.integrators import Integrator
 from vibroimpact.model import Gap, Load, Model, Structure
@@ -136,28 +137,12 @@ class CraigBampton:
                 gap, dof=new if len(new) > 1 else new[0], coefficients=list(coeffs)
             )
         row = sum(c * self.transform[d] for d, c in zip(dofs, coeffs, strict=True))
-        keep = np.flatnonzero(np.abs(row) > 1e-14 * np.abs(row).max())
-        return dataclasses.replace(
-            gap, dof=[int(j) for j in keep], coefficients=[float(row[j]) for j in keep]
-        )
+        return weighted_gap(gap, np.asarray(row))
 
     def reduce_load(self, load: Load) -> list[Load]:
         """Loads on the reduced coordinates giving the generalized force ``Tᵀ f``: one load of
         the same kind per distinct weight (boundary DOFs keep weight 1)."""
-        weights = self.transform[list(load.dofs)].sum(axis=0)
-        scale = float(np.abs(weights).max()) or 1.0
-        weights[np.abs(weights) <= 1e-14 * scale] = 0.0
-        groups: dict[float, list[int]] = {}
-        for j in np.flatnonzero(weights):
-            groups.setdefault(float(weights[j]), []).append(int(j))
-        names = {f.name for f in dataclasses.fields(load)}
-        key = "amplitude" if "amplitude" in names else "scale"
-        base = float(getattr(load, key))
-        out: list[Load] = []
-        for w, js in groups.items():
-            params = {key: base * w, "dof": js if len(js) > 1 else js[0]}
-            out.append(dataclasses.replace(load, **params))
-        return out
+        return weighted_loads(load, self.transform[list(load.dofs)].sum(axis=0))
 
     def reduce_state(self, x: ArrayLike | None) -> NDArray[np.float64] | None:
         """The reduced state ``q`` closest to the full ``x`` in the mass norm

@@ -37,6 +37,8 @@ from numpy.typing import NDArray
 
 from vibroimpact import contact, integrators
 from vibroimpact.errors import ModelError, SolverError
+from vibroimpact.fe.condensation import NULL_PART_TOLERANCE
+from vibroimpact.fe.damping import damping_from_table
 from vibroimpact.fe.dofs import DofMap, FEStructure
 from vibroimpact.fe.matrices import FORMATS, SUFFIXES, read_dof_map, read_matrix_files
 from vibroimpact.integrators import Integrator, method_from_options
@@ -48,7 +50,6 @@ from vibroimpact.model import (
     Model,
     Structure,
     TableLoad,
-    spd_solver,
 )
 from vibroimpact.simulate import check_run, contact_periods
 
@@ -299,12 +300,14 @@ SCHEMA: tuple[Field, ...] = (
     Field("structure.damping", "number", "dashpot to ground", unit="N·s/m", default=0.0,
           minimum=0, when=_SDOF),
     Field("structure.mass", "matrix", "mass matrix M", unit="kg", default=REQUIRED,
-          rule="square, symmetric, positive semi-definite: a DOF whose row is zero is massless "
-          "and condensed out (see Massless DOFs)", when=_MATRICES),
+          rule="square, symmetric, positive semi-definite: a DOF whose row is zero is massless, "
+          "and any null space of M (reduced integration, expanded shells) massless modes, "
+          "condensed out (see Massless DOFs)", when=_MATRICES),
     Field("structure.stiffness", "matrix", "stiffness matrix K", unit="N/m",
           default_text="zeros", rule="same shape as mass, symmetric", when=_MATRICES),
-    Field("structure.damping", "matrix", "damping matrix C", unit="N·s/m",
-          default_text="zeros", rule="same shape as mass, symmetric", when=_MATRICES),
+    Field("structure.damping", "matrix", "damping matrix C (or a [structure.damping] table)",
+          unit="N·s/m", default_text="zeros", rule="same shape as mass, symmetric",
+          when=_MATRICES),
     Field("structure.format", "string", "how the matrix files are read: auto by suffix and "
           "content (.npy, .npz; .sti/.mas: calculix; .mtx: mtx if it starts %%MatrixMarket, else "
           "abaqus); mtx: Matrix Market; npz: scipy.sparse.save_npz, or an archive whose array "
@@ -342,8 +345,9 @@ SCHEMA: tuple[Field, ...] = (
           when=_BEAM),
     Field("structure.masses", "tables", "point masses", default=[], default_text="none",
           when=_BEAM),
-    Field("structure.damping", "table", "damping C built from M and K", default_text="none",
-          when=_BEAM),
+    Field("structure.damping", "table", "damping C built from M and K (matrices: of the model "
+          "that runs, massless DOFs and modes condensed)", default_text="none",
+          when=("kind", ("beam", "matrices"))),
     # [structure.section]
     Field("structure.section.kind", "string", "shape (Cowper's shear coefficient for circle, "
           "tube, rectangle)", default=REQUIRED, choices=("circle", "tube", "rectangle", "user")),
@@ -403,7 +407,7 @@ SCHEMA: tuple[Field, ...] = (
           default=REQUIRED, minimum=0),
     Field("structure.masses[].rotary_inertia", "number", "inertia on each rotation",
           unit="kg·m^2", default=0.0, minimum=0),
-    # [structure.damping] (beams)
+    # [structure.damping] (beams, matrices)
     Field("structure.damping.kind", "string", "rayleigh: C = alpha M + beta K; modal: a ratio "
           "per mode", default=REQUIRED, choices=("rayleigh", "modal")),
     Field("structure.damping.alpha", "number", "mass coefficient α", unit="1/s", minimum=0,
@@ -528,7 +532,13 @@ SCHEMA: tuple[Field, ...] = (
           "peaks and energies see every step)", default=1, minimum=1),
     Field("output.dofs", "dof-list", "DOFs whose histories are kept (massless ones are "
           "recovered, see Massless DOFs)", default_text="all",
-          rule="distinct, 0 <= dof < number of DOFs"),
+          rule="distinct, 0 <= dof < number of DOFs; or nodes"),
+    Field("output.nodes", "nodes", "nodes whose DOFs' histories are kept (beam: index or name; "
+          "matrices: node labels of the DOF map, every layer of an expanded shell node)",
+          rule="or dofs", when=_WITH_NODES),
+    Field("output.directions", "strings", "the directions kept at those nodes",
+          default_text="every direction of each node", rule=f"of {', '.join(_DIRECTIONS)}; "
+          "with nodes", when=_WITH_NODES),
 )
 # fmt: on
 
@@ -1005,6 +1015,8 @@ class _Checker:
                 unknown[key] = list(dict.fromkeys(r.key for r in rows if applies(r) is not False))
                 continue
             fits = [r for r in named if applies(r)]
+            # one key, two types (structure.damping: a matrix or a table): the table if a table
+            fits.sort(key=lambda r: (r.type == "table") != isinstance(value, dict))
             if fits:
                 self.value(fits[0], p, value, out)
             elif not any(applies(r) is None for r in named):
@@ -1134,10 +1146,11 @@ def _build_structure(ck: _Checker, s: Mapping[str, Any]) -> Structure | None:
 
 def _build_matrices(ck: _Checker, s: Mapping[str, Any]) -> Structure | None:
     """``kind = "matrices"``: read the matrices (inline or files, :func:`vibroimpact.fe.
-    matrices.read_matrix_files`), then condense the massless DOFs statically
-    (:mod:`vibroimpact.fe.condensation`). Keeps the full :class:`~vibroimpact.fe.FEStructure`
-    in ``ck.context["fe"]`` (DOF map, massless DOFs) and the condensation, if any."""
-    keys = [k for k in ("mass", "stiffness", "damping") if k in s]
+    matrices.read_matrix_files`), condense a singular mass statically (massless DOFs, or its
+    whole null space: :mod:`vibroimpact.fe.condensation`), then build ``[structure.damping]``
+    on the model that runs. Keeps the full :class:`~vibroimpact.fe.FEStructure` in
+    ``ck.context["fe"]`` (DOF map, massless DOFs) and the condensation, if any."""
+    keys = [k for k in ("mass", "stiffness", "damping") if k in s and isinstance(s[k], _Matrix)]
     got = read_matrix_files(
         {k: s[k].source for k in keys},
         format=s["format"],
@@ -1152,24 +1165,20 @@ def _build_matrices(ck: _Checker, s: Mapping[str, Any]) -> Structure | None:
     try:
         fe = FEStructure(m["mass"], m.get("stiffness", 0 * m["mass"]), m.get("damping"),
                          got.dof_map, s.get("dof_units"))
-        massless = fe.massless_dofs
-        retained = np.setdiff1d(np.arange(fe.n_dof), massless)
-        if spd_solver(fe.mass[retained][:, retained]) is None:
-            ck.invalid(
-                "structure.mass", None, "a positive definite matrix on the DOFs with mass (a "
-                "massless DOF has a zero row)", s["mass"].shown,
-            )
-            return None
     except _CAUGHT as e:
         ck.add("structure", _reprefix(e, {}, "structure"))
         return None
     ck.context["fe"] = fe
     try:
-        if massless:
+        run: FEStructure = fe
+        if fe.singular_mass:
             cond = fe.condense_massless()
             ck.context["condensation"] = cond
-            return cond.structure.to_structure()
-        return fe.to_structure()
+            run = cond.structure
+        rule = s.get("damping")
+        if isinstance(rule, dict):
+            run = run.with_damping(damping_from_table(rule))
+        return run.to_structure()
     except _CAUGHT as e:
         ck.add("structure", _reprefix(e, {}, "structure"))
         return None
@@ -1239,26 +1248,30 @@ def _node_dofs(
         return None
 
 
-def _on_mass(ck: _Checker, p: str, dofs: tuple[int, ...], what: str) -> tuple[int, ...] | None:
-    """``dofs`` (of the file's matrices) as DOFs of the condensed model; None after recording a
-    mistake if one is massless (``p``: the key that named it)."""
+def _on_mass(
+    ck: _Checker, p: str, dofs: tuple[int, ...], coefficients: Sequence[float] | None, what: str
+) -> bool:
+    """Whether ``what`` acting on ``dofs`` (of the file's matrices, with ``coefficients``) can
+    be condensed; records a mistake at ``p`` (the key that named the DOFs) if not: a massless
+    DOF, or a part in the null space of the mass matrix."""
     cond = ck.context.get("condensation")
     if cond is None:
-        return dofs
-    massless = set(cond.condensed.tolist())
-    bad = [d for d in dofs if d in massless]
-    if bad:
-        ck.invalid(
-            p, ck.raw.get(p), f"a DOF that carries mass ({what} on {_dof_label(ck, bad[0])}, "
-            "which is massless and condensed out statically)",
-        )
-        return None
-    return tuple(cond.reduced_index(d) for d in dofs)
+        return True
+    b = np.zeros(cond.full.n_dof)
+    np.add.at(b, list(dofs), list(coefficients or (1.0,) * len(dofs)))
+    massless = [d for d in dofs if d in set(cond.condensed.tolist())]
+    on = _dof_label(ck, massless[0] if massless else dofs[0])
+    problem = cond.forcing_problem(b, f"{what} on {on}")
+    if problem is not None:
+        ck.invalid(p, ck.raw.get(p), problem)
+        return False
+    return True
 
 
 def _dof_label(ck: _Checker, dof: int) -> str:
     dm = ck.context["fe"].dof_map
-    at = "" if dm is None else f" (node {dm.nodes[dof]} direction {dm.directions[dof]!r})"
+    layer = "" if dm is None or not dm.layers[dof] else f" layer {dm.layers[dof]}"
+    at = "" if dm is None else f" (node {dm.nodes[dof]} direction {dm.directions[dof]!r}{layer})"
     return f"DOF {dof}{at}"
 
 
@@ -1286,13 +1299,13 @@ def _build_gap(ck: _Checker, i: int, g: Mapping[str, Any], n: int | None) -> Gap
             ck.invalid(
                 f"{gp}.coefficients", ck.raw.get(f"{gp}.coefficients"), "numbers not all zero"
             )
-    if ck.ok(gp) and dofs:
-        dofs = _on_mass(ck, _addressed_by(gp, g), dofs, "a gap") or ()
+    if ck.ok(gp) and dofs and not _on_mass(ck, _addressed_by(gp, g), dofs, coefficients, "a gap"):
+        dofs = ()
     law = _build_law(ck, f"{gp}.law", g["law"])
     if law is None or not ck.ok(gp) or not dofs:
         return None
     try:
-        return Gap(
+        gap = Gap(
             dof=dofs if len(dofs) > 1 else dofs[0],
             law=law,
             clearance=g["clearance"],
@@ -1300,6 +1313,8 @@ def _build_gap(ck: _Checker, i: int, g: Mapping[str, Any], n: int | None) -> Gap
             coefficients=coefficients,
             name=g.get("name"),
         )
+        cond = ck.context.get("condensation")
+        return gap if cond is None else cond.reduce_gap(gap)
     except _CAUGHT as e:
         ck.add(gp, _reprefix(e, {"gap": gp, "law": f"{gp}.law"}, gp))
         return None
@@ -1328,30 +1343,80 @@ def _build_law(ck: _Checker, lp: str, law: Mapping[str, Any]) -> contact.Contact
         return None
 
 
-def _build_load(ck: _Checker, i: int, ld: Mapping[str, Any], n: int | None) -> Load | None:
+def _build_load(
+    ck: _Checker, i: int, ld: Mapping[str, Any], n: int | None
+) -> list[Load] | None:
+    """The load ``loads[i]`` (several on a condensed model: one per generalized weight)."""
     lp = f"loads[{i}]"
     if not ck.ok(lp):
         return None
     by_node = ck.context.get("structure.kind") in _WITH_NODES[1]
     dofs: tuple[int, ...] = (_node_dofs(ck, lp, ld, many=True) if by_node else ld.get("dof")) or ()
     _check_dofs(ck, f"{lp}.dof", dofs, n)
-    if ck.ok(lp) and dofs:
-        dofs = _on_mass(ck, _addressed_by(lp, ld), dofs, "a load") or ()
+    if ck.ok(lp) and dofs and not _on_mass(ck, _addressed_by(lp, ld), dofs, None, "a load"):
+        dofs = ()
     if not ck.ok(lp) or not dofs:
         return None
     dof = dofs if len(dofs) > 1 else dofs[0]
     try:
+        load: Load
         if ld["kind"] == "constant":
-            return ConstantLoad(dof=dof, amplitude=ld["amplitude"])
-        if ld["kind"] == "harmonic":
-            return HarmonicLoad(
+            load = ConstantLoad(dof=dof, amplitude=ld["amplitude"])
+        elif ld["kind"] == "harmonic":
+            load = HarmonicLoad(
                 dof=dof, amplitude=ld["amplitude"], frequency=ld["frequency"], phase=ld["phase"]
             )
-        table: _Table = ld["file"]
-        return TableLoad(dof=dof, time=table.time, force=table.force, scale=ld["scale"])
+        else:
+            table: _Table = ld["file"]
+            load = TableLoad(dof=dof, time=table.time, force=table.force, scale=ld["scale"])
+        cond = ck.context.get("condensation")
+        return [load] if cond is None else cond.reduce_load(load)
     except _CAUGHT as e:
         ck.add(lp, _reprefix(e, {"load.table": f"{lp}.file", "load": lp}, lp))
         return None
+
+
+def _output_dofs(ck: _Checker, output: Mapping[str, Any], n: int | None) -> list[int] | None:
+    """The file's DOFs that ``[output]`` keeps: ``dofs``, or every DOF of ``directions`` (all
+    of each node's) at ``nodes``; None for all."""
+    if "nodes" not in output:
+        if "directions" in output:
+            ck.invalid("output.directions", ck.raw.get("output.directions"),
+                       "directions with output.nodes")
+        dofs = output.get("dofs")
+        if dofs is not None:
+            _check_dofs(ck, "output.dofs", dofs, n)
+        return None if dofs is None else list(dofs)
+    if "dofs" in output:
+        ck.invalid("output.nodes", ck.raw.get("output.nodes"), "exactly one of dofs or nodes")
+        return None
+    kind = ck.context.get("structure.kind")
+    beam = ck.context.get("beam")
+    dof_map = beam.dof_map if beam is not None else getattr(ck.context.get("fe"), "dof_map", None)
+    if dof_map is None:
+        if kind == "matrices" and "fe" in ck.context:
+            ck.invalid("output.nodes", ck.raw.get("output.nodes"), "output.dofs, or a DOF map "
+                       "to address DOFs by node: structure.dof_map, or CalculiX/ABAQUS/.npz "
+                       "matrix files that carry one")
+        return None
+    try:
+        nodes = output["nodes"]
+        if nodes == "all":
+            nodes = dof_map.node_labels
+        if beam is not None:
+            nodes = [beam.node_index(x, field_name="output.nodes") for x in nodes]
+        out: list[int] = []
+        for node in nodes:
+            at_node = [d for nn, d in zip(dof_map.nodes, dof_map.directions, strict=True)
+                       if nn == node]
+            directions = output.get("directions") or list(dict.fromkeys(at_node))
+            out += dof_map.all_dofs([node], directions)
+    except _CAUGHT as e:
+        where = {"node": "output.nodes", "nodes": "output.nodes", "direction": "output.directions"}
+        line = _reprefix(e, where, "output")
+        ck.add(line.split(":", 1)[0], line)
+        return None
+    return list(dict.fromkeys(out))
 
 
 def _build_initial(
@@ -1381,7 +1446,16 @@ def _build_initial(
                 )
                 out[key] = None
                 continue
-            x = x[cond.retained]
+            part = cond.null_part(x)
+            if part > NULL_PART_TOLERANCE:
+                ck.invalid(
+                    p, ck.raw.get(p), f"values with no part in the null space of the mass matrix "
+                    f"({part:.2g} of them lie in its massless modes, whose state follows from "
+                    "the others)",
+                )
+                out[key] = None
+                continue
+            x = cond.reduce_state(x)
         out[key] = x
     return out
 
@@ -1455,6 +1529,7 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
         n = structure.n_dof if structure is not None else _n_dof(top.get("structure", {}))
     gaps = [_build_gap(ck, i, g, n) for i, g in enumerate(top.get("gaps", []))]
     loads = [_build_load(ck, i, ld, n) for i, ld in enumerate(top.get("loads", []))]
+    dofs = _output_dofs(ck, top.get("output", {}), n)
     initial = _build_initial(ck, top.get("initial", {}), n)
     solver = top.get("solver", {})
     dt, t_end = solver.get("dt"), solver.get("t_end")
@@ -1464,9 +1539,6 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
         )
     method = _build_method(ck, solver) if "solver" in top else None
     output = top.get("output", {})
-    dofs = output.get("dofs")
-    if dofs is not None:
-        _check_dofs(ck, "output.dofs", dofs, n)
     if ck.errors:
         raise ModelFileError(ck.lines())
     assert structure is not None and method is not None and dt is not None and t_end is not None
@@ -1474,7 +1546,7 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
         model = Model(
             structure,
             gaps=[g for g in gaps if g is not None],
-            loads=[ld for ld in loads if ld is not None],
+            loads=[x for ld in loads if ld is not None for x in ld],
             initial_displacement=initial["displacement"],
             initial_velocity=initial["velocity"],
         )
@@ -1489,7 +1561,7 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
         dt=dt,
         method=method,
         every=output.get("every", 1),
-        dofs=None if dofs is None else list(dofs),
+        dofs=dofs,
         path=path,
         beam=ck.context.get("beam"),
         condensation=ck.context.get("condensation"),
@@ -1706,7 +1778,7 @@ _SECTION_TITLES = {
     "structure.supports[]": "`[[structure.supports]]` (beam, any number)",
     "structure.springs[]": "`[[structure.springs]]` (beam, any number)",
     "structure.masses[]": "`[[structure.masses]]` (beam, any number)",
-    "structure.damping": "`[structure.damping]` (beam)",
+    "structure.damping": "`[structure.damping]` (beam, matrices)",
     "gaps[]": "`[[gaps]]` (any number)",
     "gaps[].law": "`[gaps.law]`",
     "gaps[].law.geometry": "`[gaps.law.geometry]`",
@@ -1782,8 +1854,14 @@ def render_reference() -> str:
         "* `[initial]` has one value per DOF; `solver.dt <= solver.t_end`.",
         "* `structure.stiffness` and `structure.damping` have the shape of `structure.mass`",
         "  (with a DOF map: one row per DOF of it; CalculiX and ABAQUS files may omit trailing",
-        "  zero rows); all three are symmetric and `structure.mass` is positive definite on the",
-        "  DOFs that carry mass.",
+        "  zero rows); all three are symmetric and `structure.mass` is positive semi-definite",
+        "  (its null space is condensed out, see Massless DOFs).",
+        "* `[output]` gives at most one of `dofs`, `nodes` (beam, matrices); `directions` only",
+        "  with `nodes`. On matrices a node with layers (CalculiX's expanded shell nodes) gives",
+        "  every layer's DOF.",
+        "* `[structure.damping]` on matrices is built on the model that runs (massless DOFs and",
+        "  modes condensed): Rayleigh `αM + βK` or modal, as for beams; `structure.damping` is",
+        "  either that table or a damping matrix.",
         "",
         "## Numbers whose energy, force or time scale is not a double",
         "",
@@ -1826,6 +1904,17 @@ def render_reference() -> str:
         "step. Each DOF keeps its unit: the rotations of the DOF map (directions 4-6, `rx`,",
         "`ry`, `rz`) are in rad (rad/s, rad/s²), the others in m; results name it per DOF (the",
         "`dof_unit` coordinate, the CSV column headers).",
+        "",
+        "A mass that is singular without zero rows (the consistent mass of reduced-integration",
+        "solids such as CalculiX's C3D20R, of expanded shells such as S8R) has massless modes:",
+        "its null space `Z` (eigenvalues of `M` at or below 1e-10 of the largest; an eigenvalue",
+        "below -1e-10 of it is refused, naming it) is condensed the same way in the eigenvectors",
+        "of `M`, `x = T q` with `T = R - Z (ZᵀKZ)⁻¹ ZᵀKR` (dense, up to 6,000 DOFs), so that the",
+        "finite frequencies are exactly those of the FE program. The coordinates `q` are then",
+        "generalized: results are recovered on the file's DOFs as above, and a gap, a load or",
+        "an `[initial]` state must have no part in `Z` (a force there meets no inertia). Every",
+        "node of such elements has one: for contacts export fully integrated elements (C3D20)",
+        "or a lumped mass.",
         "",
     ]
     out += _methods_section()

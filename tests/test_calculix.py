@@ -1,0 +1,188 @@
+"""CalculiX round trips (issue 23): small models written here as ``.inp`` decks, exported by
+``ccx`` with ``*FREQUENCY, SOLVER=MATRIXSTORAGE`` (the recipe of docs/beam.md), imported, and
+their frequencies compared with CalculiX's own ``*FREQUENCY`` step on the same deck.
+
+Models (steel, clamped at x = 0): a 0.1 × 0.02 × 0.04 m block of 2 × 1 × 2 twenty-node bricks,
+C3D20 (full integration, definite mass) and C3D20R (reduced integration: a positive
+semi-definite mass, 30 massless modes of 114 DOFs), and a 0.1 × 0.04 m plate of 2 × 1 S8R
+shells, 2 mm thick (CalculiX expands each node into two or three layers: repeated labels in
+``job.dof``, a singular mass). CalculiX prints 7 digits, so 1e-6 is the comparison's floor.
+Skipped without ``ccx`` (Debian/Ubuntu: ``apt-get install calculix-ccx``; ``.ci/run`` does).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+from vibroimpact.cli import main as cli_main
+from vibroimpact.fe import modes
+from vibroimpact.fe.matrices import read_calculix
+
+pytestmark = pytest.mark.skipif(
+    shutil.which("ccx") is None,
+    reason="CalculiX is not installed (no ccx on PATH; apt-get install calculix-ccx, as "
+    ".ci/run does)",
+)
+
+MATERIAL = "*MATERIAL, NAME=STEEL\n*ELASTIC\n210e9, 0.3\n*DENSITY\n7800\n"
+EXPORT = "*FREQUENCY, SOLVER=MATRIXSTORAGE\n"
+FREQUENCY = "*FREQUENCY\n10\n"
+
+
+def brick_mesh(element: str, nx: int = 2, ny: int = 1, nz: int = 2) -> str:
+    """A structured mesh of twenty-node bricks on 0.1 × 0.02 × 0.04 m (node order of
+    CalculiX/ABAQUS: 8 corners, then the midside nodes of the bottom, top and vertical
+    edges), clamped at x = 0."""
+    size = (0.1, 0.02, 0.04)
+    grid = (2 * nx + 1, 2 * ny + 1, 2 * nz + 1)
+    label: dict[tuple[int, int, int], int] = {}
+    lines = ["*NODE"]
+    for k in range(grid[2]):
+        for j in range(grid[1]):
+            for i in range(grid[0]):
+                if i % 2 + j % 2 + k % 2 > 1:  # face and body centres are not nodes
+                    continue
+                label[(i, j, k)] = len(label) + 1
+                x = [size[a] * c / (grid[a] - 1) for a, c in enumerate((i, j, k))]
+                lines.append(f"{label[(i, j, k)]}, {x[0]!r}, {x[1]!r}, {x[2]!r}")
+    corners = [(0, 0, 0), (2, 0, 0), (2, 2, 0), (0, 2, 0), (0, 0, 2), (2, 0, 2), (2, 2, 2),
+               (0, 2, 2)]
+    edges = [(1, 0, 0), (2, 1, 0), (1, 2, 0), (0, 1, 0), (1, 0, 2), (2, 1, 2), (1, 2, 2),
+             (0, 1, 2), (0, 0, 1), (2, 0, 1), (2, 2, 1), (0, 2, 1)]
+    lines.append(f"*ELEMENT, TYPE={element}, ELSET=E")
+    number = 0
+    for ez in range(nz):
+        for ey in range(ny):
+            for ex in range(nx):
+                number += 1
+                nodes = [label[(2 * ex + a, 2 * ey + b, 2 * ez + c)] for a, b, c in corners + edges]
+                lines.append(f"{number}, " + ", ".join(map(str, nodes[:15])) + ",")
+                lines.append(", ".join(map(str, nodes[15:])))
+    fixed = [n for (i, _, _), n in label.items() if i == 0]
+    lines += ["*NSET, NSET=FIXED", *map(str, fixed)]
+    return "\n".join(lines) + "\n" + MATERIAL + "*SOLID SECTION, ELSET=E, MATERIAL=STEEL\n"
+
+
+def shell_mesh(nx: int = 2, ny: int = 1) -> str:
+    """Eight-node S8R shells on a 0.1 × 0.04 m plate, 2 mm thick, clamped at x = 0."""
+    grid = (2 * nx + 1, 2 * ny + 1)
+    label: dict[tuple[int, int], int] = {}
+    lines = ["*NODE"]
+    for j in range(grid[1]):
+        for i in range(grid[0]):
+            if i % 2 and j % 2:
+                continue
+            label[(i, j)] = len(label) + 1
+            lines.append(f"{label[(i, j)]}, {0.1 * i / (grid[0] - 1)!r}, "
+                         f"{0.04 * j / (grid[1] - 1)!r}, 0.0")
+    pattern = [(0, 0), (2, 0), (2, 2), (0, 2), (1, 0), (2, 1), (1, 2), (0, 1)]
+    lines.append("*ELEMENT, TYPE=S8R, ELSET=E")
+    for e, (ey, ex) in enumerate(((ey, ex) for ey in range(ny) for ex in range(nx)), 1):
+        nodes = [label[(2 * ex + a, 2 * ey + b)] for a, b in pattern]
+        lines.append(f"{e}, " + ", ".join(map(str, nodes)))
+    lines += ["*NSET, NSET=FIXED", *(str(n) for (i, _), n in label.items() if i == 0)]
+    return ("\n".join(lines) + "\n" + MATERIAL
+            + "*SHELL SECTION, ELSET=E, MATERIAL=STEEL\n0.002\n")
+
+
+def ccx(folder: Path, job: str, model: str, step: str) -> Path:
+    """Run ``ccx job`` on ``model`` + a clamped ``step`` in ``folder``; the job's path."""
+    deck = model + "*BOUNDARY\nFIXED, 1, 3\n*STEP\n" + step + "*END STEP\n"
+    (folder / f"{job}.inp").write_text(deck, encoding="ascii")
+    done = subprocess.run(["ccx", job], cwd=folder, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0 and "Job finished" in done.stdout, done.stdout[-2000:]
+    return folder / job
+
+
+def calculix_frequencies(dat: Path) -> np.ndarray:
+    """The real frequencies (Hz) of the eigenvalue table of a ccx ``.dat`` file (modes with
+    a negative or round-off eigenvalue, which ccx lists with an imaginary part or 0 Hz,
+    dropped)."""
+    text = dat.read_text()
+    table = text[text.index("E I G E N V A L U E   O U T P U T"):]
+    table = table[: table.index("P A R T I C I P A T I O N")]
+    rows = [[float(x) for x in line.split()[1:]] for line in table.splitlines()
+            if re.match(r"\s+\d+\s+-?\d\.\d+E[+-]\d+", line)]
+    lam = np.array([r[0] for r in rows])
+    hz = np.array([r[2] for r in rows])
+    return hz[lam > 1e-6 * lam.max()]
+
+
+MODELS = {
+    "C3D20": lambda: brick_mesh("C3D20"),
+    "C3D20R": lambda: brick_mesh("C3D20R"),
+    "S8R": shell_mesh,
+}
+
+
+@pytest.fixture(scope="module", params=sorted(MODELS))
+def exported(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFactory
+             ) -> tuple[str, Path, np.ndarray]:
+    """(element, the exported job, CalculiX's own frequencies) per model."""
+    folder = tmp_path_factory.mktemp(request.param)
+    model = MODELS[request.param]()
+    job = ccx(folder, "export", model, EXPORT)
+    dat = ccx(folder, "frequency", model, FREQUENCY).with_suffix(".dat")
+    return request.param, job, calculix_frequencies(dat)
+
+
+def test_imported_frequencies_equal_calculix_frequencies(exported: tuple[str, Path, np.ndarray]
+                                                         ) -> None:
+    element, job, reference = exported
+    fe = read_calculix(job)
+    assert fe.singular_mass == (element != "C3D20")
+    found = modes(fe, len(reference)).elastic_frequencies_hz
+    np.testing.assert_allclose(found, reference, rtol=1e-6)
+    assert len(reference) >= 8
+
+
+def test_expanded_shell_layers_are_labelled(exported: tuple[str, Path, np.ndarray]) -> None:
+    element, job, _ = exported
+    dm = read_calculix(job).dof_map
+    assert dm is not None
+    labels = dm.labels()
+    assert len(set(labels)) == len(labels)
+    if element != "S8R":
+        assert not any(dm.layers)
+        return
+    # node 3 is a free corner (3 layers), node 2 a free midside node (2 layers)
+    assert [lab for lab in labels if lab.startswith("3.x")] == ["3.x@1", "3.x@2", "3.x@3"]
+    assert [lab for lab in labels if lab.startswith("2.x")] == ["2.x@1", "2.x@2"]
+    assert dm.layer_dofs(3, "x") == [i for i, lab in enumerate(labels) if lab.startswith("3.x")]
+
+
+def test_model_file_modal_and_a_gap_on_the_null_space(
+    exported: tuple[str, Path, np.ndarray], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``vibroimpact modal`` on a model file of the exported files gives CalculiX's
+    frequencies; a gap on a node of a singular-mass model is refused in one line (every node
+    of C3D20R and S8R has a part in the massless modes), on C3D20 it runs."""
+    element, job, reference = exported
+    model = job.parent / "model.toml"
+    structure = (f'[structure]\nkind = "matrices"\nmass = "{job.name}.mas"\n'
+                 f'stiffness = "{job.name}.sti"\n')
+    model.write_text(structure, encoding="utf-8")
+    assert cli_main(["modal", str(model), "--modes", str(len(reference)), "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)
+    np.testing.assert_allclose(got["frequencies_hz"], reference, rtol=1e-6)
+    dm = read_calculix(job).dof_map
+    assert dm is not None
+    tip = max(dm.nodes)  # the last node: at x = 0.1 (a corner, three layers for S8R)
+    dof = (dm.layer_dofs(tip, "z") or [dm.index(tip, "z")])[0]
+    gap = (f'[[gaps]]\ndof = {dof}\nclearance = 1e-6\n[gaps.law]\nkind = "hertz"\n'
+           'stiffness = 1e10\n[solver]\ndt = 1e-6\nt_end = 2e-5\n')
+    model.write_text(structure + gap, encoding="utf-8")
+    code = cli_main(["run", str(model), "-o", str(job.parent / "out.nc")])
+    err = capsys.readouterr().err
+    if element == "C3D20":
+        assert code == 0, err
+        return
+    assert code == 2, err
+    assert err.count("\n") == 1 and f"error: gaps[0].dof: {dof} is not valid" in err, err
+    assert "null space of the mass matrix" in err and "C3D20" in err
