@@ -19,10 +19,10 @@ def test_hertz_impact_matches_closed_form() -> None:
     out = single_impact(contact.Hertz(stiffness=K), MASS, V0)
     delta_max = (5 * MASS * V0**2 / (4 * K)) ** 0.4
     duration = 2 * 0.4 * math.gamma(0.4) * math.gamma(0.5) / math.gamma(0.9) * delta_max / V0
-    assert out["delta_max"] == pytest.approx(delta_max, rel=1e-4)
-    assert out["duration"] == pytest.approx(duration, rel=1e-4)
-    assert out["force_max"] == pytest.approx(K * delta_max**1.5, rel=1e-4)
-    assert out["restitution_effective"] == pytest.approx(1.0, abs=1e-5)
+    assert out["delta_max"] == pytest.approx(delta_max, rel=1e-10)
+    assert out["duration"] == pytest.approx(duration, rel=1e-10)
+    assert out["force_max"] == pytest.approx(K * delta_max**1.5, rel=1e-10)
+    assert out["restitution_effective"] == pytest.approx(1.0, abs=1e-10)
 
 
 LAW_CASES = [
@@ -39,16 +39,13 @@ LAW_CASES = [
 
 @pytest.mark.parametrize(("law", "params"), LAW_CASES)
 def test_dissipative_law_matches_scipy_reference(law: str, params: dict) -> None:
-    """Effective restitution within 1e-4 (the issue asks 1e-3). The duration is compared at
-    1e-3: at low ce the damped force clamps to zero and the body leaves at the clamp speed,
-    a non-smooth phase where the fixed-step result converges to within 6e-4 at the default
-    20,000 steps per contact."""
+    """Every number of the impact within 1e-9 of the reference (the issue asks 1e-3 of the
+    restitution), also at low ce, where the damped force clamps to zero before the opening
+    (DOP853 locates the clamp)."""
     ours = single_impact(contact.law_from_name(law, stiffness=K, **params), MASS, V0)
     ref = reference.single_impact(law, MASS, V0, stiffness=K, exponent=1.5, **params)
-    assert ours["restitution_effective"] == pytest.approx(ref["restitution_effective"], abs=1e-4)
-    assert ours["delta_max"] == pytest.approx(ref["delta_max"], rel=1e-4)
-    assert ours["force_max"] == pytest.approx(ref["force_max"], rel=1e-4)
-    assert ours["duration"] == pytest.approx(ref["duration"], rel=1e-3)
+    for key in ("restitution_effective", "v_out", "delta_max", "force_max", "duration"):
+        assert ours[key] == pytest.approx(ref[key], rel=1e-9), key
 
 
 def test_kelvin_voigt_clamps_and_matches_reference() -> None:
@@ -56,9 +53,41 @@ def test_kelvin_voigt_clamps_and_matches_reference() -> None:
     law = contact.KelvinVoigt(stiffness=4.0e6, damping=150.0)
     ours = single_impact(law, MASS, V0)
     ref = reference.single_impact("kelvin-voigt", MASS, V0, stiffness=4.0e6, damping=150.0)
-    assert ours["restitution_effective"] == pytest.approx(ref["restitution_effective"], abs=1e-4)
-    assert ours["duration"] == pytest.approx(ref["duration"], rel=1e-4)
+    for key in ("restitution_effective", "v_out", "delta_max", "force_max", "duration"):
+        assert ours[key] == pytest.approx(ref[key], rel=1e-9), key
     assert ours["restitution_effective"] < 0.9
+
+
+def kelvin_voigt_free_peak_force(k: float, c: float, mass: float, v0: float) -> float:
+    """The largest force ``k δ + c δ̇`` of the free response from ``δ = 0``, ``δ̇ = v0``
+    (underdamped: ``δ = (v0/ω_d) e^{−at} sin ω_d t`` with ``a = c/(2m)``). Where
+    ``dF/dt = k δ̇ + c δ̈ = v0 e^{−at} [(k − 2ac) cos ω_d t + (c(a² − ω_d²) − k a)/ω_d sin ω_d t]``
+    starts negative (``k < c²/m``, i.e. ζ > 1/2) the force only falls and its peak is the
+    onset ``c v0`` (overdamped too: ``F`` obeys ``m F'' + c F' + k F = 0`` as δ does, so its
+    rate has at most one zero, past the clamp); else the peak is at its first zero,
+    ``tan ω_d t = (k − 2ac) ω_d / (k a − c(a² − ω_d²))``."""
+    a = c / (2 * mass)
+    if k - 2 * a * c <= 0:
+        return c * v0
+    wd = math.sqrt(k / mass - a * a)
+    t = math.atan2((k - 2 * a * c) * wd, k * a - c * (a * a - wd * wd)) / wd
+    delta = v0 / wd * math.exp(-a * t) * math.sin(wd * t)
+    rate = v0 * math.exp(-a * t) * (math.cos(wd * t) - a / wd * math.sin(wd * t))
+    return k * delta + c * rate
+
+
+@pytest.mark.parametrize("zeta", [1.24, 0.8, 0.55, 0.3, 0.1875])
+def test_kelvin_voigt_force_peak_is_the_closed_form(zeta: float) -> None:
+    """force_max of a Kelvin–Voigt impact: for ζ > 1/2 the force jumps to ``c v0`` at the touch
+    and only falls, so the peak is that onset value (ζ = 1.24 is the paper's spheres' at
+    ce = 0.1, where the fixed-step Newmark of old had 12 % too much and DOP853 missed it); for
+    ζ < 1/2 the closed-form peak where dF/dt = 0. To 1e-8."""
+    k = 4.0e6
+    c = 2 * zeta * math.sqrt(k * MASS)
+    out = single_impact(contact.KelvinVoigt(stiffness=k, damping=c), MASS, V0)
+    expected = kelvin_voigt_free_peak_force(k, c, MASS, V0)
+    assert (expected == c * V0) == (zeta > 0.5)
+    assert out["force_max"] == pytest.approx(expected, rel=1e-8)
 
 
 def test_paper_two_spheres_separation_speeds() -> None:

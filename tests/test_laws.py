@@ -13,6 +13,7 @@ import reference
 from vibroimpact import contact
 from vibroimpact.impact import single_impact, single_impact_result
 from vibroimpact.laws_compare import (
+    COMPARE_FIELDS,
     DESIGN_ACCURACY,
     DOC_MASS,
     DOC_RESTITUTIONS,
@@ -38,19 +39,22 @@ def _reference_params(law: contact.ContactLaw) -> dict:
 
 
 @pytest.mark.parametrize("name", list(contact.FORCE_LAWS))
-def test_core_restitution_matches_scipy_reference(
+def test_core_impact_matches_scipy_reference(
     name: str, core_table: dict[str, dict[float, float]]
 ) -> None:
-    """The effective restitution of one impact by the core equals an independent SciPy
-    solve_ivp integration of the law's formula (tests/reference.py) to 1e-3, for every ce."""
-    # The tabulated law's kinks (101 points) make DOP853 slow at rtol 1e-10; 1e-8 changes its
-    # e_eff by < 1e-6.
-    rtol = 1e-8 if name == "tabulated" else 1e-10
+    """One impact by the core (DOP853) equals an independent SciPy solve_ivp integration of the
+    law's formula (tests/reference.py) for every ce: every number to 1e-8 (the issue asks 1e-3
+    of the restitution); the tabulated law to 3e-5, the reference's own error at rtol 1e-8
+    (its value moves by 1e-5 from rtol 1e-8 to 1e-11, where it is within 2e-9 of ours; its
+    kinks make rtol 1e-10 slow). The documented table holds the same restitutions."""
+    rtol, tol = (1e-8, 3e-5) if name == "tabulated" else (1e-10, 1e-8)
     for ce in DOC_RESTITUTIONS:
         law = comparison_laws(ce, MASS, V0, K, 1.5, [name])[name]
         ref = reference.single_impact(name, MASS, V0, rtol=rtol, **_reference_params(law))
-        ours = core_table[name][ce]
-        assert ours == pytest.approx(ref["restitution_effective"], abs=1e-3), (name, ce)
+        ours = single_impact(law, MASS, V0)
+        for key in COMPARE_FIELDS:
+            assert ours[key] == pytest.approx(ref[key], rel=tol), (name, ce, key)
+        assert core_table[name][ce] == ours["restitution_effective"], (name, ce)
 
 
 @pytest.mark.parametrize("name", list(DESIGN_ACCURACY))
@@ -78,14 +82,14 @@ def test_restitution_independent_of_stiffness_mass_and_speed() -> None:
     a = restitution_table((0.5,), ["flores", "carvalho-martins"], 0.04, 0.3, K, 1.5)
     b = restitution_table((0.5,), ["flores", "carvalho-martins"], 2.0, 1.7, 3.0e7, 1.0)
     for name in a:
-        assert a[name][0.5] == pytest.approx(b[name][0.5], abs=2e-4)
+        assert a[name][0.5] == pytest.approx(b[name][0.5], abs=1e-9)
 
 
 @pytest.mark.parametrize("ce", [0.05, 0.3, 0.5, 0.8, 0.95, 0.999])
 def test_exact_restitution_restitutes_ce(ce: float) -> None:
     """One impact of ``exact-restitution`` restitutes ce: in the independent SciPy integration
     of its force (with the reference's own root of χ − ln(1+χ) = −χ ce − ln(1 − χ ce)) to 1e-8
-    and in the core to 1e-7, on the paper's spheres and on a soft linear contact (K, n, m and
+    and in the core to 1e-9, on the paper's spheres and on a soft linear contact (K, n, m and
     v_imp drop out of the relation)."""
     chi = reference.exact_hunt_crossley_factor(ce)
     assert chi - math.log1p(chi) == pytest.approx(-chi * ce - math.log1p(-chi * ce), rel=1e-8)
@@ -95,28 +99,30 @@ def test_exact_restitution_restitutes_ce(ce: float) -> None:
         ref = reference.single_impact("exact-restitution", mass, v0, rtol=1e-10, stiffness=k,
                                       exponent=n, restitution=ce)
         assert ref["restitution_effective"] == pytest.approx(ce, abs=1e-8), (k, n)
-        assert ours["restitution_effective"] == pytest.approx(ce, abs=1e-7), (k, n)
-        assert ours["v_out"] == pytest.approx(ref["v_out"], abs=1e-7 * v0), (k, n)
+        assert ours["restitution_effective"] == pytest.approx(ce, abs=1e-9), (k, n)
+        assert ours["v_out"] == pytest.approx(ref["v_out"], abs=1e-9 * v0), (k, n)
 
 
 def test_hertz_conserves_energy() -> None:
     result = single_impact_result(contact.Hertz(stiffness=K), MASS, V0)
     kinetic = 0.5 * MASS * V0**2
-    assert result.impacts.restitution_effective[0] == pytest.approx(1.0, abs=1e-6)
-    assert abs(result.energy.contact_dissipated[-1]) <= 1e-9 * kinetic
-    assert result.energy.kinetic[-1] == pytest.approx(kinetic, rel=1e-6)
-    assert abs(result.energy.balance_error) <= 1e-6
+    assert result.impacts.restitution_effective[0] == pytest.approx(1.0, abs=1e-10)
+    assert abs(result.energy.contact_dissipated[-1]) <= 1e-10 * kinetic
+    assert result.energy.kinetic[-1] == pytest.approx(kinetic, rel=1e-10)
+    assert abs(result.energy.balance_error) <= 1e-10
 
 
 @pytest.mark.parametrize("name", [n for n in contact.FORCE_LAWS if n != "hertz"])
 def test_dissipated_energy_is_the_work_of_the_force(name: str) -> None:
     """The energy account's contact dissipation equals the kinetic energy the impact took,
-    ½ m (v_in² − v_out²), and the account balances."""
+    ½ m (v_in² − v_out²), and the account balances: to 1e-9 of the impact's energy (3e-8 for
+    the tabulated law, whose force has a kink at every table point)."""
     law = comparison_laws(0.5, MASS, V0, K, 1.5, [name])[name]
     result = single_impact_result(law, MASS, V0)
     v_in, v_out = result.impacts.v_in[0], result.impacts.v_out[0]
     lost = 0.5 * MASS * (v_in**2 - v_out**2)
     kinetic = 0.5 * MASS * V0**2
     assert lost > 0.1 * kinetic, name
-    assert result.energy.contact_dissipated[-1] == pytest.approx(lost, abs=1e-6 * kinetic)
-    assert abs(result.energy.balance_error) <= 1e-6, name
+    tol = 3e-8 if name == "tabulated" else 1e-9
+    assert result.energy.contact_dissipated[-1] == pytest.approx(lost, abs=tol * kinetic)
+    assert abs(result.energy.balance_error) <= tol, name

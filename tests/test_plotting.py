@@ -103,8 +103,11 @@ def test_indentation_curves_span_the_contact() -> None:
     imp = r.impacts
     loop = r.plot("force-indentation").axes[0].get_lines()[0]
     delta, force = loop.get_xdata(), loop.get_ydata()
-    assert np.nanmax(delta) == pytest.approx(imp.delta_max[0], rel=1e-6)
-    assert np.nanmax(force) == pytest.approx(imp.force_max[0], rel=1e-6)
+    # the curves join the step ends (about 200 a contact: 5e-6 short of the peaks here); the
+    # table has the motion's peaks
+    assert np.nanmax(delta) == pytest.approx(imp.delta_max[0], rel=1e-4)
+    assert np.nanmax(force) == pytest.approx(imp.force_max[0], rel=1e-4)
+    assert np.nanmax(delta) <= imp.delta_max[0] and np.nanmax(force) <= imp.force_max[0]
     rate = r.plot("velocity-indentation").axes[0].get_lines()[0].get_ydata()
     rate = rate[np.isfinite(rate)]
     # starts at the approach speed, ends at minus the separation speed (one step's change)

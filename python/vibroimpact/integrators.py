@@ -650,7 +650,9 @@ three more evaluations, spent only in such a step), whose error is the step's: t
 table's `delta_max`, the largest force (golden-section search along the interpolant), the
 run's `max_abs_displacement` and a sweep's peaks come from inside the steps, so no step
 needs to end on a peak, and a free vibration's amplitude is exact to the tolerance although
-a period takes about ten steps.
+a period takes about ten steps. The force at a contact's first instant (the law at
+`δ = 0⁺`, as the dynamics evaluate it) is a candidate too: Kelvin–Voigt's `c·v_imp`, its
+largest for `ζ > 1/2`, where its force only falls (every method's impact table has it).
 
 **Contact ends in ζ = √δ.** A Hertzian force starts and ends like `t^1.5`, so in time the
 motion has a `t^3.5` term there and no expansion in `h` holds: the steps would have to shrink

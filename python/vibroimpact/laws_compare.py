@@ -199,8 +199,8 @@ class DesignAccuracy:
 #: range each source proposes its law for (the tolerances are this project's reading of
 #: those claims; the sources give them as figures, not numbers).
 DESIGN_ACCURACY: dict[str, DesignAccuracy] = {
-    "kelvin-voigt": DesignAccuracy(0.0, 1.0, 1e-4, "exact relation of the clamped contact; "
-                                   "Newmark resolves its kinks to ~3e-5"),
+    "kelvin-voigt": DesignAccuracy(0.0, 1.0, 1e-8, "exact relation of the clamped contact; "
+                                   "DOP853 locates its clamp"),
     "hunt-crossley": DesignAccuracy(0.9, 1.0, 0.01, "derived for ce near 1"),
     "herbert-mcwhannell": DesignAccuracy(0.9, 1.0, 0.002, "Hunt–Crossley's factor as ce → 1"),
     "lankarani-nikravesh": DesignAccuracy(0.9, 1.0, 0.015, "derived for ce near 1"),

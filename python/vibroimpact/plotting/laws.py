@@ -33,7 +33,8 @@ if TYPE_CHECKING:
 __all__ = ["contact_curves", "force_indentation_loops", "plot_laws",
            "velocity_indentation_curves"]
 
-#: Points kept per curve (the runs have ~20,000 steps per contact).
+#: Points kept per curve at most (the runs have about 200 steps per contact, see
+#: :data:`vibroimpact.impact.STEPS_PER_CONTACT`).
 MAX_POINTS = 2000
 
 

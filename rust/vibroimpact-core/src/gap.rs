@@ -4,6 +4,7 @@
 use crate::contact::{ContactLaw, Law, MIN_IMPACT_SPEED};
 use crate::error::{invalid, SimError};
 use crate::interpolation::{parabola_peak, HermiteSegment};
+use crate::system::System;
 
 /// Which wall(s) the gap coordinate can hit.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -251,17 +252,18 @@ impl ImpactLog {
 
     /// Updates the table for a committed step `[t, t + h]`. `interior`: what the integrator
     /// knows of each wall inside the step (else the trapezoidal rule, the parabola through the
-    /// last force samples and the cubic Hermite interpolant of the penetration).
+    /// last force samples and the cubic Hermite interpolant of the penetration). The force at
+    /// a contact's first instant is always a candidate for its peak (see [`onset_force`]).
     pub(crate) fn commit(
         &mut self,
-        walls: &[Wall],
+        sys: &System,
         before: &[WallState],
         after: &[WallState],
         t: f64,
         h: f64,
         interior: Option<&WallInterior>,
     ) {
-        for (j, wall) in walls.iter().enumerate() {
+        for (j, wall) in sys.walls.iter().enumerate() {
             let (s0, s1) = (&before[j], &after[j]);
             if !s0.closed() && !s1.closed() {
                 continue;
@@ -282,17 +284,19 @@ impl ImpactLog {
                 (false, true) => {
                     let theta = seg.crossing();
                     let t_start = t + theta * h;
+                    let v_in = seg.rate(theta);
+                    let onset = onset_force(&sys.gaps[wall.gap].law, v_in, s1.impact_speed);
                     self.open[j] = Some(self.records.len());
-                    self.history[j] = [(t_start, 0.0), (t_start, 0.0)];
+                    self.history[j] = [(t_start, onset), (t_start, onset)];
                     self.records.push(ImpactRecord {
                         gap: wall.gap,
                         side: wall.sign,
                         t_start,
                         t_end: f64::NAN,
-                        v_in: seg.rate(theta),
+                        v_in,
                         v_out: f64::NAN,
                         delta_max: 0.0,
-                        force_max: 0.0,
+                        force_max: onset,
                         impulse: known.map_or(0.5 * (1.0 - theta) * h * s1.force, |k| k.impulse),
                     });
                     self.update_peaks(j, &seg, s0, s1, t + h, known);
@@ -354,6 +358,17 @@ impl ImpactLog {
         ));
         self.history[j] = [(tb, fb), (t1, s1.force)];
     }
+}
+
+/// The force at a contact's first instant, N: the law at the smallest positive penetration
+/// and the closing rate `v_in`, as the integrators evaluate a wall from its closing on. Zero
+/// for a power law; Kelvin–Voigt's `c·v_in`, its largest value over the contact when its
+/// force only falls (`ζ > 1/2`), where a peak found from the samples inside the contact
+/// would miss it (or a parabola through the closing's zero overshoot it).
+fn onset_force(law: &Law, v_in: f64, impact_speed: f64) -> f64 {
+    let smallest = f64::MIN_POSITIVE;
+    law.force_in_contact(smallest, v_in, impact_speed, smallest)
+        .force
 }
 
 /// Newton on the Hermite interpolant's derivative, from a first guess inside the step.

@@ -656,14 +656,8 @@ impl<'o> Run<'o> {
                 .max(inside.map_or(0.0, |(_, x)| x.abs()));
         }
         let interior = integrals.map(|i| &i.walls);
-        self.log.commit(
-            &sys.walls,
-            &self.cur.walls,
-            &trial.walls,
-            self.cur.t,
-            h,
-            interior,
-        );
+        self.log
+            .commit(sys, &self.cur.walls, &trial.walls, self.cur.t, h, interior);
         self.contact_events(sys, iterations);
         if let Some(observer) = self.observer.as_deref_mut() {
             let turns = integrals.map(|i| i.displacement_turns);

@@ -376,3 +376,65 @@ fn two_gaps_and_a_load_agree_with_a_fine_reference() {
         }
     }
 }
+
+/// The largest force of a free mass `m` meeting a wall at speed `v0` through a Kelvin–Voigt
+/// contact `k δ + c δ̇` (clamped non-tensile). `F` obeys the motion's own equation
+/// `m F'' + c F' + k F = 0` from `F(0) = c v0`, `F'(0) = v0 (k − c²/m)`: if that rate is not
+/// positive (`ζ ≥ 1/2`) the force only falls and its peak is the onset `c v0`; else it peaks
+/// where `F' = 0`, `tan(ω_d t) = F'(0)/(a B + ω_d A)` with `F = e^{−at}(A cos ω_d t + B sin ω_d t)`.
+fn kelvin_voigt_peak_force(m: f64, k: f64, c: f64, v0: f64) -> f64 {
+    let (f0, rate0) = (c * v0, v0 * (k - c * c / m));
+    if rate0 <= 0.0 {
+        return f0;
+    }
+    let (a, wd) = (c / (2.0 * m), (k / m - (c / (2.0 * m)).powi(2)).sqrt());
+    let b = (rate0 + a * f0) / wd;
+    let t = rate0.atan2(a * b + wd * f0) / wd;
+    (-a * t).exp() * (f0 * (wd * t).cos() + b * (wd * t).sin())
+}
+
+#[test]
+fn kelvin_voigt_force_peak_includes_the_onset_in_every_method() {
+    let (m, k, v0): (f64, f64, f64) = (0.04, 2.4e8, 0.3);
+    let newmark = Method::NewmarkFamily(NewmarkFamily::average_acceleration());
+    let alpha = Method::NewmarkFamily(generalized_alpha(0.8));
+    let methods = [
+        newmark,
+        alpha,
+        ADAMS,
+        PREDICTOR_CORRECTOR,
+        BATHE,
+        Method::Dop853,
+    ];
+    let period = std::f64::consts::TAU * (m / k).sqrt();
+    // ζ = 0.8: the onset is the peak, a candidate of every method's impact table (it was
+    // missed, or overshot by a parabola through the closing's zero: 12 % with Newmark).
+    // ζ = 0.2: the peak inside; the fixed-step methods are first order there (the force
+    // jumps at the closing inside a step: 3e-3 at 400 steps a period, 8e-4 at 1600).
+    for (zeta, fixed_step_tol) in [(0.8, 1e-12), (0.2, 1e-2)] {
+        let c = 2.0 * zeta * (k * m).sqrt();
+        let gap = Gap {
+            dofs: vec![0],
+            coefficients: vec![1.0],
+            clearance: 0.0,
+            side: Side::Positive,
+            law: Law::KelvinVoigt(KelvinVoigt::new(k, c).unwrap()),
+        };
+        let sys = sdof(m, 0.0, 0.0, vec![gap], vec![]);
+        let expected = kelvin_voigt_peak_force(m, k, c, v0);
+        for method in methods {
+            let out = run(&sys, method, period, period / 400.0, 0.0, v0);
+            assert_eq!(out.impacts.len(), 1, "{method:?}");
+            let tol = if method == Method::Dop853 {
+                1e-9
+            } else {
+                fixed_step_tol
+            };
+            let force_max = out.impacts[0].force_max;
+            assert!(
+                (force_max / expected - 1.0).abs() < tol,
+                "{method:?} zeta = {zeta}: {force_max} vs {expected}"
+            );
+        }
+    }
+}

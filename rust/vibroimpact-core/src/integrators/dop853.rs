@@ -1298,7 +1298,10 @@ impl Inside {
                 };
             }
             let law = &sys.gaps[sys.walls[j].gap].law;
+            // as the dynamics evaluate it: from the smallest penetration at least, so that the
+            // first instant of a contact (Kelvin–Voigt's c·v_imp) is a candidate
             let evaluate = |penetration: f64, rate: f64| {
+                let penetration = penetration.max(f64::MIN_POSITIVE);
                 let max_penetration = c.max_penetration.max(penetration);
                 law.force_in_contact(penetration, rate, c.impact_speed, max_penetration)
             };
@@ -1321,17 +1324,17 @@ impl Inside {
                 .enumerate()
                 .max_by(|a, b| a.1.total_cmp(b.1))
                 .expect("samples");
-            self.force_max[j] = self.force_max[j].max(best);
-            if k == 0 || k == FORCE_SAMPLES {
-                continue;
-            }
+            // the force rises at the start and falls at the end, so its peak is inside even
+            // where the largest sample is an end's (a peak within 1/8 of the step of it)
             let ds = 1.0 / FORCE_SAMPLES as f64;
-            let s = golden_max(on_segment, (k - 1) as f64 * ds, (k + 1) as f64 * ds);
-            self.force_max[j] = if in_time {
+            let (a, b) = (k.saturating_sub(1), (k + 1).min(FORCE_SAMPLES));
+            let s = golden_max(on_segment, a as f64 * ds, b as f64 * ds);
+            let peak = if in_time {
                 force(dense.wall(sys, j, s))
             } else {
                 on_segment(s).max(best)
             };
+            self.force_max[j] = self.force_max[j].max(peak);
         }
     }
 }
