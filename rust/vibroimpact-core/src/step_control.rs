@@ -12,11 +12,14 @@
 
 use nalgebra::DMatrix;
 
+use crate::driver::Run;
 use crate::error::{invalid, SimError};
 use crate::gap::{Wall, WallState};
+use crate::integrators::NewmarkFamily;
 use crate::integrators::{StepFailure, Stepper, ANY_LEVEL};
 use crate::interpolation::HermiteSegment;
-use crate::simulate::{Method, Run, Stats};
+use crate::output::Stats;
+use crate::settings::Adaptive;
 use crate::system::{State, System};
 
 /// Peaks of the penetration closer than this fraction of the step to its ends are not
@@ -25,49 +28,6 @@ const PEAK_MARGIN: f64 = 1e-2;
 
 /// Cached step sizes per halving of the step.
 const LEVELS_PER_OCTAVE: f64 = 4.0;
-
-/// Tolerances and limits of adaptive stepping.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Adaptive {
-    /// Relative tolerance on the local displacement error.
-    pub rtol: f64,
-    /// Absolute tolerance on it, m.
-    pub atol: f64,
-    /// Smallest step, s.
-    pub dt_min: f64,
-    /// Largest step, s.
-    pub dt_max: f64,
-}
-
-impl Adaptive {
-    /// Checks the tolerances and limits against the run's duration; returns `dt_max`
-    /// shortened so that `t_end` is a whole number of largest steps.
-    pub(crate) fn checked_dt_max(&self, t_end: f64) -> Result<f64, SimError> {
-        for (name, v) in [("rtol", self.rtol), ("atol", self.atol)] {
-            if !(v.is_finite() && v >= 0.0) {
-                return invalid(format!(
-                    "solver.{name}: {v} is not valid; expected a tolerance >= 0"
-                ));
-            }
-        }
-        if self.rtol == 0.0 && self.atol == 0.0 {
-            return invalid("solver.rtol: 0 with atol = 0 is not valid; expected a tolerance > 0");
-        }
-        if !(self.dt_min.is_finite() && self.dt_min > 0.0) {
-            return invalid(format!(
-                "solver.dt_min: {} is not valid; expected a step > 0 in s",
-                self.dt_min
-            ));
-        }
-        if !(self.dt_max.is_finite() && self.dt_max >= self.dt_min && self.dt_max <= t_end) {
-            return invalid(format!(
-                    "solver.dt_max: {} is not valid; expected dt_min <= dt_max <= t_end ({} to {t_end} s)",
-                    self.dt_max, self.dt_min
-                ));
-        }
-        Ok(t_end / (t_end / self.dt_max - 1e-9).ceil())
-    }
-}
 
 /// Adaptive stepping, validated and resolved against the run's duration.
 pub(crate) struct StepControl {
@@ -85,13 +45,12 @@ pub(crate) struct StepControl {
 }
 
 impl StepControl {
-    pub fn new(tol: Adaptive, method: Method, t_end: f64, dt: f64) -> Result<Self, SimError> {
-        let Method::NewmarkFamily(scheme) = method else {
-            return invalid(
-                "solver.adaptive: true is not valid for this method; expected adaptive = false \
-                 (adaptive stepping is available for the Newmark family)",
-            );
-        };
+    pub fn new(
+        tol: Adaptive,
+        scheme: NewmarkFamily,
+        t_end: f64,
+        dt: f64,
+    ) -> Result<Self, SimError> {
         let dt_max = tol.checked_dt_max(t_end)?;
         let octaves = (dt_max / tol.dt_min).log2();
         if octaves > 60.0 {

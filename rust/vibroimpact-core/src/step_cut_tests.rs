@@ -6,10 +6,11 @@
 use nalgebra::{DMatrix, DVector};
 
 use crate::contact::{LankaraniNikravesh, Law};
+use crate::driver::Run;
 use crate::error::SimError;
 use crate::gap::{Gap, Side, WallState};
 use crate::integrators::{NewmarkFamily, NewmarkStepper, NewtonSettings, StepFailure, Stepper};
-use crate::simulate::{simulate, Method, Run, RunSettings};
+use crate::simulate::{simulate, Method, RunSettings};
 use crate::structure::LinearStructure;
 use crate::system::{State, System};
 

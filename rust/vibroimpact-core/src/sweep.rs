@@ -22,7 +22,11 @@ use rayon::prelude::*;
 
 use crate::error::{invalid, SimError};
 use crate::interpolation::HermiteSegment;
-use crate::simulate::{simulate_observed, Method, RunSettings, Stats, StepObserver, Turn};
+use crate::method::Method;
+use crate::observe::{StepObserver, Turn};
+use crate::output::Stats;
+use crate::settings::RunSettings;
+use crate::simulate::simulate_observed;
 use crate::system::{State, System};
 
 /// What a sweep keeps of each run, and how long the run is.

@@ -49,7 +49,8 @@ use super::{steps, Output, Rigidity, Work};
 use crate::error::{invalid, SimError};
 use crate::gap::ImpactRecord;
 use crate::integrators::expm::duhamel;
-use crate::simulate::{RunOutput, RunSettings, Stats};
+use crate::output::{RunOutput, Stats};
+use crate::settings::RunSettings;
 use crate::system::System;
 
 /// The method's name in errors.

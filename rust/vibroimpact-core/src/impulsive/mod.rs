@@ -11,16 +11,16 @@
 //!   gap velocities (Moreau 1988, Jean 1999).
 //!
 //! Rigid gaps are accepted only by these methods, and these methods accept only rigid gaps
-//! ([`check_method_laws`]). Both write the same impact table as the compliant integrators:
+//! (`Method::check_laws`). Both write the same impact table as the compliant integrators:
 //! an impact is a row with `t_start = t_end` (the impact instant), `v_in`, `v_out`, the
 //! impulse `P` (N·s), `delta_max = 0` and `force_max = NaN` (an impact has no finite force).
 //! A contact that sticks (event-driven) is a row from the impact that ended the chattering
 //! to the release, with `force_max` the largest contact force while stuck and `impulse`
 //! including `∫ λ dt`. See docs/rigid-impacts.md.
 
-mod event_driven;
+pub(crate) mod event_driven;
 pub mod lcp;
-mod moreau_jean;
+pub(crate) mod moreau_jean;
 
 pub use event_driven::EventDriven;
 pub use moreau_jean::MoreauJean;
@@ -29,75 +29,12 @@ use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::error::{invalid, SimError};
+use crate::error::SimError;
 use crate::gap::ImpactRecord;
-use crate::simulate::{Method, Rows, RunOutput, RunSettings, Stats};
+use crate::output::{Rows, RunOutput, Stats};
+use crate::settings::RunSettings;
 use crate::structure::DenseStructure;
 use crate::system::System;
-
-/// Refuses rigid gaps with the compliant integrators and compliant laws with the impulsive
-/// methods (one line naming the gap, its law and the method).
-pub fn check_method_laws(sys: &System, method: &Method) -> Result<(), SimError> {
-    let impulsive = is_impulsive(method);
-    for (i, g) in sys.gaps.iter().enumerate() {
-        if g.law.is_rigid() && !impulsive {
-            return invalid(format!(
-                "gaps[{i}].law.kind: 'rigid' needs solver.method = 'event-driven' or \
-                 'moreau-jean'; method '{}' takes force laws only",
-                method_name(method)
-            ));
-        }
-        if !g.law.is_rigid() && impulsive {
-            return invalid(format!(
-                "gaps[{i}].law.kind: '{}' is a force law; solver.method '{}' takes rigid gaps \
-                 only (kind = 'rigid')",
-                g.law.name(),
-                method_name(method)
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// Whether `method` is one of the impulsive methods of this module.
-pub fn is_impulsive(method: &Method) -> bool {
-    matches!(method, Method::EventDriven(_) | Method::MoreauJean(_))
-}
-
-fn method_name(method: &Method) -> &'static str {
-    match method {
-        Method::NewmarkFamily(_) => "newmark",
-        Method::Precise(_) => "precise",
-        Method::Bathe(_) => "bathe",
-        Method::EventDriven(_) => "event-driven",
-        Method::MoreauJean(_) => "moreau-jean",
-        Method::Dop853 => "dop853",
-    }
-}
-
-/// Runs an impulsive method (called by `simulate::simulate_observed`; settings already
-/// checked there).
-pub(crate) fn simulate_impulsive(
-    sys: &System,
-    method: Method,
-    settings: &RunSettings,
-    x0: DVector<f64>,
-    v0: DVector<f64>,
-) -> Result<RunOutput, SimError> {
-    check_method_laws(sys, &method)?;
-    if settings.adaptive.is_some() {
-        return invalid(format!(
-            "solver.adaptive: true is not available for method '{}'; expected false",
-            method_name(&method)
-        ));
-    }
-    crate::system::check_initial_state(sys, &x0, &v0)?;
-    match method {
-        Method::EventDriven(m) => event_driven::run(sys, m, settings, x0, v0),
-        Method::MoreauJean(m) => moreau_jean::run(sys, m, settings, x0, v0),
-        _ => unreachable!("simulate_impulsive called with a compliant method"),
-    }
-}
 
 /// What the impulsive methods need of the system: the walls as rows `g_j = s_j b_g` of the
 /// constraint Jacobian (`δ_j = g_j · x − d_j`), `M⁻¹`, and the load columns.

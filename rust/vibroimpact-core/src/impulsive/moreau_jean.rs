@@ -24,7 +24,8 @@ use super::lcp::solve_lcp;
 use super::{steps, Output, Rigidity, Work};
 use crate::error::{invalid, SimError};
 use crate::gap::ImpactRecord;
-use crate::simulate::{RunOutput, RunSettings, Stats};
+use crate::output::{RunOutput, Stats};
+use crate::settings::RunSettings;
 use crate::system::System;
 
 /// The method's name in errors.

@@ -27,12 +27,13 @@
 
 use super::dop853_tableau::{A, A_DENSE, B, C, C_DENSE, D, DENSE_STAGES, E3, E5, STAGES};
 use crate::contact::{ContactLaw, Law, MIN_IMPACT_SPEED};
+use crate::driver::{Run, StepIntegrals};
 use crate::error::SimError;
 use crate::gap::WallInterior;
 use crate::gap::WallState;
 use crate::interpolation::QuinticSegment;
-use crate::simulate::{Run, StepIntegrals, Turn};
-use crate::step_control::Adaptive;
+use crate::observe::Turn;
+use crate::settings::Adaptive;
 use crate::system::System;
 
 /// Events closer than this fraction of the step (or of `t_end`) to a step's end are
@@ -1364,8 +1365,9 @@ mod tests {
     use crate::contact::{Hertz, Law};
     use crate::gap::{Gap, Side};
     use crate::integrators::NewtonSettings;
-    use crate::simulate::{simulate, Method, RunSettings};
-    use crate::step_control::Adaptive;
+    use crate::method::Method;
+    use crate::settings::{Adaptive, RunSettings};
+    use crate::simulate::simulate;
     use crate::structure::LinearStructure;
     use crate::system::System;
 

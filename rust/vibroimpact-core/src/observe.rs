@@ -1,0 +1,78 @@
+//! What watches a run from inside the time loop: a [`Sink`] (rows in blocks, progress,
+//! solver [`Event`]s) and a [`StepObserver`] (every accepted step: the sweeps' reducers).
+
+use crate::output::Rows;
+use crate::system::{State, System};
+
+/// Where a DOF's displacement turns inside a step: the fraction of the step and the value (m
+/// or rad), on the integrator's own interpolant.
+pub type Turn = (f64, f64);
+
+/// Sees every accepted step of a run: streaming reducers (sweeps: Poincaré samples, peaks,
+/// impact statistics; `crate::sweep`) that need more than the decimated output without
+/// storing the history. Called after each accepted step from `s0` to `s1` of length `h`;
+/// `turns`: where each recorded DOF's displacement turns inside the step (fraction of the
+/// step, value), when the integrator knows it from its own interpolant.
+pub trait StepObserver {
+    fn accepted(
+        &mut self,
+        sys: &System,
+        s0: &State,
+        s1: &State,
+        h: f64,
+        turns: Option<&[Option<Turn>]>,
+    );
+}
+
+/// A solver event reported to a [`Sink`] that asks for them (`vibroimpact run --verbose`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Event {
+    /// Newton did not converge on the step of length `dt` from `t` (after `iterations`
+    /// iterations, worst at `gap` with that penetration, m); it is retried as two halves.
+    StepCut {
+        t: f64,
+        dt: f64,
+        gap: usize,
+        penetration: f64,
+        iterations: usize,
+    },
+    /// The wall on `side` (+1 / −1) of `gap` closed in the step that ended at `t`, with the
+    /// approach speed `speed`, m/s.
+    ContactStart {
+        t: f64,
+        gap: usize,
+        side: f64,
+        speed: f64,
+    },
+    /// It opened again in the step that ended at `t`, after `steps` accepted steps in contact
+    /// that took `iterations` Newton iterations; `speed` is the separation speed, m/s.
+    ContactEnd {
+        t: f64,
+        gap: usize,
+        side: f64,
+        speed: f64,
+        steps: usize,
+        iterations: usize,
+    },
+}
+
+/// Watches a run from inside the time loop (compliant methods; the impulsive methods only
+/// deliver their rows at the end): takes the recorded rows in blocks, so that they need not
+/// be held until the end, follows the simulated time and receives [`Event`]s. Every method
+/// has a default that does nothing; the calls cost nothing measurable (rows: once per block;
+/// progress: every [`crate::interrupt::CHECK_EVERY`] steps; events: only if asked for).
+pub trait Sink {
+    /// Hand the rows over every this many recorded rows (`None`: keep them all).
+    fn chunk_rows(&self) -> Option<usize> {
+        None
+    }
+    /// A block of `chunk_rows()` rows, in order.
+    fn rows(&mut self, _rows: Rows) {}
+    /// Whether [`Event`]s are wanted.
+    fn wants_events(&self) -> bool {
+        false
+    }
+    fn event(&mut self, _event: Event) {}
+    /// The simulated time reached, s.
+    fn progress(&mut self, _t: f64) {}
+}
