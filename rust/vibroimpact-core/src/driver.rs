@@ -1,15 +1,30 @@
-//! The state of a run that every step policy shares: the current and trial states, the
-//! impact table, the energy account, the decimated output and the watchers (docs/architecture.md).
+//! The one time loop of every method ([`Run::drive`]) and the state its step policies share:
+//! the current and trial states, the impact table, the energy account, the decimated output
+//! and the watchers (docs/architecture.md).
+//!
+//! The step lifecycle: a [`StepPolicy`] (fixed steps with cuts and adaptive error control,
+//! `crate::step_control`; DOP853 with located events, `integrators::dop853`; event-driven and
+//! Moreau–Jean, `crate::impulsive`) attempts steps in `run.trial` from `run.cur` and discards
+//! or retakes them as it sees fit (cuts, rejections, landings on events), then commits each
+//! step it keeps with [`Run::commit_trial`]: statistics, finiteness, energy account, peaks,
+//! impact table, `--verbose` events, the [`StepObserver`] (sweeps), and every
+//! [`interrupt::CHECK_EVERY`] steps the sink's progress, the interrupt flag and the energy
+//! check. A located event that changes the state in place (a rigid impact's velocity jump)
+//! is reported by [`Run::impact`] and [`Run::jumped`]. [`Run::drive`] records a row every
+//! `every` advances of the policy and the last one; [`Run::finish`] ends the run. What a
+//! sensitivity needs (the Jacobian of a step with respect to its start state and a parameter,
+//! the jump at a located event) has its place in [`StepPolicy::sensitivity`], which no policy
+//! fills yet.
 
 use std::time::Instant;
 
 use nalgebra::DVector;
 
 use crate::error::{SimError, ENERGY_GROWTH_LIMIT};
-use crate::gap::{ImpactLog, WallInterior};
+use crate::gap::{ImpactLog, ImpactRecord, WallInterior};
 use crate::integrators::{StepFailure, Stepper};
 use crate::interrupt;
-use crate::observe::{Event, Sink, StepObserver, Turn};
+use crate::observe::{Event, Sink, StepObserver, StepSensitivity, Turn};
 use crate::output::{Rows, RunOutput, Stats};
 use crate::system::{State, System};
 
@@ -25,11 +40,30 @@ pub(crate) struct StepIntegrals<'a> {
     pub displacement_turns: &'a [Option<Turn>],
 }
 
+/// What a method does per step: the step policy that [`Run::drive`] advances.
+pub(crate) trait StepPolicy {
+    /// Advances the run by one step of its output grid, committing every step it keeps with
+    /// [`Run::commit_trial`]: one step of the fixed grid (however many cut sub-steps, or
+    /// flights between impacts, it took) or one accepted adaptive step. `Ok(false)`: the run
+    /// had already reached its end; an error stops it (the results up to then are kept).
+    fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError>;
+
+    /// The sensitivity of the last advance, handed to the observer (the periodic orbits and
+    /// their Floquet multipliers, the next issue): the Jacobian of its end state with respect
+    /// to its start state and to a parameter, composed over its kept steps and, at a located
+    /// event, the jump (saltation) matrix. `None`: not computed (no policy does yet).
+    fn sensitivity(&self) -> Option<&StepSensitivity> {
+        None
+    }
+}
+
 /// The state of a run and everything accumulated from its accepted steps.
 pub(crate) struct Run<'o> {
     pub cur: State,
     pub trial: State,
-    pub log: ImpactLog,
+    /// The impact table from the closings and openings of the committed steps; `None` when
+    /// the policy keeps its own (the impulsive methods: an impact is an instant).
+    pub log: Option<ImpactLog>,
     pub out: Recorder<'o>,
     pub account: Account,
     pub stats: Stats,
@@ -43,6 +77,8 @@ pub(crate) struct Run<'o> {
     /// Per wall while it is closed: accepted steps and Newton iterations (for
     /// [`Event::ContactEnd`]; only when the sink wants events).
     contact: Option<Vec<(usize, usize)>>,
+    /// The sink wants [`Event`]s.
+    events: bool,
 }
 
 impl<'o> Run<'o> {
@@ -66,24 +102,27 @@ impl<'o> Run<'o> {
             energy_in: e0,
             trial: cur.clone(),
             cur,
-            log,
+            log: Some(log),
             out,
             account,
             stats: Stats::default(),
             observer: None,
             contact: None,
+            events: false,
         })
     }
 
     /// Ends the run stopped by `error` (if any): the last check of the energy (runs shorter
     /// than [`interrupt::CHECK_EVERY`] steps), the row of the instant it stopped at, the last
     /// progress report, and everything it returns; `dt`: the step used, s.
+    /// `impacts`: the table of a policy that keeps its own (else the run's log).
     pub(crate) fn finish(
         mut self,
         sys: &System,
         error: Option<SimError>,
         dt: f64,
         started: Instant,
+        impacts: Option<Vec<ImpactRecord>>,
     ) -> RunOutput {
         let error = error.or_else(|| self.check_energy(sys).err());
         if error.is_some() && self.out.last_time != self.cur.t {
@@ -98,7 +137,9 @@ impl<'o> Run<'o> {
             rows: out.rows,
             record_dofs: out.dofs,
             max_abs_displacement: out.max_abs,
-            impacts: self.log.records,
+            impacts: impacts
+                .or(self.log.map(|log| log.records))
+                .unwrap_or_default(),
             stats: self.stats,
             dt,
             error,
@@ -107,7 +148,8 @@ impl<'o> Run<'o> {
 
     /// Hands the rows recorded from now on, the progress and the events to `sink`.
     pub(crate) fn watch(&mut self, sink: &'o mut dyn Sink) {
-        if sink.wants_events() {
+        self.events = sink.wants_events();
+        if self.events {
             self.contact = Some(vec![(0, 0); self.cur.walls.len()]);
         }
         self.out.chunk = sink.chunk_rows().map(|n| n.max(1));
@@ -212,16 +254,18 @@ impl<'o> Run<'o> {
                 .max(trial.x[d].abs())
                 .max(inside.map_or(0.0, |(_, x)| x.abs()));
         }
-        let interior = integrals.map(|i| &i.walls);
-        self.log.commit(
-            &sys.walls,
-            &self.cur.walls,
-            &trial.walls,
-            self.cur.t,
-            h,
-            interior,
-        );
-        self.contact_events(sys, iterations);
+        if let Some(log) = self.log.as_mut() {
+            let interior = integrals.map(|i| &i.walls);
+            log.commit(
+                &sys.walls,
+                &self.cur.walls,
+                &trial.walls,
+                self.cur.t,
+                h,
+                interior,
+            );
+            self.contact_events(sys, iterations);
+        }
         if let Some(observer) = self.observer.as_deref_mut() {
             let turns = integrals.map(|i| i.displacement_turns);
             observer.accepted(sys, &self.cur, &self.trial, h, turns);
@@ -265,52 +309,70 @@ impl<'o> Run<'o> {
         Ok(())
     }
 
-    /// `n_steps` steps of `h0`, each halved (recursively, up to `max_cuts` times) when
-    /// Newton fails.
-    pub(crate) fn fixed_steps(
+    /// The one time loop: advances `policy` to the end of the run, recording a row every
+    /// `every` advances and after the last one. Returns the error that stopped the run, if any.
+    pub(crate) fn drive(
         &mut self,
         sys: &System,
-        stepper: &mut dyn Stepper,
-        h0: f64,
-        n_steps: usize,
+        policy: &mut dyn StepPolicy,
         every: usize,
-        max_cuts: usize,
     ) -> Option<SimError> {
-        let mut pending: Vec<usize> = Vec::with_capacity(2 * max_cuts + 2);
-        for step in 1..=n_steps {
-            pending.push(0);
-            while let Some(level) = pending.pop() {
-                let h = h0 / (1u64 << level) as f64;
-                match stepper.attempt(sys, &self.cur, level, h, &mut self.trial) {
-                    Ok(iterations) => {
-                        if let Err(e) = self.accept(sys, stepper, h, iterations) {
-                            return Some(e);
-                        }
+        let mut advances = 0usize;
+        loop {
+            match policy.advance(self, sys) {
+                Ok(true) => {
+                    if let (Some(observer), Some(s)) =
+                        (self.observer.as_deref_mut(), policy.sensitivity())
+                    {
+                        observer.sensitivity(s);
                     }
-                    Err(failure) => {
-                        self.stats.rejected_steps += 1;
-                        self.stats.newton_iterations += failure.iterations;
-                        if level < max_cuts {
-                            self.stats.step_cuts += 1;
-                            self.step_cut(&failure, self.cur.t, h);
-                            pending.push(level + 1);
-                            pending.push(level + 1);
-                        } else {
-                            // Newton failing on a blown-up state: report the blow-up
-                            if let Err(e) = self.check_energy(sys) {
-                                return Some(e);
-                            }
-                            return Some(failure.into_error(self.cur.t, h));
-                        }
+                    advances += 1;
+                    if advances % every == 0 {
+                        self.out.record(sys, &self.cur, &self.account);
                     }
                 }
-            }
-            self.cur.t = step as f64 * h0;
-            if step % every == 0 || step == n_steps {
-                self.out.record(sys, &self.cur, &self.account);
+                Ok(false) => {
+                    if advances % every != 0 {
+                        self.out.record(sys, &self.cur, &self.account);
+                    }
+                    return None;
+                }
+                Err(e) => return Some(e),
             }
         }
-        None
+    }
+
+    /// A rigid wall's impact at `t` with approach speed `v_in` and separation speed `v_out`,
+    /// m/s (the impulsive methods, whose impacts are instants, not closings inside a step):
+    /// to the observer and, as [`Event::Impact`], to the sink.
+    pub(crate) fn impact(&mut self, sys: &System, wall: usize, t: f64, v_in: f64, v_out: f64) {
+        if let Some(observer) = self.observer.as_deref_mut() {
+            observer.impact(sys, wall, t, v_in);
+        }
+        if let (true, Some(sink)) = (self.events, self.out.sink.as_deref_mut()) {
+            let w = &sys.walls[wall];
+            sink.event(Event::Impact {
+                t,
+                gap: w.gap,
+                side: w.sign,
+                v_in,
+                v_out,
+            });
+        }
+    }
+
+    /// A located event changed `cur` in place (an impact's velocity jump, dissipating
+    /// `dissipated` J): to the energy account and the peaks.
+    pub(crate) fn jumped(&mut self, dissipated: f64) {
+        self.account.add([0.0, 0.0, dissipated]);
+        for (m, &d) in self.out.max_abs.iter_mut().zip(&self.out.dofs) {
+            *m = m.max(self.cur.x[d].abs());
+        }
+    }
+
+    /// Adds energy dissipated by contact impulses inside the last committed step, J.
+    pub(crate) fn impulses_dissipated(&mut self, dissipated: f64) {
+        self.account.add([0.0, 0.0, dissipated]);
     }
 }
 

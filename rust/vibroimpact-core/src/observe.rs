@@ -22,6 +22,27 @@ pub trait StepObserver {
         h: f64,
         turns: Option<&[Option<Turn>]>,
     );
+
+    /// An impact on the rigid wall `wall` (index into `sys.walls`) at `t` with approach
+    /// speed `speed`, m/s: the impulsive methods, whose impacts are velocity jumps at an
+    /// instant between two accepted steps rather than a closing inside one.
+    fn impact(&mut self, _sys: &System, _wall: usize, _t: f64, _speed: f64) {}
+
+    /// The sensitivity of the step of the output grid just taken, from the step policies that
+    /// compute one (none does yet: the hook of the periodic orbits and their Floquet
+    /// multipliers, whose monodromy matrix is the product of these over a period).
+    fn sensitivity(&mut self, _sensitivity: &StepSensitivity) {}
+}
+
+/// The linearisation of a step of the output grid (composed over the sub-steps and located
+/// events inside it); `2n` rows `[x; v]`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct StepSensitivity {
+    /// `∂(x₁, v₁)/∂(x₀, v₀)`, `2n × 2n`, row-major; across a located event it includes the
+    /// jump (saltation) matrix of the event.
+    pub wrt_state: Vec<f64>,
+    /// `∂(x₁, v₁)/∂p` for the parameter being continued, `2n`.
+    pub wrt_parameter: Vec<f64>,
 }
 
 /// A solver event reported to a [`Sink`] that asks for them (`vibroimpact run --verbose`).
@@ -54,10 +75,18 @@ pub enum Event {
         steps: usize,
         iterations: usize,
     },
+    /// A rigid wall on `side` of `gap` was hit at `t` (the impulsive methods): approach speed
+    /// `v_in` and separation speed `v_out`, m/s (0: the wall stays closed, sticking).
+    Impact {
+        t: f64,
+        gap: usize,
+        side: f64,
+        v_in: f64,
+        v_out: f64,
+    },
 }
 
-/// Watches a run from inside the time loop (compliant methods; the impulsive methods only
-/// deliver their rows at the end): takes the recorded rows in blocks, so that they need not
+/// Watches a run from inside the time loop (every method): takes the recorded rows in blocks, so that they need not
 /// be held until the end, follows the simulated time and receives [`Event`]s. Every method
 /// has a default that does nothing; the calls cost nothing measurable (rows: once per block;
 /// progress: every [`crate::interrupt::CHECK_EVERY`] steps; events: only if asked for).

@@ -11,10 +11,10 @@ use nalgebra::DVector;
 
 use crate::driver::Run;
 use crate::error::{invalid, SimError};
-use crate::impulsive::{event_driven, moreau_jean};
-use crate::integrators::dop853::{self, Steps};
+use crate::impulsive::{EventDrivenSteps, MoreauJeanSteps};
+use crate::integrators::dop853::{Dop853Steps, Steps};
 use crate::integrators::{BatheStepper, NewmarkStepper, NewtonSettings, PreciseStepper, Stepper};
-use crate::step_control::StepControl;
+use crate::step_control::{AdaptiveSteps, FixedSteps, StepControl};
 use crate::system::System;
 
 pub use crate::method::Method;
@@ -34,7 +34,8 @@ pub fn simulate(
     simulate_observed(sys, method, settings, x0, v0, None)
 }
 
-/// [`simulate`], with `observer` called on every accepted step.
+/// [`simulate`], with `observer` called on every accepted step (and on every rigid impact of
+/// the impulsive methods).
 pub fn simulate_observed(
     sys: &System,
     method: Method,
@@ -50,7 +51,7 @@ pub fn simulate_observed(
 /// are recorded (the returned [`RunOutput`] then holds only the rows recorded after the last
 /// block, at least the last one; the impact table, the peaks and the statistics are whole), following the simulated
 /// time and receiving the solver events. [`BalanceError`] gives the energy balance error over
-/// all the blocks. The impulsive methods hand everything over at the end.
+/// all the blocks.
 pub fn simulate_streamed(
     sys: &System,
     method: Method,
@@ -106,14 +107,11 @@ fn run_watched<'o>(
     }
     // Rigid gaps (massless bar) are for the impulsive methods only, and they take no others.
     method.check_laws(sys)?;
-    if method.is_impulsive() {
-        if observer.is_some() {
-            return invalid(
-                "solver.method: the impulsive methods (event-driven, moreau-jean) do not feed \
-                 step observers (sweep reducers); expected a force law and a compliant method",
-            );
-        }
-        return simulate_impulsive(sys, method, settings, x0, v0);
+    if method.is_impulsive() && adaptive.is_some() {
+        return invalid(format!(
+            "solver.adaptive: true is not available for method '{}'; expected false",
+            method.name()
+        ));
     }
     // Fixed steps: dt is shortened so that t_end is a whole number of steps. Adaptive steps:
     // the cached sizes are dt_max / 2^k, with dt_max likewise a whole fraction of t_end.
@@ -166,9 +164,28 @@ fn run_watched<'o>(
     if let Some(sink) = sink {
         run.watch(sink);
     }
-    let error = match explicit_steps {
-        Some(steps) => dop853::run(&mut run, sys, steps, t_end, every),
-        None => {
+    let mut impacts = None;
+    let error = match (explicit_steps, method) {
+        (Some(steps), _) => {
+            let mut policy = Dop853Steps::new(&run, sys, steps, t_end);
+            run.drive(sys, &mut policy, every)
+        }
+        // the impulsive methods keep their own impact table: an impact is an instant
+        (None, Method::EventDriven(m)) => {
+            run.log = None;
+            let mut policy = EventDrivenSteps::new(&mut run, sys, m, n_steps, h0)?;
+            let error = run.drive(sys, &mut policy, every);
+            impacts = Some(policy.impacts());
+            error
+        }
+        (None, Method::MoreauJean(m)) => {
+            run.log = None;
+            let mut policy = MoreauJeanSteps::new(&run, sys, m, n_steps, h0)?;
+            let error = run.drive(sys, &mut policy, every);
+            impacts = Some(policy.impacts());
+            error
+        }
+        (None, _) => {
             // Every stepper caches one operator per level of the step cuts (or adaptive sizes).
             let cut_newton = NewtonSettings {
                 max_step_cuts: max_levels,
@@ -179,42 +196,20 @@ fn run_watched<'o>(
                 Err(e @ SimError::SingularTangent { .. }) => Some(e),
                 Err(e) => return Err(e),
                 Ok(mut stepper) => match &control {
-                    None => run.fixed_steps(
-                        sys,
-                        stepper.as_mut(),
-                        h0,
-                        n_steps,
-                        every,
-                        newton.max_step_cuts,
-                    ),
-                    Some(c) => c.run(&mut run, sys, stepper.as_mut(), every),
+                    None => {
+                        let mut policy =
+                            FixedSteps::new(stepper.as_mut(), h0, n_steps, newton.max_step_cuts);
+                        run.drive(sys, &mut policy, every)
+                    }
+                    Some(c) => {
+                        let mut policy = AdaptiveSteps::new(c, stepper.as_mut(), &run, sys);
+                        run.drive(sys, &mut policy, every)
+                    }
                 },
             }
         }
     };
-    Ok(run.finish(sys, error, h0, started))
-}
-
-/// Runs an impulsive method (settings already checked by [`run_watched`]).
-fn simulate_impulsive(
-    sys: &System,
-    method: Method,
-    settings: &RunSettings,
-    x0: DVector<f64>,
-    v0: DVector<f64>,
-) -> Result<RunOutput, SimError> {
-    if settings.adaptive.is_some() {
-        return invalid(format!(
-            "solver.adaptive: true is not available for method '{}'; expected false",
-            method.name()
-        ));
-    }
-    crate::system::check_initial_state(sys, &x0, &v0)?;
-    match method {
-        Method::EventDriven(m) => event_driven::run(sys, m, settings, x0, v0),
-        Method::MoreauJean(m) => moreau_jean::run(sys, m, settings, x0, v0),
-        _ => unreachable!("simulate_impulsive called with a compliant method"),
-    }
+    Ok(run.finish(sys, error, h0, started, impacts))
 }
 
 /// The stepper of an implicit or precise `method`, its operators prepared for steps of `h0`.

@@ -18,23 +18,23 @@
 //! to the release, with `force_max` the largest contact force while stuck and `impulse`
 //! including `∫ λ dt`. See docs/rigid-impacts.md.
 
-pub(crate) mod event_driven;
+mod event_driven;
 pub mod lcp;
-pub(crate) mod moreau_jean;
+mod moreau_jean;
 
 pub use event_driven::EventDriven;
+pub(crate) use event_driven::EventDrivenSteps;
 pub use moreau_jean::MoreauJean;
+pub(crate) use moreau_jean::MoreauJeanSteps;
 
 use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
 
 use crate::error::SimError;
-use crate::gap::ImpactRecord;
-use crate::output::{Rows, RunOutput, Stats};
-use crate::settings::RunSettings;
+use crate::gap::WallState;
 use crate::structure::DenseStructure;
-use crate::system::System;
+use crate::system::{State, System};
 
 /// What the impulsive methods need of the system: the walls as rows `g_j = s_j b_g` of the
 /// constraint Jacobian (`δ_j = g_j · x − d_j`), `M⁻¹`, and the load columns.
@@ -144,120 +144,29 @@ impl Rigidity {
     }
 }
 
-/// Work integrals between two states (trapezoidal in displacement, as the compliant driver).
-#[derive(Debug, Clone, Copy, Default)]
-pub(crate) struct Work {
-    pub external: f64,
-    pub damping: f64,
-    pub contact_dissipated: f64,
-}
-
-impl Work {
-    #[allow(clippy::too_many_arguments)]
-    pub fn commit(
-        &mut self,
-        sys: &System,
-        t0: f64,
-        x0: &DVector<f64>,
-        v0: &DVector<f64>,
-        t1: f64,
-        x1: &DVector<f64>,
-        v1: &DVector<f64>,
-    ) {
-        for load in &sys.loads {
-            let moved: f64 = load.dofs.iter().map(|&d| x1[d] - x0[d]).sum();
-            self.external += 0.5 * (load.value(t0) + load.value(t1)) * moved;
-        }
-        let (x0, x1, v0, v1) = (x0.as_slice(), x1.as_slice(), v0.as_slice(), v1.as_slice());
-        self.damping += 0.5 * sys.structure.damping.increment_form(x0, x1, v0, v1);
+/// Sets the loads, gap coordinates and wall states of `s` from its `t`, `x`, `v` and `a`;
+/// `force(j)`: wall `j`'s contact force (N), all of it elastic, so that the run's energy
+/// account adds no contact work (the impulsive methods give it the dissipation of their
+/// impulses themselves).
+pub(crate) fn fill_gaps(sys: &System, rig: &Rigidity, s: &mut State, force: impl Fn(usize) -> f64) {
+    for (value, load) in s.load.iter_mut().zip(&sys.loads) {
+        *value = load.value(s.t);
     }
-}
-
-/// Decimated output of the impulsive methods.
-pub(crate) struct Output {
-    pub record_dofs: Vec<usize>,
-    pub rows: Rows,
-    pub max_abs: Vec<f64>,
-}
-
-impl Output {
-    pub fn new(record_dofs: Vec<usize>) -> Self {
-        let nd = record_dofs.len();
-        Self {
-            record_dofs,
-            rows: Rows::default(),
-            max_abs: vec![0.0; nd],
-        }
+    sys.gap_coordinates(&s.x, &mut s.u);
+    sys.gap_coordinates(&s.v, &mut s.u_rate);
+    sys.gap_coordinates(&s.a, &mut s.u_accel);
+    s.phi.fill(0.0);
+    let x = DVector::from_column_slice(&s.x);
+    let v = DVector::from_column_slice(&s.v);
+    for (j, (wall, w)) in sys.walls.iter().zip(s.walls.iter_mut()).enumerate() {
+        let f = force(j);
+        s.phi[wall.gap] += wall.sign * f;
+        *w = WallState {
+            penetration: rig.penetration(j, &x),
+            rate: rig.rate(j, &v),
+            force: f,
+            elastic_force: f,
+            ..WallState::default()
+        };
     }
-
-    pub fn peaks(&mut self, x: &DVector<f64>) {
-        for (m, &d) in self.max_abs.iter_mut().zip(&self.record_dofs) {
-            *m = m.max(x[d].abs());
-        }
-    }
-
-    /// Records one instant; `wall_force` is the contact force of each wall (N).
-    #[allow(clippy::too_many_arguments)]
-    pub fn record(
-        &mut self,
-        sys: &System,
-        rig: &Rigidity,
-        t: f64,
-        x: &DVector<f64>,
-        v: &DVector<f64>,
-        a: &DVector<f64>,
-        wall_force: &[f64],
-        work: &Work,
-    ) {
-        self.peaks(x);
-        let rows = &mut self.rows;
-        rows.time.push(t);
-        for &d in &self.record_dofs {
-            rows.displacement.push(x[d]);
-            rows.velocity.push(v[d]);
-            rows.acceleration.push(a[d]);
-        }
-        let ng = sys.gaps.len();
-        let mut pen = vec![f64::NEG_INFINITY; ng];
-        let mut force = vec![0.0; ng];
-        for (j, wall) in sys.walls.iter().enumerate() {
-            pen[wall.gap] = pen[wall.gap].max(rig.penetration(j, x));
-            force[wall.gap] += wall_force[j];
-        }
-        rows.gap_penetration.extend_from_slice(&pen);
-        rows.gap_force.extend_from_slice(&force);
-        let (kinetic, strain) = rig.energies(sys, x, v);
-        let e = &mut rows.energy;
-        e.kinetic.push(kinetic);
-        e.strain.push(strain);
-        e.contact_potential.push(0.0);
-        e.external_work.push(work.external);
-        e.damping_dissipated.push(work.damping);
-        e.contact_dissipated.push(work.contact_dissipated);
-    }
-
-    pub fn finish(
-        self,
-        impacts: Vec<ImpactRecord>,
-        stats: Stats,
-        dt: f64,
-        error: Option<SimError>,
-    ) -> RunOutput {
-        RunOutput {
-            rows: self.rows,
-            record_dofs: self.record_dofs,
-            max_abs_displacement: self.max_abs,
-            impacts,
-            stats,
-            dt,
-            error,
-        }
-    }
-}
-
-/// Number of steps and the step actually used (as the compliant driver: `t_end` a whole
-/// number of steps).
-pub(crate) fn steps(settings: &RunSettings) -> (usize, f64) {
-    let n = (settings.t_end / settings.dt - 1e-9).ceil().max(1.0) as usize;
-    (n, settings.t_end / n as f64)
 }
