@@ -259,6 +259,10 @@ def _log_events(events: list[dict[str, Any]], dropped: int) -> None:
             log.info("solver: t = %.9e s: step cut: Newton did not converge in %d iterations "
                      "(gap %d, penetration %.3e m) on a step of %.3e s; retrying with shorter "
                      "steps", e["t"], e["iterations"], e["gap"], e["penetration"], e["dt"])
+        elif kind == "impact":
+            log.info("solver: t = %.9e s: gap %d impact (%s wall), approach speed %.4g m/s, "
+                     "separation speed %.4g m/s", e["t"], e["gap"], e["side"], e["v_in"],
+                     e["v_out"])
         elif kind == "contact-start":
             log.info("solver: t = %.9e s: gap %d closed (%s wall), approach speed %.4g m/s",
                      e["t"], e["gap"], e["side"], e["speed"])
@@ -373,7 +377,7 @@ def simulate(
       only the rows recorded after the last block (its impact table, peaks, statistics and
       energy balance error are those of the whole run). Memory then holds at most three
       blocks. :func:`vibroimpact.io.results_file.simulate_to_file` uses this to write long
-      runs to disk. The impulsive methods deliver all rows at the end.
+      runs to disk.
 
     With ``logging.getLogger("vibroimpact.solver")`` at INFO (``vibroimpact run --verbose``)
     the solver's events are logged as they happen: each step cut (time, gap, penetration,

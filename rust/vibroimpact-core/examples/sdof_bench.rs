@@ -11,8 +11,8 @@ use nalgebra::{DMatrix, DVector};
 use vibroimpact_core::contact::{Hertz, LankaraniNikravesh, Law};
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings};
+use vibroimpact_core::settings::Adaptive;
 use vibroimpact_core::simulate::{simulate, Method, RunSettings};
-use vibroimpact_core::step_control::Adaptive;
 use vibroimpact_core::structure::LinearStructure;
 use vibroimpact_core::system::System;
 

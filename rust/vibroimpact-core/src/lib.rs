@@ -6,6 +6,7 @@
 //! `vibroimpact-py` crate binds it.
 
 pub mod contact;
+pub(crate) mod driver;
 pub mod error;
 pub mod gap;
 pub mod impulsive;
@@ -13,6 +14,10 @@ pub mod integrators;
 pub mod interpolation;
 pub mod interrupt;
 pub mod linalg;
+pub mod method;
+pub mod observe;
+pub mod output;
+pub mod settings;
 pub mod simulate;
 pub mod step_control;
 #[cfg(test)]

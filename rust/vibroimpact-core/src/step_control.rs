@@ -1,3 +1,6 @@
+//! The step policies of the implicit and precise integrators ([`Stepper`]s): fixed steps
+//! with automatic step cutting ([`FixedSteps`]) and adaptive steps ([`StepControl`]).
+//!
 //! Adaptive stepping for the Newmark family (docs/integrators.md): a local error estimate, step
 //! growth in free flight and reduction in contact, and every gap's closing and opening (and
 //! the first peak of each contact) located inside the step and landed on, so that no contact
@@ -12,11 +15,14 @@
 
 use nalgebra::DMatrix;
 
+use crate::driver::{Run, StepPolicy};
 use crate::error::{invalid, SimError};
 use crate::gap::{Wall, WallState};
+use crate::integrators::NewmarkFamily;
 use crate::integrators::{StepFailure, Stepper, ANY_LEVEL};
 use crate::interpolation::HermiteSegment;
-use crate::simulate::{Method, Run, Stats};
+use crate::output::Stats;
+use crate::settings::Adaptive;
 use crate::system::{State, System};
 
 /// Peaks of the penetration closer than this fraction of the step to its ends are not
@@ -26,46 +32,66 @@ const PEAK_MARGIN: f64 = 1e-2;
 /// Cached step sizes per halving of the step.
 const LEVELS_PER_OCTAVE: f64 = 4.0;
 
-/// Tolerances and limits of adaptive stepping.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Adaptive {
-    /// Relative tolerance on the local displacement error.
-    pub rtol: f64,
-    /// Absolute tolerance on it, m.
-    pub atol: f64,
-    /// Smallest step, s.
-    pub dt_min: f64,
-    /// Largest step, s.
-    pub dt_max: f64,
+/// Steps of a fixed size `h0` on the grid `k h0`, each halved (recursively, up to `max_cuts`
+/// times) when Newton fails.
+pub(crate) struct FixedSteps<'s> {
+    stepper: &'s mut dyn Stepper,
+    h0: f64,
+    n_steps: usize,
+    max_cuts: usize,
+    /// Steps of the grid taken.
+    step: usize,
+    /// Levels of the sub-steps still to take in the current grid step.
+    pending: Vec<usize>,
 }
 
-impl Adaptive {
-    /// Checks the tolerances and limits against the run's duration; returns `dt_max`
-    /// shortened so that `t_end` is a whole number of largest steps.
-    pub(crate) fn checked_dt_max(&self, t_end: f64) -> Result<f64, SimError> {
-        for (name, v) in [("rtol", self.rtol), ("atol", self.atol)] {
-            if !(v.is_finite() && v >= 0.0) {
-                return invalid(format!(
-                    "solver.{name}: {v} is not valid; expected a tolerance >= 0"
-                ));
+impl<'s> FixedSteps<'s> {
+    pub fn new(stepper: &'s mut dyn Stepper, h0: f64, n_steps: usize, max_cuts: usize) -> Self {
+        Self {
+            stepper,
+            h0,
+            n_steps,
+            max_cuts,
+            step: 0,
+            pending: Vec::with_capacity(2 * max_cuts + 2),
+        }
+    }
+}
+
+impl StepPolicy for FixedSteps<'_> {
+    fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError> {
+        if self.step == self.n_steps {
+            return Ok(false);
+        }
+        self.step += 1;
+        self.pending.push(0);
+        while let Some(level) = self.pending.pop() {
+            let h = self.h0 / (1u64 << level) as f64;
+            match self
+                .stepper
+                .attempt(sys, &run.cur, level, h, &mut run.trial)
+            {
+                Ok(iterations) => {
+                    run.accept(sys, self.stepper, h, iterations)?;
+                }
+                Err(failure) => {
+                    run.stats.rejected_steps += 1;
+                    run.stats.newton_iterations += failure.iterations;
+                    if level < self.max_cuts {
+                        run.stats.step_cuts += 1;
+                        run.step_cut(&failure, run.cur.t, h);
+                        self.pending.push(level + 1);
+                        self.pending.push(level + 1);
+                    } else {
+                        // Newton failing on a blown-up state: report the blow-up
+                        run.check_energy(sys)?;
+                        return Err(failure.into_error(run.cur.t, h));
+                    }
+                }
             }
         }
-        if self.rtol == 0.0 && self.atol == 0.0 {
-            return invalid("solver.rtol: 0 with atol = 0 is not valid; expected a tolerance > 0");
-        }
-        if !(self.dt_min.is_finite() && self.dt_min > 0.0) {
-            return invalid(format!(
-                "solver.dt_min: {} is not valid; expected a step > 0 in s",
-                self.dt_min
-            ));
-        }
-        if !(self.dt_max.is_finite() && self.dt_max >= self.dt_min && self.dt_max <= t_end) {
-            return invalid(format!(
-                    "solver.dt_max: {} is not valid; expected dt_min <= dt_max <= t_end ({} to {t_end} s)",
-                    self.dt_max, self.dt_min
-                ));
-        }
-        Ok(t_end / (t_end / self.dt_max - 1e-9).ceil())
+        run.cur.t = self.step as f64 * self.h0;
+        Ok(true)
     }
 }
 
@@ -85,13 +111,12 @@ pub(crate) struct StepControl {
 }
 
 impl StepControl {
-    pub fn new(tol: Adaptive, method: Method, t_end: f64, dt: f64) -> Result<Self, SimError> {
-        let Method::NewmarkFamily(scheme) = method else {
-            return invalid(
-                "solver.adaptive: true is not valid for this method; expected adaptive = false \
-                 (adaptive stepping is available for the Newmark family)",
-            );
-        };
+    pub fn new(
+        tol: Adaptive,
+        scheme: NewmarkFamily,
+        t_end: f64,
+        dt: f64,
+    ) -> Result<Self, SimError> {
         let dt_max = tol.checked_dt_max(t_end)?;
         let octaves = (dt_max / tol.dt_min).log2();
         if octaves > 60.0 {
@@ -197,7 +222,80 @@ impl StepControl {
         })
     }
 
-    /// Runs to `t_end`. Returns the error that stopped the run, if any.
+    /// Level after a rejected step of `h` with error `err` > 1: at least one level down.
+    fn shrunk_level(&self, h: f64, err: f64) -> usize {
+        let shrink = (0.9 * err.powf(-1.0 / 3.0)).clamp(0.1, 0.5);
+        self.level_for(h * shrink)
+            .max(self.level_for(h) + 1)
+            .min(self.levels)
+    }
+}
+
+/// Adaptive steps ([`StepControl`]) of a [`Stepper`]: what carries from one step to the next.
+pub(crate) struct AdaptiveSteps<'s> {
+    control: &'s StepControl,
+    stepper: &'s mut dyn Stepper,
+    /// Largest step at which the Richardson extrapolation is kept ([`extrapolation_limit`]).
+    h_extrapolate: f64,
+    level: usize,
+    /// Events closer than this to a step's ends are not landed on separately.
+    event_tol: f64,
+    /// A wall this close (in time) to closing is touching (landings stop short of it).
+    touch_tol: f64,
+    /// The next step lands on an event this far ahead, s.
+    landing: Option<f64>,
+    /// Acceleration and length of the previous accepted step, for the velocity error.
+    a_prev: Vec<f64>,
+    h_prev: Option<f64>,
+    /// Last step accepted in contact: the first step of the next contact.
+    h_contact: Option<f64>,
+    /// Per wall: closed (or touching) by the last accepted step.
+    just_closed: Vec<bool>,
+    /// Per wall: closed and not yet past the first peak of the contact.
+    peak_pending: Vec<bool>,
+    /// Per DOF: the largest speed so far, m/s.
+    v_max: Vec<f64>,
+    mid: State,
+    fine: State,
+    scratch: Scratch,
+}
+
+impl<'s> AdaptiveSteps<'s> {
+    /// From the run's current state.
+    pub fn new(
+        control: &'s StepControl,
+        stepper: &'s mut dyn Stepper,
+        run: &Run,
+        sys: &System,
+    ) -> Self {
+        let event_tol = (control.step(control.levels) * 1e-3).max(1e-15 * control.t_end);
+        Self {
+            control,
+            stepper,
+            h_extrapolate: if control.symmetric {
+                extrapolation_limit(sys)
+            } else {
+                0.0
+            },
+            level: control.first_level,
+            event_tol,
+            touch_tol: 4.0 * event_tol.max(1e-9 * control.dt_max),
+            landing: None,
+            a_prev: run.cur.a.clone(),
+            h_prev: None,
+            h_contact: None,
+            just_closed: vec![false; sys.walls.len()],
+            peak_pending: vec![false; sys.walls.len()],
+            v_max: run.cur.v.iter().map(|v| v.abs()).collect(),
+            mid: run.cur.clone(),
+            fine: run.cur.clone(),
+            scratch: Scratch::new(sys),
+        }
+    }
+}
+
+impl StepPolicy for AdaptiveSteps<'_> {
+    /// One accepted step (up to `t_end`).
     ///
     /// In free flight (and for the schemes other than average acceleration) each step is one
     /// Newmark step checked by [`StepControl::error`]. While a wall is closed, average
@@ -208,52 +306,25 @@ impl StepControl {
     /// stiffest mode is resolved ([`extrapolation_limit`]). Every attempt counts: the steps
     /// of an extrapolated step are its three Newmark steps, and `rejected_steps` counts the
     /// attempts discarded for the error, for an event inside them, or for Newton.
-    pub fn run(
-        &self,
-        run: &mut Run,
-        sys: &System,
-        stepper: &mut dyn Stepper,
-        every: usize,
-    ) -> Option<SimError> {
-        let h_extrapolate = if self.symmetric {
-            extrapolation_limit(sys)
-        } else {
-            0.0
-        };
-        let mut level = self.first_level;
-        // Events closer than this to a step's ends are not landed on separately.
-        let event_tol = (self.step(self.levels) * 1e-3).max(1e-15 * self.t_end);
-        // A wall this close (in time) to closing is touching (landings stop short of it).
-        let touch_tol = 4.0 * event_tol.max(1e-9 * self.dt_max);
-        let mut accepted = 0usize;
-        let mut landing: Option<f64> = None;
-        // Acceleration and length of the previous accepted step, for the velocity error.
-        let mut a_prev = run.cur.a.clone();
-        let mut h_prev: Option<f64> = None;
-        // Last step accepted in contact: the first step of the next contact.
-        let mut h_contact: Option<f64> = None;
-        // Per wall: closed (or touching) by the last accepted step.
-        let mut just_closed = vec![false; sys.walls.len()];
-        // Per wall: closed and not yet past the first peak of the contact.
-        let mut peak_pending = vec![false; sys.walls.len()];
-        let mut v_max: Vec<f64> = run.cur.v.iter().map(|v| v.abs()).collect();
-        let mut mid = run.cur.clone();
-        let mut fine = run.cur.clone();
-        let mut scratch = Scratch::new(sys);
-        while self.t_end - run.cur.t > 1e-13 * self.t_end {
-            let remaining = self.t_end - run.cur.t;
-            let (mut h, mut key) = (self.step(level), level);
-            let landed = landing.is_some();
-            if let Some(h_event) = landing.take() {
+    fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError> {
+        let c = self.control;
+        loop {
+            if c.t_end - run.cur.t <= 1e-13 * c.t_end {
+                return Ok(false);
+            }
+            let remaining = c.t_end - run.cur.t;
+            let (mut h, mut key) = (c.step(self.level), self.level);
+            let landed = self.landing.is_some();
+            if let Some(h_event) = self.landing.take() {
                 (h, key) = (h_event, ANY_LEVEL);
             }
             if h >= remaining * (1.0 - 1e-12) {
                 (h, key) = (remaining, ANY_LEVEL);
             }
-            let mut iterations = match self.attempt(
+            let mut iterations = match c.attempt(
                 &mut run.stats,
                 sys,
-                stepper,
+                self.stepper,
                 &run.cur,
                 key,
                 h,
@@ -262,38 +333,44 @@ impl StepControl {
                 Ok(it) => it,
                 Err(Retry::Level(l, failure)) => {
                     run.step_cut(&failure, run.cur.t, h);
-                    level = l;
+                    self.level = l;
                     continue;
                 }
-                Err(Retry::Failed(e)) => return Some(run.check_energy(sys).err().unwrap_or(e)),
+                Err(Retry::Failed(e)) => return Err(run.check_energy(sys).err().unwrap_or(e)),
             };
             let walls = &sys.walls;
             // Where an event is within `near` of a step's end, the step is not cut for it.
-            let near = event_tol.max(1e-9 * h);
+            let near = self.event_tol.max(1e-9 * h);
             let inside = |t: f64, h: f64| t > near && h - t > near;
             // Land on the earliest closing, opening or grazing contact inside the step.
             if let Some(t) = next_crossing(walls, &run.cur, &run.trial, h, near) {
                 if inside(t, h) {
                     reject(&mut run.stats, 1, iterations);
-                    landing = Some(t);
+                    self.landing = Some(t);
                     continue;
                 }
             }
             let in_contact = run.cur.walls.iter().any(|w| w.closed())
                 || run.trial.walls.iter().any(|w| w.closed());
-            let above_min = h > self.step(self.levels) * (1.0 + 1e-12);
+            let above_min = h > c.step(c.levels) * (1.0 + 1e-12);
             // A contact that the step resolves badly: past its peak in the step after the
             // closing, or (short, grazing) peaking inside the step far above both ends.
-            let past_peak = just_closed
+            let past_peak = self
+                .just_closed
                 .iter()
                 .zip(&run.trial.walls)
                 .any(|(&closed_now, w1)| closed_now && w1.closed() && w1.rate < 0.0);
             let unresolved =
                 in_contact && (past_peak || unresolved_contact(&run.cur, &run.trial, h));
-            let extrapolate = in_contact && h <= h_extrapolate;
+            let extrapolate = in_contact && h <= self.h_extrapolate;
             // the single step's own estimate; with step doubling a quarter of it (two half
             // steps have a quarter of one step's error) rejects a step before its halves
-            let mut err = self.error(&run.cur, &run.trial, h, h_prev.map(|hp| (&a_prev[..], hp)));
+            let mut err = c.error(
+                &run.cur,
+                &run.trial,
+                h,
+                self.h_prev.map(|hp| (&self.a_prev[..], hp)),
+            );
             if extrapolate {
                 err *= 0.25;
             }
@@ -302,15 +379,15 @@ impl StepControl {
             }
             if err > 1.0 && above_min {
                 reject(&mut run.stats, 1, iterations);
-                level = self.shrunk_level(h, err);
+                self.level = c.shrunk_level(h, err);
                 continue;
             }
             // The deepest point of a contact inside an acceptable step: land on it, unless
             // it is within 1 % of the step's ends (the peak is then off by (h/100)² δ̈ / 2).
-            if let Some(theta) = next_peak(&run.cur, &run.trial, h, &peak_pending) {
+            if let Some(theta) = next_peak(&run.cur, &run.trial, h, &self.peak_pending) {
                 if (PEAK_MARGIN..1.0 - PEAK_MARGIN).contains(&theta) {
                     reject(&mut run.stats, 1, iterations);
-                    landing = Some(theta * h);
+                    self.landing = Some(theta * h);
                     continue;
                 }
             }
@@ -318,30 +395,30 @@ impl StepControl {
             if extrapolate {
                 let half = 0.5 * h;
                 let half_key = match key {
-                    k if k != ANY_LEVEL && k + LEVELS_PER_OCTAVE as usize <= self.levels => {
+                    k if k != ANY_LEVEL && k + LEVELS_PER_OCTAVE as usize <= c.levels => {
                         k + LEVELS_PER_OCTAVE as usize
                     }
                     _ => ANY_LEVEL,
                 };
-                let halves = self
+                let halves = c
                     .attempt(
                         &mut run.stats,
                         sys,
-                        stepper,
+                        self.stepper,
                         &run.cur,
                         half_key,
                         half,
-                        &mut mid,
+                        &mut self.mid,
                     )
                     .and_then(|it| {
-                        self.attempt(
+                        c.attempt(
                             &mut run.stats,
                             sys,
-                            stepper,
-                            &mid,
+                            self.stepper,
+                            &self.mid,
                             half_key,
                             half,
-                            &mut fine,
+                            &mut self.fine,
                         )
                         .map(|it2| it + it2)
                     });
@@ -350,19 +427,19 @@ impl StepControl {
                     Err(Retry::Level(l, failure)) => {
                         run.step_cut(&failure, run.cur.t, half);
                         reject(&mut run.stats, 1, iterations);
-                        level = l;
+                        self.level = l;
                         continue;
                     }
-                    Err(Retry::Failed(e)) => return Some(run.check_energy(sys).err().unwrap_or(e)),
+                    Err(Retry::Failed(e)) => return Err(run.check_energy(sys).err().unwrap_or(e)),
                 }
                 solves = 3;
                 // an event the half steps see inside them (not at their ends)
-                let event = [(&run.cur, &mid, 0.0), (&mid, &fine, half)]
+                let event = [(&run.cur, &self.mid, 0.0), (&self.mid, &self.fine, half)]
                     .into_iter()
                     .filter_map(|(a, b, offset)| {
                         let crossing =
                             next_crossing(walls, a, b, half, near).filter(|&t| inside(t, half));
-                        let peak = next_peak(a, b, half, &peak_pending)
+                        let peak = next_peak(a, b, half, &self.peak_pending)
                             .filter(|theta| (PEAK_MARGIN..1.0 - PEAK_MARGIN).contains(theta))
                             .map(|theta| theta * half);
                         crossing.or(peak).map(|t| offset + t)
@@ -370,19 +447,20 @@ impl StepControl {
                     .find(|&t| inside(t, h));
                 if let Some(h_event) = event {
                     reject(&mut run.stats, solves, iterations);
-                    landing = Some(h_event);
+                    self.landing = Some(h_event);
                     continue;
                 }
-                err = self.doubling_error(&run.cur, &run.trial, &fine, &v_max);
+                err = c.doubling_error(&run.cur, &run.trial, &self.fine, &self.v_max);
                 if err > 1.0 && above_min {
                     reject(&mut run.stats, solves, iterations);
-                    level = self.shrunk_level(h, err);
+                    self.level = c.shrunk_level(h, err);
                     continue;
                 }
-                scratch.extrapolate(sys, &run.cur, &fine, h, &mut run.trial);
-                h_prev = None;
+                self.scratch
+                    .extrapolate(sys, &run.cur, &self.fine, h, &mut run.trial);
+                self.h_prev = None;
             } else {
-                a_prev.copy_from_slice(&run.cur.a);
+                self.a_prev.copy_from_slice(&run.cur.a);
                 // the acceleration history is not smooth across a contact event
                 let event_at_end = run
                     .cur
@@ -390,36 +468,31 @@ impl StepControl {
                     .iter()
                     .zip(&run.trial.walls)
                     .any(|(w0, w1)| w0.closed() != w1.closed());
-                h_prev = if event_at_end || landed {
+                self.h_prev = if event_at_end || landed {
                     None
                 } else {
                     Some(h)
                 };
             }
             for (j, (w0, w1)) in run.cur.walls.iter().zip(&run.trial.walls).enumerate() {
-                just_closed[j] = !w0.closed() && touching(w1, touch_tol);
+                self.just_closed[j] = !w0.closed() && touching(w1, self.touch_tol);
             }
-            let closing = just_closed.contains(&true);
-            for ((pending, &closed_now), w1) in peak_pending
+            let closing = self.just_closed.contains(&true);
+            for ((pending, &closed_now), w1) in self
+                .peak_pending
                 .iter_mut()
-                .zip(&just_closed)
+                .zip(&self.just_closed)
                 .zip(&run.trial.walls)
             {
                 *pending = closed_now || (*pending && w1.closed() && w1.rate > 0.0);
             }
-            if let Err(e) = run.accept(sys, stepper, h, iterations) {
-                return Some(e);
-            }
+            run.accept(sys, self.stepper, h, iterations)?;
             run.stats.steps += solves - 1;
-            accepted += 1;
-            if accepted % every == 0 {
-                run.out.record(sys, &run.cur, &run.account);
-            }
-            for (m, v) in v_max.iter_mut().zip(&run.cur.v) {
+            for (m, v) in self.v_max.iter_mut().zip(&run.cur.v) {
                 *m = m.max(v.abs());
             }
             if in_contact && !landed {
-                h_contact = Some(h);
+                self.h_contact = Some(h);
             }
             // at most 4× per step, 10× when the step was exact (free flight of a free mass)
             let grow = if err > 0.0 {
@@ -429,23 +502,12 @@ impl StepControl {
             };
             let mut next = h * grow;
             // A wall closed by this step: the contact starts with the last contact's step.
-            if let (true, Some(hc)) = (closing, h_contact) {
+            if let (true, Some(hc)) = (closing, self.h_contact) {
                 next = next.min(hc);
             }
-            level = self.level_for(next);
+            self.level = c.level_for(next);
+            return Ok(true);
         }
-        if accepted % every != 0 {
-            run.out.record(sys, &run.cur, &run.account);
-        }
-        None
-    }
-
-    /// Level after a rejected step of `h` with error `err` > 1: at least one level down.
-    fn shrunk_level(&self, h: f64, err: f64) -> usize {
-        let shrink = (0.9 * err.powf(-1.0 / 3.0)).clamp(0.1, 0.5);
-        self.level_for(h * shrink)
-            .max(self.level_for(h) + 1)
-            .min(self.levels)
     }
 }
 

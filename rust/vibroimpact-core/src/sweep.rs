@@ -22,7 +22,11 @@ use rayon::prelude::*;
 
 use crate::error::{invalid, SimError};
 use crate::interpolation::HermiteSegment;
-use crate::simulate::{simulate_observed, Method, RunSettings, Stats, StepObserver, Turn};
+use crate::method::Method;
+use crate::observe::{StepObserver, Turn};
+use crate::output::Stats;
+use crate::settings::RunSettings;
+use crate::simulate::simulate_observed;
 use crate::system::{State, System};
 
 /// What a sweep keeps of each run, and how long the run is.
@@ -209,7 +213,6 @@ impl StepObserver for Reducer<'_> {
             period,
             samples,
             ref dofs,
-            max_impacts,
             ..
         } = *self.sampling;
         let nd = dofs.len();
@@ -293,9 +296,10 @@ impl StepObserver for Reducer<'_> {
             *m = m.min(lo);
         }
 
-        // Impacts: a wall that closes inside the step, at the located crossing.
+        // Impacts: a wall that closes inside the step, at the located crossing (a rigid
+        // wall's impacts come as such, `StepObserver::impact`).
         for (w, (ws0, ws1)) in sys.walls.iter().zip(s0.walls.iter().zip(&s1.walls)) {
-            if ws0.closed() || !ws1.closed() {
+            if ws0.closed() || !ws1.closed() || sys.gaps[w.gap].law.is_rigid() {
                 continue;
             }
             let seg = HermiteSegment {
@@ -306,23 +310,32 @@ impl StepObserver for Reducer<'_> {
                 h,
             };
             let theta = seg.crossing();
-            let tc = t0 + theta * h;
-            if tc <= self.start {
-                continue;
-            }
-            let g = w.gap;
-            debug_assert!(g < self.n_gaps);
-            let speed = seg.rate(theta);
-            let k = self.out.impact_count[g];
-            if k < max_impacts {
-                self.out.impact_velocity[g * max_impacts + k] = speed;
-                let phase = ((tc - self.start) / period).rem_euclid(1.0);
-                self.out.impact_phase[g * max_impacts + k] = phase;
-            }
-            self.out.impact_count[g] = k + 1;
-            let vmax = &mut self.out.impact_velocity_max[g];
-            *vmax = vmax.max(speed); // NaN (no impact yet) gives way to the speed
+            self.count_impact(w.gap, t0 + theta * h, seg.rate(theta));
         }
+    }
+
+    fn impact(&mut self, sys: &System, wall: usize, t: f64, speed: f64) {
+        self.count_impact(sys.walls[wall].gap, t, speed);
+    }
+}
+
+impl Reducer<'_> {
+    /// An impact on `gap` at `tc` with approach speed `speed`: counted after the transient.
+    fn count_impact(&mut self, gap: usize, tc: f64, speed: f64) {
+        if tc <= self.start {
+            return;
+        }
+        let (period, max_impacts) = (self.sampling.period, self.sampling.max_impacts);
+        debug_assert!(gap < self.n_gaps);
+        let k = self.out.impact_count[gap];
+        if k < max_impacts {
+            self.out.impact_velocity[gap * max_impacts + k] = speed;
+            let phase = ((tc - self.start) / period).rem_euclid(1.0);
+            self.out.impact_phase[gap * max_impacts + k] = phase;
+        }
+        self.out.impact_count[gap] = k + 1;
+        let vmax = &mut self.out.impact_velocity_max[gap];
+        *vmax = vmax.max(speed); // NaN (no impact yet) gives way to the speed
     }
 }
 

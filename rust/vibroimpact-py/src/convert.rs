@@ -18,8 +18,8 @@ use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::impulsive::{EventDriven, MoreauJean};
 use vibroimpact_core::integrators::{Bathe, NewmarkFamily, NewtonSettings, PreciseIntegration};
 use vibroimpact_core::linalg::Csr;
+use vibroimpact_core::settings::Adaptive;
 use vibroimpact_core::simulate::{Method, RunSettings};
-use vibroimpact_core::step_control::Adaptive;
 use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
 use vibroimpact_core::system::System;
 

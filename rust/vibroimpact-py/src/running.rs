@@ -234,7 +234,7 @@ impl Running {
     }
 
     /// The solver events since the last call (dicts with `kind`: `step-cut`,
-    /// `contact-start`, `contact-end`; `t`, `gap`, ...) and how many were dropped because
+    /// `contact-start`, `contact-end`, `impact`; `t`, `gap`, ...) and how many were dropped because
     /// the buffer was full.
     fn take_events<'py>(&mut self, py: Python<'py>) -> PyResult<(Bound<'py, PyList>, usize)> {
         let events =
@@ -285,6 +285,20 @@ impl Running {
                     d.set_item("speed", speed)?;
                     d.set_item("steps", steps)?;
                     d.set_item("iterations", iterations)?;
+                }
+                Event::Impact {
+                    t,
+                    gap,
+                    side: s,
+                    v_in,
+                    v_out,
+                } => {
+                    d.set_item("kind", "impact")?;
+                    d.set_item("t", t)?;
+                    d.set_item("gap", gap)?;
+                    d.set_item("side", side(s))?;
+                    d.set_item("v_in", v_in)?;
+                    d.set_item("v_out", v_out)?;
                 }
             }
             list.append(d)?;

@@ -45,12 +45,12 @@ use nalgebra::{DMatrix, DVector};
 
 use super::lcp::solve_lcp;
 use super::moreau_jean::check_initial;
-use super::{steps, Output, Rigidity, Work};
+use super::{fill_gaps, Rigidity};
+use crate::driver::{Run, StepPolicy};
 use crate::error::{invalid, SimError};
 use crate::gap::ImpactRecord;
 use crate::integrators::expm::duhamel;
-use crate::simulate::{RunOutput, RunSettings, Stats};
-use crate::system::System;
+use crate::system::{State, System};
 
 /// The method's name in errors.
 const METHOD: &str = "event-driven";
@@ -223,8 +223,6 @@ struct Driver<'a> {
     vel_tol: f64,
     records: Vec<ImpactRecord>,
     open: Vec<Option<usize>>,
-    work: Work,
-    stats: Stats,
     /// Walls held closed, sorted.
     stuck: Vec<usize>,
 }
@@ -464,13 +462,20 @@ impl Driver<'_> {
 
     /// Resolves an event at `p` (impacts, sticking, release); `released` is the wall whose
     /// force reached zero, if that was the event; `plastic` makes every impact plastic.
-    fn resolve(&mut self, p: &mut Point, released: Option<usize>, plastic: bool) {
+    /// Returns the energy the impacts dissipated, J, and each impact (wall, approach and
+    /// separation speed, m/s).
+    fn resolve(
+        &mut self,
+        p: &mut Point,
+        released: Option<usize>,
+        plastic: bool,
+    ) -> (f64, Vec<(usize, f64, f64)>) {
         let nw = self.rig.n_walls();
         let contact: Vec<usize> = (0..nw)
             .filter(|&j| self.rig.penetration(j, &p.x) >= -self.pos_tol)
             .collect();
         if contact.is_empty() {
-            return;
+            return (0.0, Vec::new());
         }
         let v_before = p.v.clone();
         let rate0: Vec<f64> = contact.iter().map(|&j| self.rig.rate(j, &p.v)).collect();
@@ -523,12 +528,13 @@ impl Driver<'_> {
         }
         let (k0, _) = self.rig.energies(self.sys, &p.x, &v_before);
         let (k1, _) = self.rig.energies(self.sys, &p.x, &p.v);
-        self.work.contact_dissipated += k0 - k1;
+        let mut impacts = Vec::new();
         // Impact rows.
         for (r, &j) in contact.iter().enumerate() {
             if impulse[r] <= 0.0 {
                 continue;
             }
+            impacts.push((j, rate0[r].max(0.0), (-self.rig.rate(j, &p.v)).max(0.0)));
             if let Some(idx) = self.open[j] {
                 self.records[idx].impulse += impulse[r];
                 continue;
@@ -590,6 +596,7 @@ impl Driver<'_> {
         let set = self.stuck.clone();
         self.ensure(&set);
         self.modes[&set].project(&self.rig, &mut p.x, &mut p.v);
+        (k0 - k1, impacts)
     }
 
     /// Adds `∫ λ dt` (trapezoidal) and the peak force of the stuck walls over `[p0, p1]`.
@@ -613,13 +620,22 @@ impl Driver<'_> {
         }
     }
 
-    fn wall_forces(&mut self, p: &Point) -> Vec<f64> {
-        let mut out = vec![0.0; self.rig.n_walls()];
-        let (l, _) = self.accel(p);
-        for (r, &j) in self.stuck.iter().enumerate() {
-            out[j] = l[r].max(0.0);
-        }
-        out
+    /// Writes `p` into the run's state `s`: the acceleration and the contact forces `λ` of
+    /// the stuck walls (all of it elastic, so that the run's energy account adds no contact
+    /// work: the impacts' dissipation goes to it through [`Run::jumped`]).
+    fn fill(&mut self, p: &Point, s: &mut State) {
+        let sys = self.sys;
+        let (l, a) = self.accel(p);
+        s.t = p.t;
+        s.x.copy_from_slice(p.x.as_slice());
+        s.v.copy_from_slice(p.v.as_slice());
+        s.a.copy_from_slice(a.as_slice());
+        fill_gaps(sys, &self.rig, s, |j| {
+            self.stuck
+                .iter()
+                .position(|&k| k == j)
+                .map_or(0.0, |r| l[r].max(0.0))
+        });
     }
 }
 
@@ -636,132 +652,149 @@ fn bisect(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
     0.5 * (a + b)
 }
 
-pub(crate) fn run(
-    sys: &System,
-    method: EventDriven,
-    settings: &RunSettings,
-    x0: DVector<f64>,
-    v0: DVector<f64>,
-) -> Result<RunOutput, SimError> {
-    method.validate()?;
-    let started = std::time::Instant::now();
-    let rig = Rigidity::new(sys, METHOD)?;
-    check_initial(sys, &rig, &x0)?;
-    let (n_steps, h0) = steps(settings);
-    let nw = rig.n_walls();
-    // Round-off scales of the gap coordinates and rates.
-    let a0 = &rig.m_inv * rig.smooth_force(sys, 0.0, &x0, &v0);
-    let mut x_scale = 1e-300f64;
-    let mut v_scale = 1e-300f64;
-    for j in 0..nw {
-        let g = &rig.g[j];
-        x_scale = x_scale
-            .max(rig.clearance[j].abs())
-            .max(g.dot(&x0).abs())
-            .max(g.dot(&v0).abs() * h0)
-            .max(g.dot(&a0).abs() * h0 * h0);
-        v_scale = v_scale
-            .max(g.dot(&v0).abs())
-            .max(g.dot(&a0).abs() * settings.t_end.min(1e3 * h0));
+/// The event-driven method as the run's step policy: each step of the grid `k·dt` is the
+/// flights between the events inside it, each committed to the run, with the state changed
+/// in place at each event ([`Run::jumped`]).
+pub(crate) struct EventDrivenSteps<'s> {
+    d: Driver<'s>,
+    p: Point,
+    h0: f64,
+    n_steps: usize,
+    /// Steps of the grid taken.
+    k: usize,
+}
+
+impl<'s> EventDrivenSteps<'s> {
+    /// From `run.cur` (at `t = 0`), resolving an impact there; `n_steps` steps of `h0`.
+    pub fn new(
+        run: &mut Run,
+        sys: &'s System,
+        method: EventDriven,
+        n_steps: usize,
+        h0: f64,
+    ) -> Result<Self, SimError> {
+        method.validate()?;
+        let rig = Rigidity::new(sys, METHOD)?;
+        let x0 = DVector::from_column_slice(&run.cur.x);
+        let v0 = DVector::from_column_slice(&run.cur.v);
+        check_initial(sys, &rig, &x0)?;
+        let nw = rig.n_walls();
+        // Round-off scales of the gap coordinates and rates.
+        let a0 = &rig.m_inv * rig.smooth_force(sys, 0.0, &x0, &v0);
+        let t_end = n_steps as f64 * h0;
+        let mut x_scale = 1e-300f64;
+        let mut v_scale = 1e-300f64;
+        for j in 0..nw {
+            let g = &rig.g[j];
+            x_scale = x_scale
+                .max(rig.clearance[j].abs())
+                .max(g.dot(&x0).abs())
+                .max(g.dot(&v0).abs() * h0)
+                .max(g.dot(&a0).abs() * h0 * h0);
+            v_scale = v_scale
+                .max(g.dot(&v0).abs())
+                .max(g.dot(&a0).abs() * t_end.min(1e3 * h0));
+        }
+        v_scale = v_scale.max(x_scale / h0);
+        let d = Driver {
+            sys,
+            rig,
+            method,
+            h0,
+            modes: HashMap::new(),
+            pos_tol: 1e-10 * x_scale,
+            vel_tol: 1e-10 * v_scale,
+            records: Vec::new(),
+            open: vec![None; nw],
+            stuck: Vec::new(),
+        };
+        let p = Point {
+            t: 0.0,
+            x: x0,
+            v: v0,
+        };
+        let mut policy = Self {
+            d,
+            p,
+            h0,
+            n_steps,
+            k: 0,
+        };
+        policy.resolve(run, None, false);
+        Ok(policy)
     }
-    v_scale = v_scale.max(x_scale / h0);
-    let mut d = Driver {
-        sys,
-        rig,
-        method,
-        h0,
-        modes: HashMap::new(),
-        pos_tol: 1e-10 * x_scale,
-        vel_tol: 1e-10 * v_scale,
-        records: Vec::new(),
-        open: vec![None; nw],
-        work: Work::default(),
-        stats: Stats::default(),
-        stuck: Vec::new(),
-    };
-    let mut out = Output::new(settings.record_dofs.clone());
-    let mut p = Point {
-        t: 0.0,
-        x: x0,
-        v: v0,
-    };
-    let (_, a_init) = d.accel(&p);
-    out.record(
-        sys,
-        &d.rig,
-        0.0,
-        &p.x,
-        &p.v,
-        &a_init,
-        &vec![0.0; nw],
-        &d.work,
-    );
-    d.resolve(&mut p, None, false);
-    let mut error = None;
-    'steps: for k in 1..=n_steps {
-        let t_target = k as f64 * h0;
+
+    /// The impact table.
+    pub fn impacts(self) -> Vec<ImpactRecord> {
+        self.d.records
+    }
+
+    /// Resolves the event at the current point and makes the result the run's state.
+    fn resolve(&mut self, run: &mut Run, released: Option<usize>, plastic: bool) {
+        let (dissipated, impacts) = self.d.resolve(&mut self.p, released, plastic);
+        self.d.fill(&self.p, &mut run.cur);
+        run.jumped(dissipated);
+        for (j, v_in, v_out) in impacts {
+            run.impact(self.d.sys, j, self.p.t, v_in, v_out);
+        }
+    }
+}
+
+impl Driver<'_> {
+    /// Commits the flight from the run's current state to `to`, of length `h`.
+    fn commit(&mut self, run: &mut Run, sys: &System, to: &Point, h: f64) -> Result<(), SimError> {
+        self.fill(to, &mut run.trial);
+        run.commit_trial(sys, h, 0, None)
+    }
+}
+
+impl StepPolicy for EventDrivenSteps<'_> {
+    fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError> {
+        if self.k == self.n_steps {
+            return Ok(false);
+        }
+        self.k += 1;
+        let h0 = self.h0;
+        let max_events = self.d.method.max_events_per_step;
+        let t_target = self.k as f64 * h0;
         let mut events = 0usize;
         loop {
-            let eta = t_target - p.t;
+            let eta = t_target - self.p.t;
             if eta <= 1e-12 * h0 {
-                p.t = t_target;
-                break;
+                self.p.t = t_target;
+                run.cur.t = t_target;
+                return Ok(true);
             }
-            let end = d.advance(&p, eta);
-            d.stats.steps += 1;
-            match d.find_event(&p, &end, eta) {
+            let mut end = self.d.advance(&self.p, eta);
+            match self.d.find_event(&self.p, &end, eta) {
                 None => {
-                    d.work.commit(sys, p.t, &p.x, &p.v, end.t, &end.x, &end.v);
-                    d.stuck_forces(&p, &end);
-                    p = end;
-                    p.t = t_target;
-                    break;
+                    self.d.stuck_forces(&self.p, &end);
+                    end.t = t_target;
+                    self.d.commit(run, sys, &end, eta)?;
+                    self.p = end;
+                    return Ok(true);
                 }
                 Some((tau, ev, mut at)) => {
-                    at.t = p.t + tau;
-                    d.work.commit(sys, p.t, &p.x, &p.v, at.t, &at.x, &at.v);
-                    d.stuck_forces(&p, &at);
+                    at.t = self.p.t + tau;
+                    self.d.stuck_forces(&self.p, &at);
+                    self.d.commit(run, sys, &at, tau)?;
+                    self.p = at;
                     events += 1;
-                    if events > 100 * method.max_events_per_step {
-                        error = Some(SimError::InvalidModel(format!(
+                    if events > 100 * max_events {
+                        return Err(SimError::InvalidModel(format!(
                             "solver: more than {} events in the step ending at t = {t_target:.9e} s; \
                              the impacts accumulate faster than the sticking rule ends them; \
                              raise chatter_fraction",
-                            100 * method.max_events_per_step
+                            100 * max_events
                         )));
-                        p = at;
-                        break 'steps;
                     }
                     let released = match ev {
                         Event::Release(j) => Some(j),
                         Event::Impact(_) => None,
                     };
-                    d.resolve(&mut at, released, events > method.max_events_per_step);
-                    p = at;
-                    out.peaks(&p.x);
+                    self.resolve(run, released, events > max_events);
                 }
             }
         }
-        if p.x.iter().chain(p.v.iter()).any(|s| !s.is_finite()) {
-            error = Some(SimError::Diverged { t: p.t, gap: None });
-            break;
-        }
-        if crate::interrupt::requested() {
-            error = Some(SimError::Interrupted { t: p.t });
-            break;
-        }
-        out.peaks(&p.x);
-        if k % settings.every == 0 || k == n_steps {
-            let (_, a) = d.accel(&p);
-            let forces = d.wall_forces(&p);
-            out.record(sys, &d.rig, p.t, &p.x, &p.v, &a, &forces, &d.work);
-        }
     }
-    if error.is_some() && out.rows.time.last() != Some(&p.t) {
-        let (_, a) = d.accel(&p);
-        let forces = d.wall_forces(&p);
-        out.record(sys, &d.rig, p.t, &p.x, &p.v, &a, &forces, &d.work);
-    }
-    d.stats.wall_time_s = started.elapsed().as_secs_f64();
-    Ok(out.finish(d.records, d.stats, h0, error))
 }

@@ -11,7 +11,7 @@
 //!   gap velocities (Moreau 1988, Jean 1999).
 //!
 //! Rigid gaps are accepted only by these methods, and these methods accept only rigid gaps
-//! ([`check_method_laws`]). Both write the same impact table as the compliant integrators:
+//! (`Method::check_laws`). Both write the same impact table as the compliant integrators:
 //! an impact is a row with `t_start = t_end` (the impact instant), `v_in`, `v_out`, the
 //! impulse `P` (N·s), `delta_max = 0` and `force_max = NaN` (an impact has no finite force).
 //! A contact that sticks (event-driven) is a row from the impact that ended the chattering
@@ -23,81 +23,18 @@ pub mod lcp;
 mod moreau_jean;
 
 pub use event_driven::EventDriven;
+pub(crate) use event_driven::EventDrivenSteps;
 pub use moreau_jean::MoreauJean;
+pub(crate) use moreau_jean::MoreauJeanSteps;
 
 use std::sync::Arc;
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::error::{invalid, SimError};
-use crate::gap::ImpactRecord;
-use crate::simulate::{Method, Rows, RunOutput, RunSettings, Stats};
+use crate::error::SimError;
+use crate::gap::WallState;
 use crate::structure::DenseStructure;
-use crate::system::System;
-
-/// Refuses rigid gaps with the compliant integrators and compliant laws with the impulsive
-/// methods (one line naming the gap, its law and the method).
-pub fn check_method_laws(sys: &System, method: &Method) -> Result<(), SimError> {
-    let impulsive = is_impulsive(method);
-    for (i, g) in sys.gaps.iter().enumerate() {
-        if g.law.is_rigid() && !impulsive {
-            return invalid(format!(
-                "gaps[{i}].law.kind: 'rigid' needs solver.method = 'event-driven' or \
-                 'moreau-jean'; method '{}' takes force laws only",
-                method_name(method)
-            ));
-        }
-        if !g.law.is_rigid() && impulsive {
-            return invalid(format!(
-                "gaps[{i}].law.kind: '{}' is a force law; solver.method '{}' takes rigid gaps \
-                 only (kind = 'rigid')",
-                g.law.name(),
-                method_name(method)
-            ));
-        }
-    }
-    Ok(())
-}
-
-/// Whether `method` is one of the impulsive methods of this module.
-pub fn is_impulsive(method: &Method) -> bool {
-    matches!(method, Method::EventDriven(_) | Method::MoreauJean(_))
-}
-
-fn method_name(method: &Method) -> &'static str {
-    match method {
-        Method::NewmarkFamily(_) => "newmark",
-        Method::Precise(_) => "precise",
-        Method::Bathe(_) => "bathe",
-        Method::EventDriven(_) => "event-driven",
-        Method::MoreauJean(_) => "moreau-jean",
-        Method::Dop853 => "dop853",
-    }
-}
-
-/// Runs an impulsive method (called by `simulate::simulate_observed`; settings already
-/// checked there).
-pub(crate) fn simulate_impulsive(
-    sys: &System,
-    method: Method,
-    settings: &RunSettings,
-    x0: DVector<f64>,
-    v0: DVector<f64>,
-) -> Result<RunOutput, SimError> {
-    check_method_laws(sys, &method)?;
-    if settings.adaptive.is_some() {
-        return invalid(format!(
-            "solver.adaptive: true is not available for method '{}'; expected false",
-            method_name(&method)
-        ));
-    }
-    crate::system::check_initial_state(sys, &x0, &v0)?;
-    match method {
-        Method::EventDriven(m) => event_driven::run(sys, m, settings, x0, v0),
-        Method::MoreauJean(m) => moreau_jean::run(sys, m, settings, x0, v0),
-        _ => unreachable!("simulate_impulsive called with a compliant method"),
-    }
-}
+use crate::system::{State, System};
 
 /// What the impulsive methods need of the system: the walls as rows `g_j = s_j b_g` of the
 /// constraint Jacobian (`δ_j = g_j · x − d_j`), `M⁻¹`, and the load columns.
@@ -207,120 +144,29 @@ impl Rigidity {
     }
 }
 
-/// Work integrals between two states (trapezoidal in displacement, as the compliant driver).
-#[derive(Debug, Clone, Copy, Default)]
-pub(crate) struct Work {
-    pub external: f64,
-    pub damping: f64,
-    pub contact_dissipated: f64,
-}
-
-impl Work {
-    #[allow(clippy::too_many_arguments)]
-    pub fn commit(
-        &mut self,
-        sys: &System,
-        t0: f64,
-        x0: &DVector<f64>,
-        v0: &DVector<f64>,
-        t1: f64,
-        x1: &DVector<f64>,
-        v1: &DVector<f64>,
-    ) {
-        for load in &sys.loads {
-            let moved: f64 = load.dofs.iter().map(|&d| x1[d] - x0[d]).sum();
-            self.external += 0.5 * (load.value(t0) + load.value(t1)) * moved;
-        }
-        let (x0, x1, v0, v1) = (x0.as_slice(), x1.as_slice(), v0.as_slice(), v1.as_slice());
-        self.damping += 0.5 * sys.structure.damping.increment_form(x0, x1, v0, v1);
+/// Sets the loads, gap coordinates and wall states of `s` from its `t`, `x`, `v` and `a`;
+/// `force(j)`: wall `j`'s contact force (N), all of it elastic, so that the run's energy
+/// account adds no contact work (the impulsive methods give it the dissipation of their
+/// impulses themselves).
+pub(crate) fn fill_gaps(sys: &System, rig: &Rigidity, s: &mut State, force: impl Fn(usize) -> f64) {
+    for (value, load) in s.load.iter_mut().zip(&sys.loads) {
+        *value = load.value(s.t);
     }
-}
-
-/// Decimated output of the impulsive methods.
-pub(crate) struct Output {
-    pub record_dofs: Vec<usize>,
-    pub rows: Rows,
-    pub max_abs: Vec<f64>,
-}
-
-impl Output {
-    pub fn new(record_dofs: Vec<usize>) -> Self {
-        let nd = record_dofs.len();
-        Self {
-            record_dofs,
-            rows: Rows::default(),
-            max_abs: vec![0.0; nd],
-        }
+    sys.gap_coordinates(&s.x, &mut s.u);
+    sys.gap_coordinates(&s.v, &mut s.u_rate);
+    sys.gap_coordinates(&s.a, &mut s.u_accel);
+    s.phi.fill(0.0);
+    let x = DVector::from_column_slice(&s.x);
+    let v = DVector::from_column_slice(&s.v);
+    for (j, (wall, w)) in sys.walls.iter().zip(s.walls.iter_mut()).enumerate() {
+        let f = force(j);
+        s.phi[wall.gap] += wall.sign * f;
+        *w = WallState {
+            penetration: rig.penetration(j, &x),
+            rate: rig.rate(j, &v),
+            force: f,
+            elastic_force: f,
+            ..WallState::default()
+        };
     }
-
-    pub fn peaks(&mut self, x: &DVector<f64>) {
-        for (m, &d) in self.max_abs.iter_mut().zip(&self.record_dofs) {
-            *m = m.max(x[d].abs());
-        }
-    }
-
-    /// Records one instant; `wall_force` is the contact force of each wall (N).
-    #[allow(clippy::too_many_arguments)]
-    pub fn record(
-        &mut self,
-        sys: &System,
-        rig: &Rigidity,
-        t: f64,
-        x: &DVector<f64>,
-        v: &DVector<f64>,
-        a: &DVector<f64>,
-        wall_force: &[f64],
-        work: &Work,
-    ) {
-        self.peaks(x);
-        let rows = &mut self.rows;
-        rows.time.push(t);
-        for &d in &self.record_dofs {
-            rows.displacement.push(x[d]);
-            rows.velocity.push(v[d]);
-            rows.acceleration.push(a[d]);
-        }
-        let ng = sys.gaps.len();
-        let mut pen = vec![f64::NEG_INFINITY; ng];
-        let mut force = vec![0.0; ng];
-        for (j, wall) in sys.walls.iter().enumerate() {
-            pen[wall.gap] = pen[wall.gap].max(rig.penetration(j, x));
-            force[wall.gap] += wall_force[j];
-        }
-        rows.gap_penetration.extend_from_slice(&pen);
-        rows.gap_force.extend_from_slice(&force);
-        let (kinetic, strain) = rig.energies(sys, x, v);
-        let e = &mut rows.energy;
-        e.kinetic.push(kinetic);
-        e.strain.push(strain);
-        e.contact_potential.push(0.0);
-        e.external_work.push(work.external);
-        e.damping_dissipated.push(work.damping);
-        e.contact_dissipated.push(work.contact_dissipated);
-    }
-
-    pub fn finish(
-        self,
-        impacts: Vec<ImpactRecord>,
-        stats: Stats,
-        dt: f64,
-        error: Option<SimError>,
-    ) -> RunOutput {
-        RunOutput {
-            rows: self.rows,
-            record_dofs: self.record_dofs,
-            max_abs_displacement: self.max_abs,
-            impacts,
-            stats,
-            dt,
-            error,
-        }
-    }
-}
-
-/// Number of steps and the step actually used (as the compliant driver: `t_end` a whole
-/// number of steps).
-pub(crate) fn steps(settings: &RunSettings) -> (usize, f64) {
-    let n = (settings.t_end / settings.dt - 1e-9).ceil().max(1.0) as usize;
-    (n, settings.t_end / n as f64)
 }

@@ -18,13 +18,13 @@
 //! before the first, `v_out` the separation speed after the last, the summed impulse, and
 //! `force_max = NaN`. The gap force column is the mean contact force `P/h` of the step.
 
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 
 use super::lcp::solve_lcp;
-use super::{steps, Output, Rigidity, Work};
+use super::{fill_gaps, Rigidity};
+use crate::driver::{Run, StepPolicy};
 use crate::error::{invalid, SimError};
 use crate::gap::ImpactRecord;
-use crate::simulate::{RunOutput, RunSettings, Stats};
 use crate::system::System;
 
 /// The method's name in errors.
@@ -56,39 +56,90 @@ impl MoreauJean {
     }
 }
 
-pub(crate) fn run(
-    sys: &System,
-    method: MoreauJean,
-    settings: &RunSettings,
-    x0: DVector<f64>,
-    v0: DVector<f64>,
-) -> Result<RunOutput, SimError> {
-    method.validate()?;
-    let started = std::time::Instant::now();
-    let rig = Rigidity::new(sys, METHOD)?;
-    let (n_steps, h) = steps(settings);
-    let th = method.theta;
-    let st = &sys.structure;
-    let nw = rig.n_walls();
-    check_initial(sys, &rig, &x0)?;
-    let d = &rig.dense;
-    let a_hat = &d.mass + &d.damping * (h * th) + &d.stiffness * (h * h * th * th);
-    let a_inv = a_hat
-        .lu()
-        .try_inverse()
-        .ok_or(SimError::SingularTangent { t: 0.0, dt: h })?;
-    let ainv_g: Vec<DVector<f64>> = rig.g.iter().map(|g| &a_inv * g).collect();
-    let (mut x, mut v) = (x0, v0);
-    let mut out = Output::new(settings.record_dofs.clone());
-    let mut work = Work::default();
-    let a0 = &rig.m_inv * rig.smooth_force(sys, 0.0, &x, &v);
-    out.record(sys, &rig, 0.0, &x, &v, &a0, &vec![0.0; nw], &work);
-    let mut records: Vec<ImpactRecord> = Vec::new();
-    let mut open: Vec<Option<usize>> = vec![None; nw];
-    let mut stats = Stats::default();
-    let mut error = None;
-    let mut impulse = vec![0.0; nw];
-    for k in 1..=n_steps {
+/// Moreau–Jean as the run's step policy: one θ-step, and one LCP, per step of the grid.
+pub(crate) struct MoreauJeanSteps {
+    rig: Rigidity,
+    theta: f64,
+    h: f64,
+    n_steps: usize,
+    /// Steps taken.
+    k: usize,
+    /// `Â⁻¹` and `Â⁻¹ g_j` per wall.
+    a_inv: DMatrix<f64>,
+    ainv_g: Vec<DVector<f64>>,
+    x: DVector<f64>,
+    v: DVector<f64>,
+    records: Vec<ImpactRecord>,
+    /// Per wall: its row in `records` while consecutive steps carry impulses.
+    open: Vec<Option<usize>>,
+    /// Per wall: the impulse of the last step, N·s.
+    impulse: Vec<f64>,
+}
+
+impl MoreauJeanSteps {
+    /// From `run.cur` (at `t = 0`); `n_steps` steps of `h`.
+    pub fn new(
+        run: &Run,
+        sys: &System,
+        method: MoreauJean,
+        n_steps: usize,
+        h: f64,
+    ) -> Result<Self, SimError> {
+        method.validate()?;
+        let rig = Rigidity::new(sys, METHOD)?;
+        let th = method.theta;
+        let x = DVector::from_column_slice(&run.cur.x);
+        let v = DVector::from_column_slice(&run.cur.v);
+        check_initial(sys, &rig, &x)?;
+        let d = &rig.dense;
+        let a_hat = &d.mass + &d.damping * (h * th) + &d.stiffness * (h * h * th * th);
+        let a_inv = a_hat
+            .lu()
+            .try_inverse()
+            .ok_or(SimError::SingularTangent { t: 0.0, dt: h })?;
+        let ainv_g: Vec<DVector<f64>> = rig.g.iter().map(|g| &a_inv * g).collect();
+        let nw = rig.n_walls();
+        Ok(Self {
+            rig,
+            theta: th,
+            h,
+            n_steps,
+            k: 0,
+            a_inv,
+            ainv_g,
+            x,
+            v,
+            records: Vec::new(),
+            open: vec![None; nw],
+            impulse: vec![0.0; nw],
+        })
+    }
+
+    /// The impact table: a contact still carrying impulses in the last step is still closed.
+    pub fn impacts(mut self) -> Vec<ImpactRecord> {
+        for (j, o) in self.open.iter().enumerate() {
+            if let Some(idx) = *o {
+                if self.impulse[j] > 0.0 {
+                    self.records[idx].t_end = f64::NAN;
+                    self.records[idx].v_out = f64::NAN;
+                }
+            }
+        }
+        self.records
+    }
+}
+
+impl StepPolicy for MoreauJeanSteps {
+    fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError> {
+        if self.k == self.n_steps {
+            return Ok(false);
+        }
+        self.k += 1;
+        let (k, h, th) = (self.k, self.h, self.theta);
+        let rig = &self.rig;
+        let st = &sys.structure;
+        let nw = rig.n_walls();
+        let (x, v) = (&self.x, &self.v);
         let t0 = (k - 1) as f64 * h;
         let t1 = k as f64 * h;
         // h [F_θ − C v − K x − hθ K v]
@@ -103,36 +154,39 @@ pub(crate) fn run(
         st.stiffness.mul_add(-1.0, x.as_slice(), rhs.as_mut_slice());
         st.stiffness
             .mul_add(-h * th, v.as_slice(), rhs.as_mut_slice());
-        let mut v1 = &v + &a_inv * (rhs * h);
-        let x_pred = &x + &v * (0.5 * h);
+        let mut v1 = v + &self.a_inv * (rhs * h);
+        let x_pred = x + v * (0.5 * h);
         let active: Vec<usize> = (0..nw)
             .filter(|&j| rig.penetration(j, &x_pred) >= 0.0)
             .collect();
+        let impulse = &mut self.impulse;
         impulse.iter_mut().for_each(|p| *p = 0.0);
         if !active.is_empty() {
             let m = active.len();
-            let w =
-                nalgebra::DMatrix::from_fn(m, m, |r, c| rig.g[active[r]].dot(&ainv_g[active[c]]));
+            let w = DMatrix::from_fn(m, m, |r, c| rig.g[active[r]].dot(&self.ainv_g[active[c]]));
             let q: Vec<f64> = active
                 .iter()
-                .map(|&j| -(rig.rate(j, &v1) + rig.restitution[j] * rig.rate(j, &v)))
+                .map(|&j| -(rig.rate(j, &v1) + rig.restitution[j] * rig.rate(j, v)))
                 .collect();
             let p = solve_lcp(&w, &q);
             for (r, &j) in active.iter().enumerate() {
                 if p[r] > 0.0 {
-                    v1.axpy(-p[r], &ainv_g[j], 1.0);
+                    v1.axpy(-p[r], &self.ainv_g[j], 1.0);
                     impulse[j] = p[r];
                 }
             }
         }
-        let x1 = &x + (&v + (&v1 - &v) * th) * h;
-        work.commit(sys, t0, &x, &v, t1, &x1, &v1);
-        for j in 0..nw {
-            let (r0, r1) = (rig.rate(j, &v), rig.rate(j, &v1));
-            if impulse[j] > 0.0 {
-                work.contact_dissipated += impulse[j] * 0.5 * (r0 + r1);
-                let idx = *open[j].get_or_insert_with(|| {
+        let x1 = x + (v + (&v1 - v) * th) * h;
+        let mut dissipated = 0.0;
+        let mut impacts = Vec::new();
+        for (j, &p) in impulse.iter().enumerate() {
+            let (r0, r1) = (rig.rate(j, v), rig.rate(j, &v1));
+            if p > 0.0 {
+                dissipated += p * 0.5 * (r0 + r1);
+                let records = &mut self.records;
+                let idx = *self.open[j].get_or_insert_with(|| {
                     let wall = &sys.walls[j];
+                    impacts.push((j, r0.max(0.0), (-r1).max(0.0)));
                     records.push(ImpactRecord {
                         gap: wall.gap,
                         side: wall.sign,
@@ -147,46 +201,31 @@ pub(crate) fn run(
                     records.len() - 1
                 });
                 let rec = &mut records[idx];
-                rec.impulse += impulse[j];
+                rec.impulse += p;
                 rec.t_end = t1;
                 rec.v_out = (-r1).max(0.0);
             } else {
-                open[j] = None;
+                self.open[j] = None;
             }
         }
-        let a1 = (&v1 - &v) / h;
-        x = x1;
-        v = v1;
-        stats.steps += 1;
-        if x.iter().chain(v.iter()).any(|s| !s.is_finite()) {
-            error = Some(SimError::Diverged { t: t1, gap: None });
-            let forces: Vec<f64> = impulse.iter().map(|p| p / h).collect();
-            out.record(sys, &rig, t1, &x, &v, &a1, &forces, &work);
-            break;
+        let s = &mut run.trial;
+        s.t = t1;
+        s.x.copy_from_slice(x1.as_slice());
+        s.v.copy_from_slice(v1.as_slice());
+        for ((a, &v1), &v0) in s.a.iter_mut().zip(v1.iter()).zip(v.iter()) {
+            *a = (v1 - v0) / h;
         }
-        if crate::interrupt::requested() {
-            error = Some(SimError::Interrupted { t: t1 });
-            let forces: Vec<f64> = impulse.iter().map(|p| p / h).collect();
-            out.record(sys, &rig, t1, &x, &v, &a1, &forces, &work);
-            break;
+        // the gap force column: the mean contact force P/h of the step
+        fill_gaps(sys, rig, s, |j| impulse[j] / h);
+        self.x = x1;
+        self.v = v1;
+        run.impulses_dissipated(dissipated);
+        run.commit_trial(sys, h, 0, None)?;
+        for (j, v_in, v_out) in impacts {
+            run.impact(sys, j, t1, v_in, v_out);
         }
-        out.peaks(&x);
-        if k % settings.every == 0 || k == n_steps {
-            let forces: Vec<f64> = impulse.iter().map(|p| p / h).collect();
-            out.record(sys, &rig, t1, &x, &v, &a1, &forces, &work);
-        }
+        Ok(true)
     }
-    // A contact still carrying impulses in the last step is still closed.
-    for (j, o) in open.iter().enumerate() {
-        if let Some(idx) = *o {
-            if impulse[j] > 0.0 {
-                records[idx].t_end = f64::NAN;
-                records[idx].v_out = f64::NAN;
-            }
-        }
-    }
-    stats.wall_time_s = started.elapsed().as_secs_f64();
-    Ok(out.finish(records, stats, h, error))
 }
 
 /// Refuses an initial state inside a rigid wall.

@@ -27,12 +27,13 @@
 
 use super::dop853_tableau::{A, A_DENSE, B, C, C_DENSE, D, DENSE_STAGES, E3, E5, STAGES};
 use crate::contact::{ContactLaw, Law, MIN_IMPACT_SPEED};
+use crate::driver::{Run, StepIntegrals, StepPolicy};
 use crate::error::SimError;
 use crate::gap::WallInterior;
 use crate::gap::WallState;
 use crate::interpolation::QuinticSegment;
-use crate::simulate::{Run, StepIntegrals, Turn};
-use crate::step_control::Adaptive;
+use crate::observe::Turn;
+use crate::settings::Adaptive;
 use crate::system::System;
 
 /// Events closer than this fraction of the step (or of `t_end`) to a step's end are
@@ -787,332 +788,417 @@ fn opening_phase(contact: &Contact, j: usize, start: &StepEnd, h: f64) -> Option
     })
 }
 
-/// Runs to `t_end` from `run.cur`; returns the error that stopped the run, if any.
-pub(crate) fn run(
-    run: &mut Run,
-    sys: &System,
+/// DOP853's steps: what carries from one step to the next (see the module doc).
+pub(crate) struct Dop853Steps<'s> {
     steps: Steps,
     t_end: f64,
-    every: usize,
-) -> Option<SimError> {
-    let n = sys.n_dof();
-    let tol_t = EVENT_TOL * t_end;
-    let mut dynamics = Dynamics::new(sys);
-    let mut stages = Stages::new(sys);
-    let mut contacts: Vec<Contact> = run
-        .cur
-        .walls
-        .iter()
-        .zip(&sys.walls)
-        .map(|(w, wall)| Contact {
-            active: w.closed(),
-            impact_speed: w.impact_speed,
-            max_penetration: w.max_penetration,
-            peak_pending: w.closed() && w.rate > 0.0,
-            in_time: !smooth_in_root(&sys.gaps[wall.gap].law),
-        })
-        .collect();
-    let fresh = || StepEnd {
-        x: vec![0.0; n],
-        v: vec![0.0; n],
-        a: vec![0.0; n],
-        power: [0.0; 3],
-        forces: vec![0.0; sys.walls.len()],
-        work: [0.0; 3],
-        impulse: vec![0.0; sys.walls.len()],
-        walls: vec![[0.0; 3]; sys.walls.len()],
-    };
-    let mut start = fresh();
-    start.x.copy_from_slice(&run.cur.x);
-    start.v.copy_from_slice(&run.cur.v);
-    dynamics.at(&contacts, None, run.cur.t, &mut start);
-    let mut end = fresh();
-    // the DOFs whose turning points the peaks and the sweeps' observers need
-    let recorded = run.out.dofs().to_vec();
-    let mut inside = Inside {
-        force_max: vec![0.0; sys.walls.len()],
-        delta_max: vec![0.0; sys.walls.len()],
-        displacement_turn: vec![None; n],
-    };
-    let mut v_max: Vec<f64> = start.v.iter().map(|v| v.abs()).collect();
-    let (mut h, dt_fixed) = match steps {
-        Steps::Fixed(dt) => (dt, Some(dt)),
-        Steps::Adaptive { first, dt_max, .. } => (first.min(dt_max), None),
-    };
-    // A step to retake ending on an event: its length and whether the event is singular.
-    let mut landing: Option<(f64, bool)> = None;
-    let mut landings = 0usize;
-    // The last attempt was rejected for its error: the next accepted step does not grow.
-    let mut rejected = false;
-    // The first accepted step of the last contact: the first step of the next one, if it
-    // is not integrated in ζ.
-    let mut h_contact: Option<f64> = None;
-    // The step proposed when the last contact began from free motion.
-    let mut h_free: Option<f64> = None;
-    // The step in ζ of the last contact's start: the first try of the next one.
-    let mut dz_contact: Option<f64> = None;
-    // A wall closed at the start of the pending step (its size goes to `h_contact`).
-    let mut contact_started = false;
-    // A contact's start or end in progress in ζ (adaptive steps only).
-    let mut root: Option<RootPhase> = None;
-    // Length and error of the last accepted step, for the predictive controller.
-    let mut last: Option<(f64, f64)> = None;
-    let mut accepted = 0usize;
-    let mut grid_step = 0usize;
-    // How close (s) to a wall's event the last step ended for the wall to be switched.
-    let mut near_switch = tol_t;
-    while t_end - run.cur.t > 1e-13 * t_end {
-        let t0 = run.cur.t;
-        let was_free = contacts.iter().all(|c| !c.active);
-        let (switched, closed) = switch_walls(sys, &mut contacts, &start, near_switch);
-        if switched {
-            dynamics.at(&contacts, None, t0, &mut start);
-            last = None;
-            // a contact is short: the steps of the free motion resume after it at the size
-            // proposed before it (the error control cuts one that is too long)
-            match (was_free, contacts.iter().all(|c| !c.active)) {
-                (true, false) => h_free = Some(h),
-                (false, true) => h = h.max(h_free.unwrap_or(h)),
-                _ => {}
+    /// Events this close to `t_end` (s) are switched, not landed on.
+    tol_t: f64,
+    dynamics: Dynamics<'s>,
+    stages: Stages,
+    contacts: Vec<Contact>,
+    start: StepEnd,
+    end: StepEnd,
+    /// The DOFs whose turning points the peaks and the sweeps' observers need.
+    recorded: Vec<usize>,
+    inside: Inside,
+    v_max: Vec<f64>,
+    /// The next step's size, s.
+    h: f64,
+    dt_fixed: Option<f64>,
+    /// A step to retake ending on an event: its length and whether the event is singular.
+    landing: Option<(f64, bool)>,
+    landings: usize,
+    /// The last attempt was rejected for its error: the next accepted step does not grow.
+    rejected: bool,
+    /// The first accepted step of the last contact: the first step of the next one, if it
+    /// is not integrated in ζ.
+    h_contact: Option<f64>,
+    /// The step proposed when the last contact began from free motion.
+    h_free: Option<f64>,
+    /// The step in ζ of the last contact's start: the first try of the next one.
+    dz_contact: Option<f64>,
+    /// A wall closed at the start of the pending step (its size goes to `h_contact`).
+    contact_started: bool,
+    /// A contact's start or end in progress in ζ (adaptive steps only).
+    root: Option<RootPhase>,
+    /// Length and error of the last accepted step, for the predictive controller.
+    last: Option<(f64, f64)>,
+    grid_step: usize,
+    /// How close (s) to a wall's event the last step ended for the wall to be switched.
+    near_switch: f64,
+}
+
+impl<'s> Dop853Steps<'s> {
+    /// From `run.cur`, to `t_end`.
+    pub fn new(run: &Run, sys: &'s System, steps: Steps, t_end: f64) -> Self {
+        let n = sys.n_dof();
+        let tol_t = EVENT_TOL * t_end;
+        let mut dynamics = Dynamics::new(sys);
+        let stages = Stages::new(sys);
+        let contacts: Vec<Contact> = run
+            .cur
+            .walls
+            .iter()
+            .zip(&sys.walls)
+            .map(|(w, wall)| Contact {
+                active: w.closed(),
+                impact_speed: w.impact_speed,
+                max_penetration: w.max_penetration,
+                peak_pending: w.closed() && w.rate > 0.0,
+                in_time: !smooth_in_root(&sys.gaps[wall.gap].law),
+            })
+            .collect();
+        let fresh = || StepEnd {
+            x: vec![0.0; n],
+            v: vec![0.0; n],
+            a: vec![0.0; n],
+            power: [0.0; 3],
+            forces: vec![0.0; sys.walls.len()],
+            work: [0.0; 3],
+            impulse: vec![0.0; sys.walls.len()],
+            walls: vec![[0.0; 3]; sys.walls.len()],
+        };
+        let mut start = fresh();
+        start.x.copy_from_slice(&run.cur.x);
+        start.v.copy_from_slice(&run.cur.v);
+        dynamics.at(&contacts, None, run.cur.t, &mut start);
+        let end = fresh();
+        // the DOFs whose turning points the peaks and the sweeps' observers need
+        let recorded = run.out.dofs().to_vec();
+        let inside = Inside {
+            force_max: vec![0.0; sys.walls.len()],
+            delta_max: vec![0.0; sys.walls.len()],
+            displacement_turn: vec![None; n],
+        };
+        let v_max: Vec<f64> = start.v.iter().map(|v| v.abs()).collect();
+        let (h, dt_fixed) = match steps {
+            Steps::Fixed(dt) => (dt, Some(dt)),
+            Steps::Adaptive { first, dt_max, .. } => (first.min(dt_max), None),
+        };
+        // A step to retake ending on an event: its length and whether the event is singular.
+        // The last attempt was rejected for its error: the next accepted step does not grow.
+        // The first accepted step of the last contact: the first step of the next one, if it
+        // is not integrated in ζ.
+        // The step proposed when the last contact began from free motion.
+        // The step in ζ of the last contact's start: the first try of the next one.
+        // A wall closed at the start of the pending step (its size goes to `h_contact`).
+        // A contact's start or end in progress in ζ (adaptive steps only).
+        // Length and error of the last accepted step, for the predictive controller.
+        // How close (s) to a wall's event the last step ended for the wall to be switched.
+        Self {
+            steps,
+            t_end,
+            tol_t,
+            dynamics,
+            stages,
+            contacts,
+            start,
+            end,
+            recorded,
+            inside,
+            v_max,
+            h,
+            dt_fixed,
+            landing: None,
+            landings: 0,
+            rejected: false,
+            h_contact: None,
+            h_free: None,
+            dz_contact: None,
+            contact_started: false,
+            root: None,
+            last: None,
+            grid_step: 0,
+            near_switch: tol_t,
+        }
+    }
+}
+
+impl StepPolicy for Dop853Steps<'_> {
+    /// One accepted step (up to `t_end`).
+    fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError> {
+        loop {
+            if self.t_end - run.cur.t <= 1e-13 * self.t_end {
+                return Ok(false);
             }
-            contact_started = contacts.iter().any(|c| c.active && c.peak_pending);
-            if let (true, Some(hc)) = (contact_started, h_contact) {
-                h = h.min(hc);
+            let t0 = run.cur.t;
+            let was_free = self.contacts.iter().all(|c| !c.active);
+            let (switched, closed) =
+                switch_walls(sys, &mut self.contacts, &self.start, self.near_switch);
+            if switched {
+                self.dynamics.at(&self.contacts, None, t0, &mut self.start);
+                self.last = None;
+                // a contact is short: the steps of the free motion resume after it at the size
+                // proposed before it (the error control cuts one that is too long)
+                match (was_free, self.contacts.iter().all(|c| !c.active)) {
+                    (true, false) => self.h_free = Some(self.h),
+                    (false, true) => self.h = self.h.max(self.h_free.unwrap_or(self.h)),
+                    _ => {}
+                }
+                self.contact_started = self.contacts.iter().any(|c| c.active && c.peak_pending);
+                if let (true, Some(hc)) = (self.contact_started, self.h_contact) {
+                    self.h = self.h.min(hc);
+                }
+                if let (Some(j), Steps::Adaptive { .. }) =
+                    (closed.filter(|&j| !self.contacts[j].in_time), self.steps)
+                {
+                    let rate = self.start.walls[j][1];
+                    self.root = Some(RootPhase {
+                        wall: j,
+                        rising: true,
+                        dz: self.dz_contact.unwrap_or_else(|| (rate * self.h).sqrt()),
+                        rejections: 0,
+                        h_after: self.h,
+                    });
+                }
             }
-            if let (Some(j), Steps::Adaptive { .. }) =
-                (closed.filter(|&j| !contacts[j].in_time), steps)
-            {
-                let rate = start.walls[j][1];
-                root = Some(RootPhase {
-                    wall: j,
-                    rising: true,
-                    dz: dz_contact.unwrap_or_else(|| (rate * h).sqrt()),
-                    rejections: 0,
-                    h_after: h,
+            // a contact that the next step would leave (its penetration extrapolated with its
+            // rate and acceleration): its end in ζ at once, not after a step that finds the
+            // opening and is discarded for the force's kink there
+            if self.root.is_none() && self.landing.is_none() && self.dt_fixed.is_none() {
+                self.root = self.contacts.iter().enumerate().find_map(|(j, c)| {
+                    let [delta, rate, accel] = self.start.walls[j];
+                    let leaves = c.active && delta + self.h * (rate + 0.5 * self.h * accel) < 0.0;
+                    leaves
+                        .then(|| opening_phase(c, j, &self.start, self.h))
+                        .flatten()
                 });
             }
-        }
-        // a contact that the next step would leave (its penetration extrapolated with its
-        // rate and acceleration): its end in ζ at once, not after a step that finds the
-        // opening and is discarded for the force's kink there
-        if root.is_none() && landing.is_none() && dt_fixed.is_none() {
-            root = contacts.iter().enumerate().find_map(|(j, c)| {
-                let [delta, rate, accel] = start.walls[j];
-                let leaves = c.active && delta + h * (rate + 0.5 * h * accel) < 0.0;
-                leaves.then(|| opening_phase(c, j, &start, h)).flatten()
-            });
-        }
-        // a closing within the next step, predicted at constant acceleration (exact in free
-        // flight under constant forces): landed on at once instead of after a step that
-        // finds it; a step that falls short or overshoots is corrected as any landing
-        if root.is_none() && landing.is_none() && dt_fixed.is_none() {
-            landing = predicted_closing(&contacts, &start)
-                .filter(|&tau| tau > near_switch && tau < h.min(t_end - t0))
-                .map(|tau| (tau, true));
-        }
-        // the step: in ζ during a contact's start or end, else in time
-        // a step in ζ that ends the contact (lands on ζ = 0)
-        let mut opens = false;
-        let (clock, h_try, target) = match root {
-            Some(phase) => {
-                let delta = start.walls[phase.wall][0];
-                let from = delta.max(0.0).sqrt();
-                let dz = if phase.rising {
-                    phase.dz
-                } else {
-                    // at most half-way back to the peak's ζ, where dt/dζ is singular: a
-                    // step nearer to it has an error several times its estimate
-                    let peak = contacts[phase.wall].max_penetration.sqrt();
-                    -phase.dz.min(0.5 * (peak - from).max(0.0)).min(from)
-                };
-                opens = !phase.rising && dz == -from;
-                let clock = Clock::Root {
-                    wall: phase.wall,
-                    from,
-                    offset: delta - from * from,
-                };
-                (clock, dz, dz)
+            // a closing within the next step, predicted at constant acceleration (exact in free
+            // flight under constant forces): landed on at once instead of after a step that
+            // finds it; a step that falls short or overshoots is corrected as any landing
+            if self.root.is_none() && self.landing.is_none() && self.dt_fixed.is_none() {
+                self.landing = predicted_closing(&self.contacts, &self.start)
+                    .filter(|&tau| tau > self.near_switch && tau < self.h.min(self.t_end - t0))
+                    .map(|tau| (tau, true));
             }
-            None => {
-                let target = match dt_fixed {
-                    Some(dt) => ((grid_step + 1) as f64 * dt).min(t_end) - t0,
-                    None => h,
-                };
-                let mut h_try = landing.map_or(target, |(h, _)| h).min(t_end - t0);
-                if t_end - (t0 + h_try) < 1e-13 * t_end {
-                    h_try = t_end - t0;
+            // the step: in ζ during a contact's start or end, else in time
+            // a step in ζ that ends the contact (lands on ζ = 0)
+            let mut opens = false;
+            let (clock, h_try, target) = match self.root {
+                Some(phase) => {
+                    let delta = self.start.walls[phase.wall][0];
+                    let from = delta.max(0.0).sqrt();
+                    let dz = if phase.rising {
+                        phase.dz
+                    } else {
+                        // at most half-way back to the peak's ζ, where dt/dζ is singular: a
+                        // step nearer to it has an error several times its estimate
+                        let peak = self.contacts[phase.wall].max_penetration.sqrt();
+                        -phase.dz.min(0.5 * (peak - from).max(0.0)).min(from)
+                    };
+                    opens = !phase.rising && dz == -from;
+                    let clock = Clock::Root {
+                        wall: phase.wall,
+                        from,
+                        offset: delta - from * from,
+                    };
+                    (clock, dz, dz)
                 }
-                (Clock::Time, h_try, target)
-            }
-        };
-        // a step landed on a closing or opening meets the force's singularity at its end
-        let singular_end = landing.take().is_some_and(|(_, singular)| singular);
-        let duration = stages.step(&mut dynamics, &contacts, clock, t0, &start, h_try, &mut end);
-        if let Some(phase) = root.filter(|_| duration.is_some_and(|d| t0 + d > t_end)) {
-            // a step in ζ past t_end: the rest of the contact is integrated in time
-            contacts[phase.wall].in_time = true;
-            root = None;
-            continue;
-        }
-        let mut err = 0.0;
-        if let Steps::Adaptive { tol, dt_max, .. } = steps {
-            // the first step of a contact and a step landed on an event (a contact's end)
-            // meet the force's δ^1.5 singularity, unless the step is in ζ
-            let rough = matches!(clock, Clock::Time) && (contact_started || singular_end);
-            err = duration.map_or(f64::INFINITY, |_| {
-                stages.error(
-                    sys,
-                    clock,
-                    &tol,
-                    dt_max,
-                    &start,
-                    &end,
-                    &v_max,
-                    run.energy_scale(),
-                    h_try,
-                    rough,
-                )
-            });
-            if let Some(mut phase) = root.filter(|_| err > 1.0) {
-                run.stats.rejected_steps += 1;
-                phase.rejections += 1;
-                phase.dz = h_try.abs() * step_factor(err).clamp(0.2, 0.9);
-                root = (phase.rejections <= MAX_ROOT_REJECTIONS).then_some(phase);
-                if root.is_none() {
-                    contacts[phase.wall].in_time = true;
-                    h = h.min(duration.unwrap_or(h));
-                }
-                continue;
-            }
-            if err > 1.0 && h_try > tol.dt_min * (1.0 + 1e-12) {
-                run.stats.rejected_steps += 1;
-                // a wall closing or opening inside the step: the kink of the force there is
-                // what the error sees; an opening is integrated in ζ, a closing landed on
-                let near = (EVENT_NEAR * h_try).max(tol_t);
-                if landings < MAX_LANDINGS {
-                    if let Some((s, j, event)) =
-                        first_event(sys, &contacts, &start, &end, h_try, near, false)
-                    {
-                        root = (event == Event::Opening)
-                            .then(|| opening_phase(&contacts[j], j, &start, h_try))
-                            .flatten();
-                        if root.is_none() {
-                            landing = Some((s * h_try, true));
-                            landings += 1;
-                        }
-                        last = None;
-                        continue;
+                None => {
+                    let target = match self.dt_fixed {
+                        Some(dt) => ((self.grid_step + 1) as f64 * dt).min(self.t_end) - t0,
+                        None => self.h,
+                    };
+                    let mut h_try = self.landing.map_or(target, |(h, _)| h).min(self.t_end - t0);
+                    if self.t_end - (t0 + h_try) < 1e-13 * self.t_end {
+                        h_try = self.t_end - t0;
                     }
+                    (Clock::Time, h_try, target)
                 }
-                h = (h_try * step_factor(err).max(0.2)).max(tol.dt_min);
-                landings = 0;
-                rejected = true;
-                last = None;
-                continue;
-            }
-        }
-        let duration = duration.expect("a step in time has a duration");
-        let near = (EVENT_NEAR * duration).max(tol_t);
-        if landings < MAX_LANDINGS {
-            if let Some((s, j, event)) =
-                first_event(sys, &contacts, &start, &end, duration, near, true)
+            };
+            // a step landed on a closing or opening meets the force's singularity at its end
+            let singular_end = self.landing.take().is_some_and(|(_, singular)| singular);
+            let duration = self.stages.step(
+                &mut self.dynamics,
+                &self.contacts,
+                clock,
+                t0,
+                &self.start,
+                h_try,
+                &mut self.end,
+            );
+            if let Some(phase) = self
+                .root
+                .filter(|_| duration.is_some_and(|d| t0 + d > self.t_end))
             {
-                run.stats.rejected_steps += 1;
-                let opening = match (event, clock, dt_fixed) {
-                    (Event::Opening, Clock::Time, None) => {
-                        opening_phase(&contacts[j], j, &start, h_try)
-                    }
-                    _ => None,
-                };
-                root = opening;
-                if root.is_none() {
-                    let singular = matches!(event, Event::Closing | Event::Opening);
-                    landing = Some((s * duration, singular));
-                    landings += 1;
-                }
+                // a step in ζ past t_end: the rest of the contact is integrated in time
+                self.contacts[phase.wall].in_time = true;
+                self.root = None;
                 continue;
             }
-        }
-        landings = 0;
-        near_switch = 2.0 * near;
-        let landed = h_try < target * (1.0 - 1e-12);
-        inside.scan(
-            sys,
-            &recorded,
-            &contacts,
-            &mut stages,
-            &mut dynamics,
-            clock,
-            t0,
-            &start,
-            &end,
-            duration,
-        );
-        if let Err(e) = commit(run, sys, &mut contacts, &end, duration, &inside) {
-            return Some(e);
-        }
-        accepted += 1;
-        if accepted % every == 0 {
-            run.out.record(sys, &run.cur, &run.account);
-        }
-        if dt_fixed.is_some() && !landed {
-            grid_step += 1;
-        }
-        for (m, v) in v_max.iter_mut().zip(&end.v) {
-            *m = m.max(v.abs());
-        }
-        std::mem::swap(&mut start, &mut end);
-        let Steps::Adaptive { tol, dt_max, .. } = steps else {
-            continue;
-        };
-        let max_growth = if rejected { 1.0 } else { 6.0 };
-        let grow = if err > 0.0 {
-            step_factor(err)
-        } else {
-            max_growth
-        };
-        rejected = false;
-        if let Some(mut phase) = root {
-            // the contact's start: one step in ζ, then in time from the step's duration;
-            // its end: in ζ until ζ = 0, then in time with the step proposed before it
-            last = None;
-            if phase.rising {
-                dz_contact = Some(h_try);
-                contact_started = false;
-                h = duration.clamp(tol.dt_min, dt_max);
-                root = None;
-            } else if opens {
-                h = phase.h_after;
-                root = None;
+            let mut err = 0.0;
+            if let Steps::Adaptive { tol, dt_max, .. } = self.steps {
+                // the first step of a contact and a step landed on an event (a contact's end)
+                // meet the force's δ^1.5 singularity, unless the step is in ζ
+                let rough = matches!(clock, Clock::Time) && (self.contact_started || singular_end);
+                err = duration.map_or(f64::INFINITY, |_| {
+                    self.stages.error(
+                        sys,
+                        clock,
+                        &tol,
+                        dt_max,
+                        &self.start,
+                        &self.end,
+                        &self.v_max,
+                        run.energy_scale(),
+                        h_try,
+                        rough,
+                    )
+                });
+                if let Some(mut phase) = self.root.filter(|_| err > 1.0) {
+                    run.stats.rejected_steps += 1;
+                    phase.rejections += 1;
+                    phase.dz = h_try.abs() * step_factor(err).clamp(0.2, 0.9);
+                    self.root = (phase.rejections <= MAX_ROOT_REJECTIONS).then_some(phase);
+                    if self.root.is_none() {
+                        self.contacts[phase.wall].in_time = true;
+                        self.h = self.h.min(duration.unwrap_or(self.h));
+                    }
+                    continue;
+                }
+                if err > 1.0 && h_try > tol.dt_min * (1.0 + 1e-12) {
+                    run.stats.rejected_steps += 1;
+                    // a wall closing or opening inside the step: the kink of the force there is
+                    // what the error sees; an opening is integrated in ζ, a closing landed on
+                    let near = (EVENT_NEAR * h_try).max(self.tol_t);
+                    if self.landings < MAX_LANDINGS {
+                        if let Some((s, j, event)) = first_event(
+                            sys,
+                            &self.contacts,
+                            &self.start,
+                            &self.end,
+                            h_try,
+                            near,
+                            false,
+                        ) {
+                            self.root = (event == Event::Opening)
+                                .then(|| opening_phase(&self.contacts[j], j, &self.start, h_try))
+                                .flatten();
+                            if self.root.is_none() {
+                                self.landing = Some((s * h_try, true));
+                                self.landings += 1;
+                            }
+                            self.last = None;
+                            continue;
+                        }
+                    }
+                    self.h = (h_try * step_factor(err).max(0.2)).max(tol.dt_min);
+                    self.landings = 0;
+                    self.rejected = true;
+                    self.last = None;
+                    continue;
+                }
+            }
+            let duration = duration.expect("a step in time has a duration");
+            let near = (EVENT_NEAR * duration).max(self.tol_t);
+            if self.landings < MAX_LANDINGS {
+                if let Some((s, j, event)) = first_event(
+                    sys,
+                    &self.contacts,
+                    &self.start,
+                    &self.end,
+                    duration,
+                    near,
+                    true,
+                ) {
+                    run.stats.rejected_steps += 1;
+                    let opening = match (event, clock, self.dt_fixed) {
+                        (Event::Opening, Clock::Time, None) => {
+                            opening_phase(&self.contacts[j], j, &self.start, h_try)
+                        }
+                        _ => None,
+                    };
+                    self.root = opening;
+                    if self.root.is_none() {
+                        let singular = matches!(event, Event::Closing | Event::Opening);
+                        self.landing = Some((s * duration, singular));
+                        self.landings += 1;
+                    }
+                    continue;
+                }
+            }
+            self.landings = 0;
+            self.near_switch = 2.0 * near;
+            let landed = h_try < target * (1.0 - 1e-12);
+            self.inside.scan(
+                sys,
+                &self.recorded,
+                &self.contacts,
+                &mut self.stages,
+                &mut self.dynamics,
+                clock,
+                t0,
+                &self.start,
+                &self.end,
+                duration,
+            );
+            commit(
+                run,
+                sys,
+                &mut self.contacts,
+                &self.end,
+                duration,
+                &self.inside,
+            )?;
+            if self.dt_fixed.is_some() && !landed {
+                self.grid_step += 1;
+            }
+            for (m, v) in self.v_max.iter_mut().zip(&self.end.v) {
+                *m = m.max(v.abs());
+            }
+            std::mem::swap(&mut self.start, &mut self.end);
+            let Steps::Adaptive { tol, dt_max, .. } = self.steps else {
+                return Ok(true);
+            };
+            let max_growth = if self.rejected { 1.0 } else { 6.0 };
+            let grow = if err > 0.0 {
+                step_factor(err)
             } else {
-                phase.dz = h_try.abs() * grow.clamp(0.2, max_growth);
-                root = Some(phase);
+                max_growth
+            };
+            self.rejected = false;
+            if let Some(mut phase) = self.root {
+                // the contact's start: one step in ζ, then in time from the step's duration;
+                // its end: in ζ until ζ = 0, then in time with the step proposed before it
+                self.last = None;
+                if phase.rising {
+                    self.dz_contact = Some(h_try);
+                    self.contact_started = false;
+                    self.h = duration.clamp(tol.dt_min, dt_max);
+                    self.root = None;
+                } else if opens {
+                    self.h = phase.h_after;
+                    self.root = None;
+                } else {
+                    phase.dz = h_try.abs() * grow.clamp(0.2, max_growth);
+                    self.root = Some(phase);
+                }
+                return Ok(true);
             }
-            continue;
-        }
-        if contact_started {
-            h_contact = Some(h_try);
-            contact_started = false;
-        }
-        // a landed step is short for the event, not for its error: the next step is the
-        // one proposed before the landing; after a rejection the step does not grow
-        if !landed {
-            let mut grow = grow;
-            // Gustafsson's predictive controller (as in Hairer's RADAU5): an error that
-            // grew from the last step is extrapolated, so that a steepening solution
-            // (the end of a Hertzian contact) shrinks the step before it is rejected
-            if let (Some((h_last, err_last)), true) = (last, err > 0.0) {
-                grow = grow
-                    .min(0.9 * (h_try / h_last) / eighth_root(err) * eighth_root(err_last / err));
+            if self.contact_started {
+                self.h_contact = Some(h_try);
+                self.contact_started = false;
             }
-            h = (h_try * grow.clamp(0.2, max_growth)).clamp(tol.dt_min, dt_max);
-            last = (err > 0.0).then_some((h_try, err));
+            // a landed step is short for the event, not for its error: the next step is the
+            // one proposed before the landing; after a rejection the step does not grow
+            if !landed {
+                let mut grow = grow;
+                // Gustafsson's predictive controller (as in Hairer's RADAU5): an error that
+                // grew from the last step is extrapolated, so that a steepening solution
+                // (the end of a Hertzian contact) shrinks the step before it is rejected
+                if let (Some((h_last, err_last)), true) = (self.last, err > 0.0) {
+                    grow = grow.min(
+                        0.9 * (h_try / h_last) / eighth_root(err) * eighth_root(err_last / err),
+                    );
+                }
+                self.h = (h_try * grow.clamp(0.2, max_growth)).clamp(tol.dt_min, dt_max);
+                self.last = (err > 0.0).then_some((h_try, err));
+            }
+            return Ok(true);
         }
     }
-    if accepted % every != 0 {
-        run.out.record(sys, &run.cur, &run.account);
-    }
-    None
 }
 
 /// Makes the step's end the run's current state: wall states, gap coordinates, loads; the
@@ -1367,8 +1453,9 @@ mod tests {
     use crate::contact::{Hertz, Law};
     use crate::gap::{Gap, Side};
     use crate::integrators::NewtonSettings;
-    use crate::simulate::{simulate, Method, RunSettings};
-    use crate::step_control::Adaptive;
+    use crate::method::Method;
+    use crate::settings::{Adaptive, RunSettings};
+    use crate::simulate::simulate;
     use crate::structure::LinearStructure;
     use crate::system::System;
 

@@ -1,0 +1,502 @@
+//! The one time loop of every method ([`Run::drive`]) and the state its step policies share:
+//! the current and trial states, the impact table, the energy account, the decimated output
+//! and the watchers (docs/architecture.md).
+//!
+//! The step lifecycle: a [`StepPolicy`] (fixed steps with cuts and adaptive error control,
+//! `crate::step_control`; DOP853 with located events, `integrators::dop853`; event-driven and
+//! Moreau–Jean, `crate::impulsive`) attempts steps in `run.trial` from `run.cur` and discards
+//! or retakes them as it sees fit (cuts, rejections, landings on events), then commits each
+//! step it keeps with [`Run::commit_trial`]: statistics, finiteness, energy account, peaks,
+//! impact table, `--verbose` events, the [`StepObserver`] (sweeps), and every
+//! [`interrupt::CHECK_EVERY`] steps the sink's progress, the interrupt flag and the energy
+//! check. A located event that changes the state in place (a rigid impact's velocity jump)
+//! is reported by [`Run::impact`] and [`Run::jumped`]. [`Run::drive`] records a row every
+//! `every` advances of the policy and the last one; [`Run::finish`] ends the run. What a
+//! sensitivity needs (the Jacobian of a step with respect to its start state and a parameter,
+//! the jump at a located event) has its place in [`StepPolicy::sensitivity`], which no policy
+//! fills yet.
+
+use std::time::Instant;
+
+use nalgebra::DVector;
+
+use crate::error::{SimError, ENERGY_GROWTH_LIMIT};
+use crate::gap::{ImpactLog, ImpactRecord, WallInterior};
+use crate::integrators::{StepFailure, Stepper};
+use crate::interrupt;
+use crate::observe::{Event, Sink, StepObserver, StepSensitivity, Turn};
+use crate::output::{Rows, RunOutput, Stats};
+use crate::system::{State, System};
+
+/// What an integrator computed over a step beyond its ends, for the run's accounts.
+pub(crate) struct StepIntegrals<'a> {
+    /// Increments of the external work and of the damping and contact dissipation, J.
+    pub work: [f64; 3],
+    /// Per wall: impulse, largest force and peak penetration inside the step.
+    pub walls: WallInterior<'a>,
+    /// Per DOF: where its displacement turns inside the step, if it does (fraction of the
+    /// step, value in m or rad), on the integrator's own interpolant; `None` for the DOFs
+    /// that are not recorded.
+    pub displacement_turns: &'a [Option<Turn>],
+}
+
+/// What a method does per step: the step policy that [`Run::drive`] advances.
+pub(crate) trait StepPolicy {
+    /// Advances the run by one step of its output grid, committing every step it keeps with
+    /// [`Run::commit_trial`]: one step of the fixed grid (however many cut sub-steps, or
+    /// flights between impacts, it took) or one accepted adaptive step. `Ok(false)`: the run
+    /// had already reached its end; an error stops it (the results up to then are kept).
+    fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError>;
+
+    /// The sensitivity of the last advance, handed to the observer (the periodic orbits and
+    /// their Floquet multipliers, the next issue): the Jacobian of its end state with respect
+    /// to its start state and to a parameter, composed over its kept steps and, at a located
+    /// event, the jump (saltation) matrix. `None`: not computed (no policy does yet).
+    fn sensitivity(&self) -> Option<&StepSensitivity> {
+        None
+    }
+}
+
+/// The state of a run and everything accumulated from its accepted steps.
+pub(crate) struct Run<'o> {
+    pub cur: State,
+    pub trial: State,
+    /// The impact table from the closings and openings of the committed steps; `None` when
+    /// the policy keeps its own (the impulsive methods: an impact is an instant).
+    pub log: Option<ImpactLog>,
+    pub out: Recorder<'o>,
+    pub account: Account,
+    pub stats: Stats,
+    pub observer: Option<&'o mut dyn StepObserver>,
+    /// Accepted steps since the last poll of the interrupt flag and check of the energy.
+    since_check: usize,
+    /// Mechanical energy at t = 0, J.
+    e0: f64,
+    /// Largest energy that entered the system up to the last check, J.
+    energy_in: f64,
+    /// Per wall while it is closed: accepted steps and Newton iterations (for
+    /// [`Event::ContactEnd`]; only when the sink wants events).
+    contact: Option<Vec<(usize, usize)>>,
+    /// The sink wants [`Event`]s.
+    events: bool,
+}
+
+impl<'o> Run<'o> {
+    pub(crate) fn new(
+        sys: &System,
+        x0: DVector<f64>,
+        v0: DVector<f64>,
+        record_dofs: Vec<usize>,
+        n_rec: usize,
+    ) -> Result<Self, SimError> {
+        let cur = State::initial(sys, x0, v0, 0.0)?;
+        let mut log = ImpactLog::new(sys.walls.len());
+        log.start(&sys.walls, &cur.walls, 0.0);
+        let account = Account::default();
+        let mut out = Recorder::new(sys, record_dofs, n_rec);
+        out.record(sys, &cur, &account);
+        let e0 = mechanical_energy(sys, &cur);
+        Ok(Self {
+            since_check: 0,
+            e0,
+            energy_in: e0,
+            trial: cur.clone(),
+            cur,
+            log: Some(log),
+            out,
+            account,
+            stats: Stats::default(),
+            observer: None,
+            contact: None,
+            events: false,
+        })
+    }
+
+    /// Ends the run stopped by `error` (if any): the last check of the energy (runs shorter
+    /// than [`interrupt::CHECK_EVERY`] steps), the row of the instant it stopped at, the last
+    /// progress report, and everything it returns; `dt`: the step used, s.
+    /// `impacts`: the table of a policy that keeps its own (else the run's log).
+    pub(crate) fn finish(
+        mut self,
+        sys: &System,
+        error: Option<SimError>,
+        dt: f64,
+        started: Instant,
+        impacts: Option<Vec<ImpactRecord>>,
+    ) -> RunOutput {
+        let error = error.or_else(|| self.check_energy(sys).err());
+        if error.is_some() && self.out.last_time != self.cur.t {
+            self.out.record(sys, &self.cur, &self.account);
+        }
+        if let Some(sink) = self.out.sink.as_deref_mut() {
+            sink.progress(self.cur.t);
+        }
+        self.stats.wall_time_s = started.elapsed().as_secs_f64();
+        let out = self.out;
+        RunOutput {
+            rows: out.rows,
+            record_dofs: out.dofs,
+            max_abs_displacement: out.max_abs,
+            impacts: impacts
+                .or(self.log.map(|log| log.records))
+                .unwrap_or_default(),
+            stats: self.stats,
+            dt,
+            error,
+        }
+    }
+
+    /// Hands the rows recorded from now on, the progress and the events to `sink`.
+    pub(crate) fn watch(&mut self, sink: &'o mut dyn Sink) {
+        self.events = sink.wants_events();
+        if self.events {
+            self.contact = Some(vec![(0, 0); self.cur.walls.len()]);
+        }
+        self.out.chunk = sink.chunk_rows().map(|n| n.max(1));
+        self.out.sink = Some(sink);
+    }
+
+    /// Reports a step from `t` of length `dt` that Newton could not take and that is retried
+    /// shorter (when the sink wants events).
+    pub(crate) fn step_cut(&mut self, failure: &StepFailure, t: f64, dt: f64) {
+        if let (Some(sink), Some(_)) = (self.out.sink.as_deref_mut(), &self.contact) {
+            sink.event(Event::StepCut {
+                t,
+                dt,
+                gap: failure.gap,
+                penetration: failure.penetration,
+                iterations: failure.iterations,
+            });
+        }
+    }
+
+    /// Reports the walls that close or open in the accepted step from `cur` to `trial`.
+    fn contact_events(&mut self, sys: &System, iterations: usize) {
+        let (Some(contact), Some(sink)) = (self.contact.as_mut(), self.out.sink.as_deref_mut())
+        else {
+            return;
+        };
+        let t = self.trial.t;
+        for (((wall, w0), w1), c) in sys
+            .walls
+            .iter()
+            .zip(&self.cur.walls)
+            .zip(&self.trial.walls)
+            .zip(contact.iter_mut())
+        {
+            match (w0.closed(), w1.closed()) {
+                (false, true) => {
+                    *c = (1, iterations);
+                    sink.event(Event::ContactStart {
+                        t,
+                        gap: wall.gap,
+                        side: wall.sign,
+                        speed: w1.impact_speed,
+                    });
+                }
+                (true, true) => *c = (c.0 + 1, c.1 + iterations),
+                (true, false) => {
+                    sink.event(Event::ContactEnd {
+                        t,
+                        gap: wall.gap,
+                        side: wall.sign,
+                        speed: -w1.rate,
+                        steps: c.0 + 1,
+                        iterations: c.1 + iterations,
+                    });
+                    *c = (0, 0);
+                }
+                (false, false) => {}
+            }
+        }
+    }
+
+    /// Makes the trial state of a successful attempt of length `h` the current one: energy
+    /// account, peaks and impact table. Returns an error if the state is not finite.
+    pub fn accept(
+        &mut self,
+        sys: &System,
+        stepper: &mut dyn Stepper,
+        h: f64,
+        iterations: usize,
+    ) -> Result<(), SimError> {
+        self.commit_trial(sys, h, iterations, None)?;
+        stepper.accept(sys, &self.cur);
+        Ok(())
+    }
+
+    /// [`Self::accept`] for any integrator: `integrals` holds what the integrator computed
+    /// itself over the step (work increments, impulses, largest forces); without it they come
+    /// from the step's ends (trapezoidal rule, parabola through the force samples).
+    pub(crate) fn commit_trial(
+        &mut self,
+        sys: &System,
+        h: f64,
+        iterations: usize,
+        integrals: Option<&StepIntegrals>,
+    ) -> Result<(), SimError> {
+        self.stats.newton_iterations += iterations;
+        self.stats.steps += 1;
+        let trial = &self.trial;
+        if trial.x.iter().chain(trial.v.iter()).any(|v| !v.is_finite()) {
+            return Err(SimError::Diverged {
+                t: trial.t,
+                gap: busiest_gap(sys, &self.cur),
+            });
+        }
+        match integrals {
+            Some(i) => self.account.add(i.work),
+            None => self.account.commit(sys, &self.cur, trial),
+        }
+        for (m, &d) in self.out.max_abs.iter_mut().zip(&self.out.dofs) {
+            let inside = integrals.and_then(|i| i.displacement_turns[d]);
+            *m = m
+                .max(trial.x[d].abs())
+                .max(inside.map_or(0.0, |(_, x)| x.abs()));
+        }
+        if let Some(log) = self.log.as_mut() {
+            let interior = integrals.map(|i| &i.walls);
+            log.commit(sys, &self.cur.walls, &trial.walls, self.cur.t, h, interior);
+            self.contact_events(sys, iterations);
+        }
+        if let Some(observer) = self.observer.as_deref_mut() {
+            let turns = integrals.map(|i| i.displacement_turns);
+            observer.accepted(sys, &self.cur, &self.trial, h, turns);
+        }
+        std::mem::swap(&mut self.cur, &mut self.trial);
+        self.since_check += 1;
+        if self.since_check >= interrupt::CHECK_EVERY {
+            self.since_check = 0;
+            if let Some(sink) = self.out.sink.as_deref_mut() {
+                sink.progress(self.cur.t);
+            }
+            if interrupt::requested() {
+                return Err(SimError::Interrupted { t: self.cur.t });
+            }
+            self.check_energy(sys)?;
+        }
+        Ok(())
+    }
+
+    /// The scale of the run's energies, J: the initial mechanical energy or the external work
+    /// done so far, whichever is larger.
+    pub(crate) fn energy_scale(&self) -> f64 {
+        self.e0.max(self.account.external_work.abs())
+    }
+
+    /// [`SimError::EnergyGrowth`] if the mechanical energy exceeds
+    /// [`ENERGY_GROWTH_LIMIT`] times the largest energy that entered the system (the initial
+    /// energy plus the external work, or the initial energy alone).
+    pub(crate) fn check_energy(&mut self, sys: &System) -> Result<(), SimError> {
+        let entered = self.e0 + self.account.external_work.abs();
+        self.energy_in = self.energy_in.max(entered);
+        let energy = mechanical_energy(sys, &self.cur);
+        if self.energy_in > 0.0 && energy > ENERGY_GROWTH_LIMIT * self.energy_in {
+            return Err(SimError::EnergyGrowth {
+                t: self.cur.t,
+                energy,
+                reference: self.energy_in,
+                gap: busiest_gap(sys, &self.cur),
+            });
+        }
+        Ok(())
+    }
+
+    /// The one time loop: advances `policy` to the end of the run, recording a row every
+    /// `every` advances and after the last one. Returns the error that stopped the run, if any.
+    pub(crate) fn drive(
+        &mut self,
+        sys: &System,
+        policy: &mut dyn StepPolicy,
+        every: usize,
+    ) -> Option<SimError> {
+        let mut advances = 0usize;
+        loop {
+            match policy.advance(self, sys) {
+                Ok(true) => {
+                    if let (Some(observer), Some(s)) =
+                        (self.observer.as_deref_mut(), policy.sensitivity())
+                    {
+                        observer.sensitivity(s);
+                    }
+                    advances += 1;
+                    if advances % every == 0 {
+                        self.out.record(sys, &self.cur, &self.account);
+                    }
+                }
+                Ok(false) => {
+                    if advances % every != 0 {
+                        self.out.record(sys, &self.cur, &self.account);
+                    }
+                    return None;
+                }
+                Err(e) => return Some(e),
+            }
+        }
+    }
+
+    /// A rigid wall's impact at `t` with approach speed `v_in` and separation speed `v_out`,
+    /// m/s (the impulsive methods, whose impacts are instants, not closings inside a step):
+    /// to the observer and, as [`Event::Impact`], to the sink.
+    pub(crate) fn impact(&mut self, sys: &System, wall: usize, t: f64, v_in: f64, v_out: f64) {
+        if let Some(observer) = self.observer.as_deref_mut() {
+            observer.impact(sys, wall, t, v_in);
+        }
+        if let (true, Some(sink)) = (self.events, self.out.sink.as_deref_mut()) {
+            let w = &sys.walls[wall];
+            sink.event(Event::Impact {
+                t,
+                gap: w.gap,
+                side: w.sign,
+                v_in,
+                v_out,
+            });
+        }
+    }
+
+    /// A located event changed `cur` in place (an impact's velocity jump, dissipating
+    /// `dissipated` J): to the energy account and the peaks.
+    pub(crate) fn jumped(&mut self, dissipated: f64) {
+        self.account.add([0.0, 0.0, dissipated]);
+        for (m, &d) in self.out.max_abs.iter_mut().zip(&self.out.dofs) {
+            *m = m.max(self.cur.x[d].abs());
+        }
+    }
+
+    /// Adds energy dissipated by contact impulses inside the last committed step, J.
+    pub(crate) fn impulses_dissipated(&mut self, dissipated: f64) {
+        self.account.add([0.0, 0.0, dissipated]);
+    }
+}
+
+/// Work integrals, accumulated every step with the trapezoidal rule in displacement,
+/// `W = Σ Δxᵀ (f₀ + f₁)/2`, which is exact for the average-acceleration rule's linear part.
+#[derive(Debug, Clone, Copy, Default)]
+pub(crate) struct Account {
+    external_work: f64,
+    damping_dissipated: f64,
+    contact_dissipated: f64,
+}
+
+impl Account {
+    /// Adds increments of the external work, the damping and the contact dissipation, J.
+    fn add(&mut self, work: [f64; 3]) {
+        self.external_work += work[0];
+        self.damping_dissipated += work[1];
+        self.contact_dissipated += work[2];
+    }
+
+    fn commit(&mut self, sys: &System, s0: &State, s1: &State) {
+        for (l, load) in sys.loads.iter().enumerate() {
+            let moved: f64 = load.dofs.iter().map(|&d| s1.x[d] - s0.x[d]).sum();
+            self.external_work += 0.5 * (s0.load[l] + s1.load[l]) * moved;
+        }
+        if sys.has_damping {
+            // Δxᵀ C (v₀ + v₁)/2
+            let d = sys
+                .structure
+                .damping
+                .increment_form(&s0.x, &s1.x, &s0.v, &s1.v);
+            self.damping_dissipated += 0.5 * d;
+        }
+        for (w0, w1) in s0.walls.iter().zip(&s1.walls) {
+            if w0.closed() || w1.closed() {
+                let fd0 = w0.force - w0.elastic_force;
+                let fd1 = w1.force - w1.elastic_force;
+                self.contact_dissipated += 0.5 * (w1.penetration - w0.penetration) * (fd0 + fd1);
+            }
+        }
+    }
+}
+
+/// Kinetic + strain + contact potential energy of a state, J.
+fn mechanical_energy(sys: &System, s: &State) -> f64 {
+    let potential: f64 = s.walls.iter().map(|w| w.potential).sum();
+    sys.structure.mass.quadratic_form(&s.v)
+        + sys.structure.stiffness.quadratic_form(&s.x)
+        + potential
+}
+
+/// The gap of the wall in contact with the largest force, if any.
+fn busiest_gap(sys: &System, s: &State) -> Option<usize> {
+    sys.walls
+        .iter()
+        .zip(&s.walls)
+        .filter(|(_, w)| w.closed())
+        .max_by(|a, b| a.1.force.abs().total_cmp(&b.1.force.abs()))
+        .map(|(wall, _)| wall.gap)
+}
+
+/// Decimated output buffers, handed to the sink (if any) every `chunk` rows.
+pub(crate) struct Recorder<'o> {
+    dofs: Vec<usize>,
+    rows: Rows,
+    max_abs: Vec<f64>,
+    /// Time of the last recorded row (NaN before the first), s.
+    last_time: f64,
+    chunk: Option<usize>,
+    sink: Option<&'o mut dyn Sink>,
+}
+
+impl Recorder<'_> {
+    /// The recorded DOFs.
+    pub fn dofs(&self) -> &[usize] {
+        &self.dofs
+    }
+
+    fn new(sys: &System, dofs: Vec<usize>, n_rec: usize) -> Self {
+        Self {
+            rows: Rows::with_capacity(n_rec, dofs.len(), sys.gaps.len()),
+            max_abs: vec![0.0; dofs.len()],
+            dofs,
+            last_time: f64::NAN,
+            chunk: None,
+            sink: None,
+        }
+    }
+
+    pub fn record(&mut self, sys: &System, s: &State, account: &Account) {
+        // a full block goes before the next row is added, so the last row always stays for
+        // the RunOutput
+        if let (Some(n), Some(sink)) = (self.chunk, self.sink.as_deref_mut()) {
+            if self.rows.time.len() >= n {
+                let fresh = Rows::with_capacity(n, self.dofs.len(), sys.gaps.len());
+                sink.rows(std::mem::replace(&mut self.rows, fresh));
+            }
+        }
+        let rows = &mut self.rows;
+        rows.time.push(s.t);
+        self.last_time = s.t;
+        for (m, &d) in self.max_abs.iter_mut().zip(&self.dofs) {
+            *m = m.max(s.x[d].abs());
+        }
+        for &d in &self.dofs {
+            rows.displacement.push(s.x[d]);
+            rows.velocity.push(s.v[d]);
+            rows.acceleration.push(s.a[d]);
+        }
+        // Walls of one gap are adjacent: one column per gap (deepest wall, summed force).
+        let mut potential = 0.0;
+        let mut walls = sys.walls.iter().zip(&s.walls).peekable();
+        while let Some((wall, ws)) = walls.next() {
+            let (mut pen, mut force) = (ws.penetration, ws.force);
+            potential += ws.potential;
+            while let Some((_, other)) = walls.next_if(|(w, _)| w.gap == wall.gap) {
+                pen = pen.max(other.penetration);
+                force += other.force;
+                potential += other.potential;
+            }
+            rows.gap_penetration.push(pen);
+            rows.gap_force.push(force);
+        }
+        let kinetic = sys.structure.mass.quadratic_form(&s.v);
+        let strain = sys.structure.stiffness.quadratic_form(&s.x);
+        let e = &mut rows.energy;
+        e.kinetic.push(kinetic);
+        e.strain.push(strain);
+        e.contact_potential.push(potential);
+        e.external_work.push(account.external_work);
+        e.damping_dissipated.push(account.damping_dissipated);
+        e.contact_dissipated.push(account.contact_dissipated);
+    }
+}

@@ -1,0 +1,68 @@
+//! Which integrator advances a run: the one name of a method (Python's `integrator`, the
+//! model file's `solver.method`), its settings and the laws it takes.
+
+use crate::error::{invalid, SimError};
+use crate::impulsive::{EventDriven, MoreauJean};
+use crate::integrators::{Bathe, NewmarkFamily, PreciseIntegration};
+use crate::system::System;
+
+/// Which integrator advances the run.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Method {
+    /// Newmark-β / HHT-α / generalized-α with Newton on the gap forces.
+    NewmarkFamily(NewmarkFamily),
+    /// Precise integration with the Adams treatment of the gap forces (paper eqs. 32–43).
+    Precise(PreciseIntegration),
+    /// Bathe's composite trapezoidal / three-point backward scheme with Newton on the gaps.
+    Bathe(Bathe),
+    /// Rigid gaps only: event-driven impacts with Newton's restitution law
+    /// (`crate::impulsive`, docs/rigid-impacts.md).
+    EventDriven(EventDriven),
+    /// Rigid gaps only: Moreau–Jean θ-method time stepping with one LCP per step.
+    MoreauJean(MoreauJean),
+    /// Explicit Runge–Kutta DOP853 with located contact events (`integrators::dop853`).
+    Dop853,
+}
+
+impl Method {
+    /// The method's name in the model file and in messages.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Method::NewmarkFamily(_) => "newmark",
+            Method::Precise(_) => "precise",
+            Method::Bathe(_) => "bathe",
+            Method::EventDriven(_) => "event-driven",
+            Method::MoreauJean(_) => "moreau-jean",
+            Method::Dop853 => "dop853",
+        }
+    }
+
+    /// Whether the method is impulsive (`crate::impulsive`: rigid gaps only).
+    pub fn is_impulsive(&self) -> bool {
+        matches!(self, Method::EventDriven(_) | Method::MoreauJean(_))
+    }
+
+    /// Refuses rigid gaps with the compliant integrators and compliant laws with the impulsive
+    /// methods (one line naming the gap, its law and the method).
+    pub fn check_laws(&self, sys: &System) -> Result<(), SimError> {
+        let impulsive = self.is_impulsive();
+        for (i, g) in sys.gaps.iter().enumerate() {
+            if g.law.is_rigid() && !impulsive {
+                return invalid(format!(
+                    "gaps[{i}].law.kind: 'rigid' needs solver.method = 'event-driven' or \
+                     'moreau-jean'; method '{}' takes force laws only",
+                    self.name()
+                ));
+            }
+            if !g.law.is_rigid() && impulsive {
+                return invalid(format!(
+                    "gaps[{i}].law.kind: '{}' is a force law; solver.method '{}' takes rigid gaps \
+                     only (kind = 'rigid')",
+                    g.law.name(),
+                    self.name()
+                ));
+            }
+        }
+        Ok(())
+    }
+}

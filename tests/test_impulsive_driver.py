@@ -1,0 +1,118 @@
+"""The impulsive methods through the one time-loop driver (issue 19, item 1): the rigid-stop
+impact oscillator swept in frequency with ``event-driven`` against its period-1 orbit solved
+here from the linear flow and the restitution map; streamed runs equal in-memory ones bit for
+bit; progress and solver events as for the other methods. (Interrupts:
+``tests/test_interrupt.py``; the core's own: ``rust/vibroimpact-core/tests/interrupt.rs``.)"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+import pytest
+import vibroimpact as vi
+from scipy.linalg import expm
+from scipy.optimize import fsolve
+from vibroimpact.sweeps import Param, Sweep, run_sweep
+
+# m x'' + c x' + k x = F sin(2π f t): 1 Hz natural frequency, 5 % damping; a rigid stop at
+# x = D (positive side) with Newton's restitution E.
+M, K = 1.0, (2 * np.pi) ** 2
+C = 2 * 0.05 * np.sqrt(K * M)
+F, D, E = 1.0, 0.005, 0.8
+FREQS = np.array([1.2, 1.5, 1.8, 2.1])
+
+
+def oscillator(frequency: float, law: vi.contact.ContactLaw, x0: float = 0.0,
+               v0: float = 0.0) -> vi.Model:
+    return vi.Model(
+        vi.Structure.sdof(M, K, C),
+        gaps=[vi.Gap(dof=0, clearance=D, side="positive", law=law)],
+        loads=[vi.HarmonicLoad(dof=0, amplitude=F, frequency=frequency)],
+        initial_displacement=[x0],
+        initial_velocity=[v0],
+    )
+
+
+def flow(f: float, t0: float, z0: np.ndarray, t: float) -> np.ndarray:
+    """The state ``(x, v)`` at ``t`` of the free flight from ``z0`` at ``t0``: the forced
+    response ``Im(H e^{iωt})``, ``H = F/(k − mω² + icω)``, plus the homogeneous part
+    ``exp(A (t − t0))`` applied to the difference at ``t0``."""
+    w = 2 * np.pi * f
+    h = F / (K - M * w * w + 1j * C * w)
+
+    def forced(s: float) -> np.ndarray:
+        e = h * np.exp(1j * w * s)
+        return np.array([e.imag, (1j * w * e).imag])
+
+    a = np.array([[0.0, 1.0], [-K / M, -C / M]])
+    return forced(t) + expm(a * (t - t0)) @ (z0 - forced(t0))
+
+
+def period_one(f: float, guess: tuple[float, float]) -> tuple[float, float]:
+    """Impact instant ``t0`` (in the period) and approach speed ``V`` of the period-1 orbit
+    with one impact per period: leaving the stop at ``t0`` with ``−E V``, the free flight is
+    back at the stop one period later with the approach speed ``V``: ``x(t0 + T) = D``,
+    ``v(t0 + T) = V``. Checked to stay clear of the stop in between."""
+    period = 1 / f
+
+    def residual(u: np.ndarray) -> np.ndarray:
+        t0, v = u
+        z = flow(f, t0, np.array([D, -E * v]), t0 + period)
+        return np.array([(z[0] - D) / D, (z[1] - v) / v])
+
+    (t0, v), *_ = fsolve(residual, guess, xtol=1e-13, full_output=True)
+    assert np.abs(residual(np.array([t0, v]))).max() < 1e-12
+    inside = [flow(f, t0, np.array([D, -E * v]), t0 + s * period)[0]
+              for s in np.linspace(0.01, 0.99, 99)]
+    assert max(inside) < D and v > 0
+    return t0 % period, v
+
+
+def test_event_driven_sweep_matches_the_period_one_orbit() -> None:
+    """Each frequency's impact speeds (all of the sampled periods) and phases equal the closed
+    form to 1e-8: the sweep's reducer sees every rigid impact of the event-driven method."""
+    model = oscillator(FREQS[0], vi.contact.Rigid(restitution=E))
+    ds = run_sweep(Sweep(model, [Param("loads.0.frequency", FREQS)], dt=2e-3,
+                         method=vi.EventDriven(), transient=150, periods=8), threads=1)
+    count = ds["impact_count"].isel(gap=0).values
+    assert np.all(count == 8), count  # one impact per period
+    for f in FREQS:
+        point = ds.sel({"loads.0.frequency": f}).isel(gap=0)
+        speeds = point["impact_velocity"].values
+        phases = point["impact_phase"].values
+        t0, v = period_one(f, (phases[0] / f, speeds[0]))
+        assert np.abs(speeds - v).max() < 1e-8 * v, (f, speeds - v)
+        assert np.abs(phases - t0 * f).max() < 1e-8, (f, phases - t0 * f)
+        # the stroboscopic samples are those of the orbit: the flight from the impact
+        x = point["poincare_displacement"].isel(dof=0).values
+        z = flow(f, t0, np.array([D, -E * v]), 1 / f)
+        assert np.abs(x - z[0]).max() < 1e-8 * D
+
+
+@pytest.mark.parametrize("method", [vi.EventDriven(), vi.MoreauJean()],
+                         ids=["event-driven", "moreau-jean"])
+def test_streamed_impulsive_runs_equal_in_memory_ones(method: vi.Integrator,
+                                                      caplog: pytest.LogCaptureFixture) -> None:
+    """Blocks of rows handed over during the run (``on_rows``) and the rest, concatenated,
+    are the rows of the in-memory run bit for bit; the impact table is the same; the progress
+    bar follows the run; the solver log names each impact."""
+    model = oscillator(1.8, vi.contact.Rigid(restitution=E))
+    kw = dict(t_end=5.0, dt=1e-3, method=method)
+    whole = vi.simulate(model, **kw)
+    blocks: list[dict] = []
+    with caplog.at_level(logging.INFO, logger="vibroimpact.solver"):
+        rest = vi.simulate(model, on_rows=blocks.append, chunk_rows=400, **kw)
+    # (blocks that arrive between two polls come as one)
+    assert blocks and 1 <= len(rest.time) <= 400 < len(whole.time)
+    for key in ("time", "displacement", "velocity", "acceleration", "gap_penetration",
+                "gap_force"):
+        cat = np.concatenate([b[key] for b in blocks] + [getattr(rest, key)])
+        assert np.array_equal(cat, getattr(whole, key)), key
+    assert np.array_equal(rest.impacts.t_start, whole.impacts.t_start)
+    assert np.array_equal(rest.impacts.v_in, whole.impacts.v_in)
+    impacts = [r for r in caplog.records if " impact (" in r.getMessage()]
+    # Moreau–Jean reports an impact once per contact (consecutive steps with impulses)
+    assert len(impacts) == len(whole.impacts.t_start) > 5
+    first = impacts[0].getMessage()
+    assert f"{whole.impacts.t_start[0]:.9e}" in first and "gap 0" in first
