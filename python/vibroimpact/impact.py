@@ -39,12 +39,15 @@ def hertz_estimate(stiffness: float, exponent: float, mass: float, velocity: flo
     energy = (exponent + 1) * mass * velocity * velocity / (2 * stiffness)
     delta_max = energy ** (1 / (exponent + 1))
     duration = 3.2 * delta_max / velocity
-    if not (0 < delta_max < math.inf and 0 < duration < math.inf):
+    # the acceleration scale the integrator meets (v/duration: an overflow fails the run)
+    deceleration = velocity / duration if duration > 0 else math.inf
+    if not (0 < delta_max < math.inf and 0 < duration < math.inf
+            and deceleration < math.inf):
         raise ModelError(
-            f"velocity = {velocity:g}: the impact's peak penetration {delta_max:g} m and "
-            f"duration {duration:g} s (mass {mass:g} kg, law stiffness {stiffness:g}) are not "
-            "finite numbers > 0; expected a speed, mass and stiffness whose impact has a "
-            "finite time scale")
+            f"velocity = {velocity:g}: the impact's peak penetration {delta_max:g} m, "
+            f"duration {duration:g} s and deceleration {deceleration:g} m/s^2 (mass {mass:g} "
+            f"kg, law stiffness {stiffness:g}) are not finite numbers > 0; expected a speed, "
+            "mass and stiffness whose impact has finite length, time and acceleration scales")
     return {"delta_max": delta_max, "duration": duration}
 
 
