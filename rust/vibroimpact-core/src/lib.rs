@@ -7,6 +7,7 @@
 
 pub mod contact;
 pub mod error;
+pub mod factor;
 pub mod gap;
 pub mod impulsive;
 pub mod integrators;

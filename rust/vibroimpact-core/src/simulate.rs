@@ -251,6 +251,12 @@ pub enum Event {
         steps: usize,
         iterations: usize,
     },
+    /// The stepper solves the effective stiffness of steps of `dt` with this factor (once,
+    /// before the first step).
+    LinearSolver {
+        dt: f64,
+        factor: crate::factor::FactorInfo,
+    },
 }
 
 /// Watches a run from inside the time loop (compliant methods; the impulsive methods only
@@ -422,17 +428,20 @@ fn run_watched<'o>(
                 // A singular tangent is a solver failure at t = 0: the initial state is the result.
                 Err(e @ SimError::SingularTangent { .. }) => Some(e),
                 Err(e) => return Err(e),
-                Ok(mut stepper) => match &control {
-                    None => run.fixed_steps(
-                        sys,
-                        stepper.as_mut(),
-                        h0,
-                        n_steps,
-                        every,
-                        newton.max_step_cuts,
-                    ),
-                    Some(c) => c.run(&mut run, sys, stepper.as_mut(), every),
-                },
+                Ok(mut stepper) => {
+                    run.report_linear_solver(stepper.as_ref(), h0);
+                    match &control {
+                        None => run.fixed_steps(
+                            sys,
+                            stepper.as_mut(),
+                            h0,
+                            n_steps,
+                            every,
+                            newton.max_step_cuts,
+                        ),
+                        Some(c) => c.run(&mut run, sys, stepper.as_mut(), every),
+                    }
+                }
             }
         }
     };
@@ -555,6 +564,16 @@ impl<'o> Run<'o> {
         }
         self.out.chunk = sink.chunk_rows().map(|n| n.max(1));
         self.out.sink = Some(sink);
+    }
+
+    /// Reports the linear solver of `stepper` for steps of `dt` (when the sink wants events).
+    fn report_linear_solver(&mut self, stepper: &dyn Stepper, dt: f64) {
+        if let (Some(sink), Some(factor)) = (self.out.sink.as_deref_mut(), stepper.linear_solver())
+        {
+            if sink.wants_events() {
+                sink.event(Event::LinearSolver { dt, factor });
+            }
+        }
     }
 
     /// Reports a step from `t` of length `dt` that Newton could not take and that is retried
