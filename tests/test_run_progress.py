@@ -156,3 +156,33 @@ def test_verbose_logs_the_step_cuts_of_adaptive_runs(
     cuts = [line for line in captured.err.splitlines() if "step cut:" in line]
     assert summary["step_cuts"] > 0 and len(cuts) == summary["step_cuts"]
     assert all("converge in 2 iterations (gap 0" in line for line in cuts)
+
+
+def test_verbose_logs_the_linear_solver_and_its_size(caplog: pytest.LogCaptureFixture) -> None:
+    """The effective stiffness's solver is logged once per run: the dense predictor for the
+    paper's SDOF case (n² values), a general sparse factor for a block of 5,880 DOFs of
+    hexahedra (3-D: a wide band), whose stored values lie between the lower triangle of
+    ``K̃`` and a full triangle."""
+    from vibroimpact.fe.bench import hexahedral_block
+
+    fe = hexahedral_block((40, 6, 6), (0.5, 0.06, 0.06))
+    models = [(cases.sdof_model("lankarani-nikravesh"), 1e-6),
+              (vi.Model(fe.to_structure()), 1e-5)]
+    found = []
+    for model, dt in models:
+        caplog.clear()
+        with caplog.at_level("INFO", logger="vibroimpact.solver"):
+            vi.simulate(model, t_end=3 * dt, dt=dt)
+        lines = [rec.getMessage() for rec in caplog.records if "effective stiffness" in
+                 rec.getMessage()]
+        assert len(lines) == 1, lines
+        m = re.fullmatch(r"solver: effective stiffness \((\d+) DOFs\) for steps of "
+                         r"([0-9.e+-]+) s: ([a-z-]+) factor, (\d+) stored values", lines[0])
+        assert m is not None, lines[0]
+        assert int(m[1]) == model.n_dof and float(m[2]) == pytest.approx(dt)
+        found.append((m[3], int(m[4])))
+    assert found[0] == ("dense", 1)
+    solver, stored = found[1]
+    n = fe.n_dof
+    lower = (fe.stiffness.nnz + n) // 2
+    assert solver.startswith("sparse-") and lower <= stored <= n * (n + 1) // 2

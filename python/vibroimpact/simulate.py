@@ -266,6 +266,11 @@ def _log_events(events: list[dict[str, Any]], dropped: int) -> None:
         elif kind == "contact-start":
             log.info("solver: t = %.9e s: gap %d closed (%s wall), approach speed %.4g m/s",
                      e["t"], e["gap"], e["side"], e["speed"])
+        elif kind == "linear-solver":
+            band = "" if e["bandwidth"] is None else f", bandwidth {e['bandwidth']}"
+            log.info("solver: effective stiffness (%d DOFs) for steps of %.3e s: %s factor, "
+                     "%d stored values%s", e["dofs"], e["dt"], e["solver"], e["stored_values"],
+                     band)
         else:
             log.info("solver: t = %.9e s: gap %d opened (%s wall), separation speed %.4g m/s, "
                      "after %d steps in contact and %d Newton iterations (%.2f per step)",

@@ -38,8 +38,8 @@ such as C3D20R, of expanded shells such as S8R) are kept; condense them with
 
 A one-triangle file is mirrored; a square file must be symmetric. Sparse matrices stay sparse
 through :meth:`FEStructure.to_structure` into the core (Newmark-family methods on a banded
-factor); the dense-only methods (precise, Bathe, impulsive) need a reduced model above 5,000
-DOFs (:func:`vibroimpact.fe.craig_bampton`).
+or general sparse Cholesky factor); the dense-only methods (precise, Bathe, impulsive) need a
+reduced model above 5,000 DOFs (:func:`vibroimpact.fe.craig_bampton`).
 
 Recipe for a CalculiX fixture (what most tests do, no ccx needed): build any structure, write
 it with :func:`write_calculix` (the exact ``fprintf`` layout of ccx), read it back. With ccx

@@ -156,6 +156,16 @@ impl<'o> Run<'o> {
         self.out.sink = Some(sink);
     }
 
+    /// Reports the linear solver of `stepper` for steps of `dt` (when the sink wants events).
+    pub(crate) fn report_linear_solver(&mut self, stepper: &dyn Stepper, dt: f64) {
+        if let (Some(sink), Some(factor)) = (self.out.sink.as_deref_mut(), stepper.linear_solver())
+        {
+            if sink.wants_events() {
+                sink.event(Event::LinearSolver { dt, factor });
+            }
+        }
+    }
+
     /// Reports a step from `t` of length `dt` that Newton could not take and that is retried
     /// shorter (when the sink wants events).
     pub(crate) fn step_cut(&mut self, failure: &StepFailure, t: f64, dt: f64) {

@@ -198,6 +198,43 @@ impl Csr {
         &self.vals
     }
 
+    /// `(row_start, cols, vals)`: SciPy's `indptr`, `indices`, `data`.
+    pub fn parts(&self) -> (&[usize], &[usize], &[f64]) {
+        (&self.row_start, &self.cols, &self.vals)
+    }
+
+    /// `Σ cₖ Aₖ` on the union of the patterns (an entry whose coefficient is zero is kept, so
+    /// that every combination of the same matrices has the same pattern).
+    pub fn combination(terms: &[(f64, &Csr)]) -> Self {
+        let n = terms[0].1.n;
+        let mut row_start = Vec::with_capacity(n + 1);
+        let (mut cols, mut vals) = (Vec::new(), Vec::new());
+        let mut row: Vec<(usize, f64)> = Vec::new();
+        row_start.push(0);
+        for i in 0..n {
+            row.clear();
+            for &(c, a) in terms {
+                row.extend(a.row(i).map(|(j, v)| (j, c * v)));
+            }
+            row.sort_unstable_by_key(|e| e.0);
+            for &(j, v) in &row {
+                if cols.len() > row_start[i] && cols.last() == Some(&j) {
+                    *vals.last_mut().expect("pushed") += v;
+                } else {
+                    cols.push(j);
+                    vals.push(v);
+                }
+            }
+            row_start.push(cols.len());
+        }
+        Self {
+            n,
+            row_start,
+            cols,
+            vals,
+        }
+    }
+
     /// `max |A − Aᵀ|` over the entries, from the rows of `A` and of `Aᵀ` merged column by column.
     pub fn asymmetry(&self) -> f64 {
         let t = self.transpose();
@@ -468,7 +505,7 @@ impl BandedCholesky {
         &self.perm
     }
 
-    /// Length of the padded work vector of [`Self::solve_padded`] and [`Self::solve_in_place`].
+    /// Length of the padded work vector of [`Self::solve_padded`].
     pub fn work_len(&self) -> usize {
         self.n + 2 * self.bandwidth
     }
@@ -523,19 +560,6 @@ impl BandedCholesky {
             let col = &self.upper[i * bw..(i + 1) * bw];
             let far = band_dot::<B>(&col[1..], &z[bw + i + 2..2 * bw + i + 1]);
             z[bw + i] = (z[bw + i] - far) - col[0] * z[bw + i + 1];
-        }
-    }
-
-    /// Solves `A x = b` in place (`b` in the original order); `work` has length
-    /// [`Self::work_len`] and zero padding (a fresh zero vector, or one used only here).
-    pub fn solve_in_place(&self, b: &mut [f64], work: &mut [f64]) {
-        let bw = self.bandwidth;
-        for (new, &old) in self.perm.iter().enumerate() {
-            work[bw + new] = b[old];
-        }
-        self.solve_padded(work);
-        for (new, &old) in self.perm.iter().enumerate() {
-            b[old] = work[bw + new];
         }
     }
 }
@@ -647,7 +671,7 @@ mod tests {
         let f = BandedCholesky::factor(&[(1.0, &csr)], perm, bw).unwrap();
         let b: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
         let mut x = b.clone();
-        f.solve_in_place(&mut x, &mut vec![0.0; f.work_len()]);
+        crate::factor::SpdFactor::Banded(f).solve_in_place(&mut x);
         let exact = a.lu().solve(&nalgebra::DVector::from_vec(b)).unwrap();
         for i in 0..n {
             assert!((x[i] - exact[i]).abs() < 1e-12, "{i}");

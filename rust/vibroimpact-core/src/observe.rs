@@ -84,6 +84,12 @@ pub enum Event {
         v_in: f64,
         v_out: f64,
     },
+    /// The stepper solves the effective stiffness of steps of `dt` with this factor (once,
+    /// before the first step).
+    LinearSolver {
+        dt: f64,
+        factor: crate::factor::FactorInfo,
+    },
 }
 
 /// Watches a run from inside the time loop (every method): takes the recorded rows in blocks, so that they need not

@@ -195,17 +195,24 @@ fn run_watched<'o>(
                 // A singular tangent is a solver failure at t = 0: the initial state is the result.
                 Err(e @ SimError::SingularTangent { .. }) => Some(e),
                 Err(e) => return Err(e),
-                Ok(mut stepper) => match &control {
-                    None => {
-                        let mut policy =
-                            FixedSteps::new(stepper.as_mut(), h0, n_steps, newton.max_step_cuts);
-                        run.drive(sys, &mut policy, every)
+                Ok(mut stepper) => {
+                    run.report_linear_solver(stepper.as_ref(), h0);
+                    match &control {
+                        None => {
+                            let mut policy = FixedSteps::new(
+                                stepper.as_mut(),
+                                h0,
+                                n_steps,
+                                newton.max_step_cuts,
+                            );
+                            run.drive(sys, &mut policy, every)
+                        }
+                        Some(c) => {
+                            let mut policy = AdaptiveSteps::new(c, stepper.as_mut(), &run, sys);
+                            run.drive(sys, &mut policy, every)
+                        }
                     }
-                    Some(c) => {
-                        let mut policy = AdaptiveSteps::new(c, stepper.as_mut(), &run, sys);
-                        run.drive(sys, &mut policy, every)
-                    }
-                },
+                }
             }
         }
     };

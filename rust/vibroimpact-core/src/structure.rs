@@ -5,7 +5,8 @@ use std::sync::{Arc, OnceLock};
 use nalgebra::DMatrix;
 
 use crate::error::{invalid, SimError};
-use crate::linalg::{BandedCholesky, Csr};
+use crate::factor::SpdFactor;
+use crate::linalg::Csr;
 
 /// Largest structure (DOFs) that the dense-only methods (precise integration, Bathe, the
 /// impulsive methods, Newmark's dense predictor) take: their `n × n` matrices would need
@@ -20,9 +21,9 @@ pub struct LinearStructure {
     pub mass: Csr,
     pub damping: Csr,
     pub stiffness: Csr,
-    /// `M = L Lᵀ` (banded, reverse Cuthill–McKee order): the positive-definiteness check,
-    /// and the initial acceleration's solve.
-    mass_factor: BandedCholesky,
+    /// `M = L Lᵀ` (banded or general sparse, whichever solves faster): the
+    /// positive-definiteness check, and the initial acceleration's solve.
+    mass_factor: SpdFactor,
     pub(crate) dense: OnceLock<Arc<DenseStructure>>,
 }
 
@@ -74,7 +75,7 @@ impl LinearStructure {
     }
 
     /// Checks shapes, finiteness, symmetry (`max |A − Aᵀ| ≤ 1e-9 max |A|`) and that the mass
-    /// matrix is positive definite (its banded Cholesky factor exists), without densifying.
+    /// matrix is positive definite (its Cholesky factor exists), without densifying.
     pub fn from_sparse(mass: Csr, damping: Csr, stiffness: Csr) -> Result<Self, SimError> {
         let n = mass.n();
         if n == 0 {
@@ -108,8 +109,7 @@ impl LinearStructure {
                 ));
             }
         }
-        let (perm, bw) = BandedCholesky::ordering(n, &[&mass]);
-        let Some(mass_factor) = BandedCholesky::factor(&[(1.0, &mass)], perm, bw) else {
+        let Some(mass_factor) = SpdFactor::cheapest(&[(1.0, &mass)]) else {
             return invalid(
                 "structure.mass: not positive definite; expected every DOF to carry mass",
             );
@@ -129,8 +129,7 @@ impl LinearStructure {
 
     /// Solves `M a = r` in place.
     pub fn solve_mass(&self, r: &mut [f64]) {
-        let mut work = vec![0.0; self.mass_factor.work_len()];
-        self.mass_factor.solve_in_place(r, &mut work);
+        self.mass_factor.solve_in_place(r);
     }
 
     /// Dense `M`, `C`, `K` for `method` (built once, then shared). Refuses structures with

@@ -50,6 +50,33 @@ fn request_interrupt() {
     vibroimpact_core::interrupt::request();
 }
 
+/// The floor of a Newmark step's cost on the run `spec` (benchmarks): its effective
+/// stiffness for steps of `spec["dt"]` factorised as the run would, and `solves` bare solves
+/// timed. A dict: `solver`, `dofs`, `bandwidth`, `stored_values`, `solve_s` (per solve).
+#[pyfunction]
+fn substitution_time<'py>(
+    py: Python<'py>,
+    spec: &Bound<'py, PyDict>,
+    solves: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let job = convert::job_from_spec(spec)?;
+    let vibroimpact_core::simulate::Method::NewmarkFamily(scheme) = job.method else {
+        return Err(ModelError::new_err(
+            "solver.method: expected a Newmark-family method for the substitution floor",
+        ));
+    };
+    let (factor, solve_s) = py
+        .detach(|| integrators::substitution_time(&job.system, scheme, job.settings.dt, solves))
+        .map_err(to_py_err)?;
+    let d = PyDict::new(py);
+    d.set_item("solver", factor.solver)?;
+    d.set_item("dofs", factor.dofs)?;
+    d.set_item("bandwidth", factor.bandwidth)?;
+    d.set_item("stored_values", factor.stored_values)?;
+    d.set_item("solve_s", solve_s)?;
+    Ok(d)
+}
+
 /// Withdraws an interrupt request (before starting a new run).
 #[pyfunction]
 fn clear_interrupt() {
@@ -389,6 +416,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(convert::compile_system, m)?)?;
     m.add_class::<convert::CompiledSystem>()?;
     m.add_function(wrap_pyfunction!(expm, m)?)?;
+    m.add_function(wrap_pyfunction!(substitution_time, m)?)?;
     m.add_function(wrap_pyfunction!(request_interrupt, m)?)?;
     m.add_function(wrap_pyfunction!(clear_interrupt, m)?)?;
     m.add_function(wrap_pyfunction!(interrupt_requested, m)?)?;

@@ -234,8 +234,8 @@ impl Running {
     }
 
     /// The solver events since the last call (dicts with `kind`: `step-cut`,
-    /// `contact-start`, `contact-end`, `impact`; `t`, `gap`, ...) and how many were dropped because
-    /// the buffer was full.
+    /// `contact-start`, `contact-end`, `impact`, `linear-solver`; `t`, `gap`, ...) and how many
+    /// were dropped because the buffer was full.
     fn take_events<'py>(&mut self, py: Python<'py>) -> PyResult<(Bound<'py, PyList>, usize)> {
         let events =
             std::mem::take(&mut *self.shared.events.lock().unwrap_or_else(|e| e.into_inner()));
@@ -299,6 +299,14 @@ impl Running {
                     d.set_item("side", side(s))?;
                     d.set_item("v_in", v_in)?;
                     d.set_item("v_out", v_out)?;
+                }
+                Event::LinearSolver { dt, factor } => {
+                    d.set_item("kind", "linear-solver")?;
+                    d.set_item("dt", dt)?;
+                    d.set_item("solver", factor.solver)?;
+                    d.set_item("dofs", factor.dofs)?;
+                    d.set_item("bandwidth", factor.bandwidth)?;
+                    d.set_item("stored_values", factor.stored_values)?;
                 }
             }
             list.append(d)?;

@@ -10,11 +10,12 @@ mod newton;
 mod precise;
 
 pub use bathe::{Bathe, BatheStepper};
-pub use newmark::{NewmarkFamily, NewmarkStepper};
+pub use newmark::{substitution_time, NewmarkFamily, NewmarkStepper};
 pub use newton::NewtonSettings;
 pub use precise::{precise_matrices, PreciseIntegration, PreciseMatrices, PreciseStepper};
 
 use crate::error::SimError;
+use crate::factor::FactorInfo;
 use crate::system::{State, System};
 
 /// `level` of a step whose size is not `dt / 2^level` (adaptive steps landing on an event or
@@ -63,6 +64,11 @@ impl<T> OperatorCache<T> {
             }
         }
         Ok(())
+    }
+
+    /// The operator of level 0, if it is built.
+    pub(crate) fn largest(&self) -> Option<&T> {
+        self.levels.first().and_then(Option::as_ref)
     }
 
     /// The operator [`Self::ensure`] made available for `level`.
@@ -130,4 +136,10 @@ pub trait Stepper {
     /// The last successful attempt became the current state (multi-step methods shift their
     /// history here).
     fn accept(&mut self, _sys: &System, _state: &State) {}
+
+    /// The linear solver of the largest step's effective stiffness, for the log (steppers
+    /// that choose one).
+    fn linear_solver(&self) -> Option<FactorInfo> {
+        None
+    }
 }
