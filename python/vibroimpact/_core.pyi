@@ -41,6 +41,7 @@ def contact_force(
     impact_speed: float,
     max_penetration: float | None = None,
 ) -> tuple[float, float, float]: ...
+def law_catalog() -> list[dict[str, Any]]: ...
 def contact_law_evaluate(
     law: dict[str, Any],
     penetration: NDArray[np.float64],

@@ -2,6 +2,9 @@
 contact stiffness from geometry and material.
 
 Each law is plain data; the force, its derivatives and the time loop live in the Rust core.
+Which laws there are, their parameters and defaults come from the core's catalog
+(``_core.law_catalog()``): the classes of the hysteretic laws below are generated from it, the
+others are written here and checked against it.
 ``stiffness`` is either a number (N/mⁿ) or a :class:`Geometry` from which the stiffness is
 computed (paper eq. 4 for the Hertzian point contacts).
 
@@ -37,35 +40,26 @@ from vibroimpact import _core
 from vibroimpact.errors import ModelError, require
 
 __all__ = [
+    "CATALOG",
     "FORCE_LAWS",
     "GEOMETRY_KINDS",
     "LAWS",
     "PAPER_LAWS",
     "REMOVED_LAWS",
     "RESTITUTION_LAWS",
-    "CarvalhoMartins",
     "ContactLaw",
-    "ExactRestitution",
-    "Flores",
     "Geometry",
-    "GharibHurmuzlu",
-    "Gonthier",
-    "HerbertMcWhannell",
     "Hertz",
-    "HuGuo",
     "HuntCrossley",
     "KelvinVoigt",
-    "LankaraniNikravesh",
-    "LeeWang",
     "PowerLaw",
     "Rigid",
     "Tabulated",
-    "Ye",
-    "ZhiyingQishao",
+    "catalog_default",
     "kelvin_voigt_damping",
     "law_from_name",
     "refuse_removed_law",
-]
+]  # and the classes of the hysteretic laws, generated below (HYSTERETIC_CLASSES)
 
 GeometryKind = Literal[
     "sphere-sphere", "ball-in-socket", "sphere-plane", "cylinder-in-hole", "flat-punch"
@@ -92,6 +86,17 @@ def _positive(value: Any, field: str, unit: str) -> None:
         value,
         f"a number > 0 in {unit}",
     )
+
+
+#: The core's catalog of laws, by kind: family, class name, source, parameters (name, unit,
+#: ``required``, ``default``, ``list``, ``doc``) and, for a generated class, its documentation.
+CATALOG: dict[str, dict[str, Any]] = {entry["name"]: entry for entry in _core.law_catalog()}
+
+
+def catalog_default(kind: str, parameter: str) -> Any:
+    """The core's default of ``parameter`` of law ``kind`` (``None``: none, it must be given or
+    is one of alternatives)."""
+    return next(p["default"] for p in CATALOG[kind]["parameters"] if p["name"] == parameter)
 
 
 @dataclass(frozen=True)
@@ -225,15 +230,25 @@ class ContactLaw:
         return f.reshape(pen.shape), dp.reshape(pen.shape), dr.reshape(pen.shape)
 
 
+def _require_given(law: ContactLaw) -> None:
+    """Refuse a law whose parameters the core's catalog requires are left ``None`` (a dataclass
+    field after one with a default needs a default too)."""
+    for p in CATALOG[law.kind]["parameters"]:
+        if p["required"] and getattr(law, p["name"]) is None:
+            needed = [q["name"] for q in CATALOG[law.kind]["parameters"] if q["required"]]
+            raise ModelError(f"law.{p['name']}: missing; {law.kind} needs {', '.join(needed)}")
+
+
 @dataclass(frozen=True)
 class PowerLaw(ContactLaw):
     """Base of the laws built on ``K δⁿ``: a stiffness (number or :class:`Geometry`) and an
     exponent."""
 
     stiffness: float | Geometry
-    exponent: float = 1.5
+    exponent: float = catalog_default("hertz", "exponent")
 
     def __post_init__(self) -> None:
+        _require_given(self)
         if not isinstance(self.stiffness, Geometry):
             _positive(self.stiffness, "law.stiffness", "N/m^n")
         require(
@@ -298,8 +313,8 @@ class KelvinVoigt(PowerLaw):
     inverts the clamped relation."""
 
     kind: ClassVar[str] = "kelvin-voigt"
-    exponent: float = 1.0
-    damping: float = 0.0
+    exponent: float = catalog_default("kelvin-voigt", "exponent")
+    damping: float | None = None
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -380,7 +395,9 @@ class HuntCrossley(PowerLaw):
 @dataclass(frozen=True)
 class _RestitutionLaw(PowerLaw):
     """``F = K δⁿ [1 + χ(ce) δ̇/v_imp]``: a Hertzian law whose hysteresis damping
-    ``D = χ(ce) K/v_imp`` follows from the restitution ``ce`` (0 < ce <= 1)."""
+    ``D = χ(ce) K/v_imp`` follows from the restitution ``ce`` (0 < ce <= 1) by the law's relation
+    ``χ(ce)``, which the core holds. The classes are generated from the core's catalog
+    (:func:`_hysteretic_class`)."""
 
     restitution: float | None = None
 
@@ -393,144 +410,29 @@ class _RestitutionLaw(PowerLaw):
         return {**super().to_spec(), "restitution": float(self.restitution)}
 
 
-@dataclass(frozen=True)
-class HerbertMcWhannell(_RestitutionLaw):
-    """Herbert & McWhannell (1977, J. Eng. Ind. 99:513): ``χ = 6(1 − ce)/[(2ce − 1)² + 3]``;
-    Hunt–Crossley's factor as ce → 1, finite (1.5) as ce → 0."""
-
-    kind: ClassVar[str] = "herbert-mcwhannell"
+#: Python types of the parameters of the generated classes (the others are numbers), written as
+#: the annotations of the classes above are.
+_PARAMETER_TYPES: dict[str, str] = {"stiffness": "float | Geometry"}
 
 
-@dataclass(frozen=True)
-class LeeWang(_RestitutionLaw):
-    """Lee & Wang (1983, J. Mech. Transm. Autom. Des. 105:534): ``χ = 3(1 − ce)/4``."""
-
-    kind: ClassVar[str] = "lee-wang"
-
-
-@dataclass(frozen=True)
-class LankaraniNikravesh(_RestitutionLaw):
-    """``F = K δⁿ [1 + 3(1 − ce²)/4 · δ̇/v_imp]`` (Lankarani & Nikravesh 1990, J. Mech. Des.
-    112:369; paper eq. 8): ``χ = 3(1 − ce²)/4``, derived for ce near 1."""
-
-    kind: ClassVar[str] = "lankarani-nikravesh"
-
-
-@dataclass(frozen=True)
-class Gonthier(_RestitutionLaw):
-    """``F = K δⁿ [1 + (1 − ce²)/ce · δ̇/v_imp]`` (Gonthier et al. 2004, Multibody Syst. Dyn.
-    11:209; paper eqs. 9–10): ``χ = (1 − ce²)/ce``. The paper prints ``(1 − ce²)/ce²`` both
-    in eq. 9 and in Table 2; ``/ce`` is what its eq. 10 gives (the damping coefficient of
-    ``K δⁿ + χ δⁿ δ̇`` is ``χ = d·K/(ce·δ̇⁻)``, ``d ≈ 1 − ce²``) and what its Fig. 4 shows:
-    the two spheres, thrown at 0.3 m/s with ce = 0.5, leave at 0.15 m/s; ``/ce`` gives
-    0.146 m/s, ``/ce²`` would give 0.092 m/s."""
-
-    kind: ClassVar[str] = "gonthier"
-
-
-@dataclass(frozen=True)
-class ZhiyingQishao(_RestitutionLaw):
-    """Zhiying & Qishao (2006, J. Dyn. Control 4:294): ``χ = 3(1 − ce²) e^{2(1−ce)}/4``."""
-
-    kind: ClassVar[str] = "zhiying-qishao"
-
-
-@dataclass(frozen=True)
-class Flores(_RestitutionLaw):
-    """``F = K δⁿ [1 + 8(1 − ce)/(5 ce) · δ̇/v_imp]`` (Flores et al. 2011, Multibody Syst. Dyn.
-    25:357; paper eq. 13): ``χ = 8(1 − ce)/(5 ce)``, for the whole range of ce."""
-
-    kind: ClassVar[str] = "flores"
-
-
-@dataclass(frozen=True)
-class HuGuo(_RestitutionLaw):
-    """Hu & Guo (2015, Multibody Syst. Dyn. 35:131): ``χ = 3(1 − ce)/(2 ce)``, Hunt–Crossley's
-    factor divided by ce, for hard and soft materials.
-
-    Which factor: the equation could not be read in a public copy of the paper (the public
-    copy found, doi 10.1007/s11044-015-9453-z, holds only its introduction). Public code disagrees:
-    a vehicle–track code (function ``hu_guo_normal_damping_force``, a port of the MATLAB
-    routine ``Multi_Con_250812.m``) computes ``3(1 − e)/(2e)``, the code that accompanies
-    the 2018 review of Skrinjar et al. (github.com/ladisk/DyS,
-    ``MBD_system/contact_model/contact_model.py``, ``_hysteresis_damping_factor_HG``)
-    computes ``(3/2)(1 − e)/(2e) = 3(1 − e)/(4e)``. Settled by what the paper claims,
-    reproducing ce over the whole range: ``a(1 − ce)/ce`` agrees with the exact
-    Hunt–Crossley relation (``3(1 − ce)/2`` to first order) as ce → 1 only for ``a = 3/2``.
-    One impact with ``a = 3/2`` restitutes 0.074, 0.271, 0.488, 0.697, 0.900, 0.990 for
-    ce = 0.1, 0.3, 0.5, 0.7, 0.9, 0.99; with ``a = 3/4`` it would restitute 0.148, 0.446,
-    0.663, 0.823, 0.947, 0.995."""
-
-    kind: ClassVar[str] = "hu-guo"
-
-
-@dataclass(frozen=True)
-class GharibHurmuzlu(_RestitutionLaw):
-    """Gharib & Hurmuzlu (2012, J. Appl. Mech. 79:064506), for low restitutions:
-    ``χ = 1/ce − 1``, as the reviews list it. Not checked against the paper: no public copy,
-    quotation or implementation of its formula was found (searched: the stored web pages,
-    GitHub code and issues; the law's name appears in code only as a plot legend, in the
-    post-processing of github.com/lovcavil/MBD.jl). Checked is the property it is built for:
-    with ``χ ≫ 1`` one impact restitutes ``e ≈ 1/χ``, so ``e_eff = ce/(1 − ce) → ce`` as
-    ce → 0 (0.111 at ce = 0.1)."""
-
-    kind: ClassVar[str] = "gharib-hurmuzlu"
-
-
-@dataclass(frozen=True)
-class Ye(_RestitutionLaw):
-    """Ye, Li & Zhu (2009, Earthq. Eng. Struct. Dyn. 38:1135, doi 10.1002/eqe.883; the
-    "Hertzdamp" pounding law): ``F = K δ^{3/2} + ξ δ^{3/2} δ̇``, ``ξ = 8K(1 − ce)/(5 ce v_imp)``,
-    i.e. ``χ = 8(1 − ce)/(5 ce)``, derived for ``n = 3/2`` (the factor Flores et al. 2011
-    reached independently). Checked against the OpenSees ``Hertzdamp`` material
-    documentation (github.com/OpenSees/OpenSeesDocumentation,
-    ``source/user/manual/material/uniaxialMaterials/HertzDamp.rst``), which recommends
-    ``ξ̄ = (8/5)(1 − e)/e`` in ``c_h = ξ̄ K δⁿ/δ̇₀`` citing this paper (whose abstract, in
-    the public copy scribd.com/document/332823130, announces a corrected formula for this
-    damping constant; the formula itself lies past the stored excerpt). Not their linear
-    "modified Kelvin" model (2009, Earthq. Eng. Eng. Vib. 8:433), which is not provided."""
-
-    kind: ClassVar[str] = "ye"
-
-
-@dataclass(frozen=True)
-class CarvalhoMartins(_RestitutionLaw):
-    """Carvalho & Martins (2019, Mech. Mach. Theory 139:174): the closed form
-    ``χ = 3(1 − ce)(11 − ce)/[2(1 + 9 ce)]`` of the exact Hunt–Crossley restitution, for
-    ce ≳ 1/3 (it equals Gonthier's factor at ce = 1/3)."""
-
-    kind: ClassVar[str] = "carvalho-martins"
-
-
-@dataclass(frozen=True)
-class ExactRestitution(_RestitutionLaw):
-    """``F = K δⁿ (1 + χ δ̇/v_imp)`` with the factor that makes one impact restitute exactly
-    ``ce``: ``χ`` is the root in ``(0, 1/ce)`` of ``χ − ln(1 + χ) = −χ ce − ln(1 − χ ce)``
-    (``χ = 0`` for ``ce = 1``), solved once when the law is built. Not a published closed
-    form but the relation that closed-form factors approximate (Carvalho & Martins 2019 is
-    one); near ce = 1, ``χ ≈ 3(1 − ce)/2``, Hunt–Crossley's factor.
-
-    Why the root restitutes ``ce`` (the energy integral in the phase plane of Hunt & Crossley
-    1975 and Lankarani & Nikravesh 1990): a free mass ``m`` meets a rigid wall at
-    ``δ̇ = v_imp`` with no other force, so ``m δ̈ = −K δⁿ (1 + χ δ̇/v_imp)``. With
-    ``δ̈ = δ̇ dδ̇/dδ`` and ``u = δ̇/v_imp`` this separates into
-    ``u du/(1 + χ u) = −K δⁿ dδ/(m v_imp²)``. Compression takes ``u`` from 1 to 0 while ``δ``
-    goes from 0 to ``δ_max``; restitution takes ``u`` from 0 to ``−e`` while ``δ`` returns to 0.
-    The right-hand sides of the two phases are the same integral with reversed limits, so
-    ``∫₀¹ u/(1 + χu) du = ∫₀^(−e) u/(1 + χu) du``; with
-    ``∫ u/(1 + χu) du = u/χ − ln(1 + χu)/χ²``, times ``χ²``:
-    ``χ − ln(1 + χ) = −χ e − ln(1 − χ e)``. ``K``, ``n``, ``m`` and ``v_imp`` have dropped out:
-    ``e`` depends on ``χ`` alone, and the ``χ`` solving this with ``e = ce`` gives
-    ``v_out/v_in = ce``. The bracket ``1 + χu >= 1 − χ ce > 0`` all through the restitution
-    phase, so the force never turns tensile, the non-tensile clamp never acts and the contact
-    ends at ``δ = 0``, where the integral ends. Gravity, a structure or other walls acting
-    during the contact change the balance; then ``e_eff`` differs from ``ce``.
-
-    Until it had a name of its own this relation was offered as ``safaeifar-karimi``, a
-    stand-in for the closed form of Safaeifar & Karimi (2020, Multibody Syst. Dyn. 50:233),
-    which no public copy found shows; that name is now refused (:data:`REMOVED_LAWS`)."""
-
-    kind: ClassVar[str] = "exact-restitution"
+def _hysteretic_class(entry: dict[str, Any]) -> type[_RestitutionLaw]:
+    """The class of hysteretic law ``entry`` of the core's catalog: its name, kind, docstring,
+    parameters and defaults are the catalog's, its behaviour that of :class:`_RestitutionLaw`."""
+    fields = []
+    for p in entry["parameters"]:
+        kind = _PARAMETER_TYPES.get(p["name"], "float")
+        if p["default"] is not None:
+            fields.append((p["name"], kind, dataclasses.field(default=p["default"])))
+        elif p["name"] == "stiffness":  # first, and without a default
+            fields.append((p["name"], kind))
+        else:  # required or optional, after parameters with defaults
+            fields.append((p["name"], f"{kind} | None", dataclasses.field(default=None)))
+    cls = dataclasses.make_dataclass(
+        entry["class_name"], fields, bases=(_RestitutionLaw,), frozen=True,
+        namespace={"__doc__": entry["doc"], "kind": entry["name"]},
+    )
+    cls.__module__ = __name__
+    return cls
 
 
 def _curve(
@@ -581,7 +483,7 @@ class Tabulated(ContactLaw):
     loading_force: Sequence[float]
     unloading_penetration: Sequence[float]
     unloading_force: Sequence[float]
-    reversal_band: float = 0.01
+    reversal_band: float = catalog_default("tabulated", "reversal_band")
 
     def __post_init__(self) -> None:
         lx, lf = _curve("loading", self.loading_penetration, self.loading_force)
@@ -606,7 +508,7 @@ class Tabulated(ContactLaw):
         cls,
         loading: Sequence[tuple[float, float]],
         unloading: Sequence[tuple[float, float]],
-        reversal_band: float = 0.01,
+        reversal_band: float = catalog_default("tabulated", "reversal_band"),
     ) -> Tabulated:
         """From sequences of ``(δ, F)`` points."""
         lx, lf = zip(*loading, strict=True)
@@ -692,15 +594,33 @@ class Rigid(ContactLaw):
         return self.force(0.0, 0.0, 0.0)  # type: ignore[return-value]
 
 
-_ALL: tuple[type[ContactLaw], ...] = (
-    Hertz, KelvinVoigt, HuntCrossley, HerbertMcWhannell, LeeWang, LankaraniNikravesh, Gonthier,
-    ZhiyingQishao, Flores, HuGuo, GharibHurmuzlu, Ye, CarvalhoMartins, ExactRestitution,
-    Tabulated, Rigid,
-)
+#: The classes written here (each checked against its catalog entry by the tests); every other
+#: law of the catalog is hysteretic and has a generated class.
+_WRITTEN: dict[str, type[ContactLaw]] = {
+    c.__name__: c for c in (Hertz, KelvinVoigt, HuntCrossley, Tabulated, Rigid)
+}
 
-#: Every law by its kebab-case name (model files, CLI, JSON), in the order of the issue; the
-#: last, ``rigid``, is the massless bar (impulsive methods only).
-LAWS: dict[str, type[ContactLaw]] = {cls.kind: cls for cls in _ALL}
+
+def _generated_classes() -> tuple[type[_RestitutionLaw], ...]:
+    unwritten = [e for e in CATALOG.values() if e["class_name"] not in _WRITTEN]
+    other = [e["class_name"] for e in unwritten if e["family"] != "hysteretic"]
+    if other:  # only a hysteretic law is data alone; another family needs its class here
+        raise ImportError(f"vibroimpact.contact: no class for {', '.join(other)}")
+    return tuple(_hysteretic_class(e) for e in unwritten)
+
+
+#: The classes generated from the core's catalog, one per hysteretic law with a restitution
+#: (``vi.contact.LankaraniNikravesh``, ...).
+HYSTERETIC_CLASSES: tuple[type[_RestitutionLaw], ...] = _generated_classes()
+globals().update({cls.__name__: cls for cls in HYSTERETIC_CLASSES})
+__all__ += ["HYSTERETIC_CLASSES", *(cls.__name__ for cls in HYSTERETIC_CLASSES)]
+
+#: Every law by its kebab-case name (model files, CLI, JSON), in the order of the core's
+#: catalog; the last, ``rigid``, is the massless bar (impulsive methods only).
+LAWS: dict[str, type[ContactLaw]] = {
+    kind: {**_WRITTEN, **{c.__name__: c for c in HYSTERETIC_CLASSES}}[e["class_name"]]
+    for kind, e in CATALOG.items()
+}
 
 #: The force laws ``F(δ, δ̇, v_imp)`` (every law but ``rigid``): what the compliant integrators,
 #: ``vibroimpact impact`` and ``vibroimpact laws`` take.
@@ -708,7 +628,7 @@ FORCE_LAWS: dict[str, type[ContactLaw]] = {k: c for k, c in LAWS.items() if not 
 
 #: The laws whose damping follows from a restitution ``ce`` they require.
 RESTITUTION_LAWS: tuple[str, ...] = tuple(
-    cls.kind for cls in _ALL if issubclass(cls, _RestitutionLaw)
+    kind for kind, cls in LAWS.items() if issubclass(cls, _RestitutionLaw)
 )
 
 #: The paper's five laws, in its order (Table 2).

@@ -5,7 +5,13 @@ from __future__ import annotations
 import argparse
 import json
 
-from vibroimpact.contact import FORCE_LAWS, REMOVED_LAWS, kelvin_voigt_damping, law_from_name
+from vibroimpact.contact import (
+    FORCE_LAWS,
+    REMOVED_LAWS,
+    catalog_default,
+    kelvin_voigt_damping,
+    law_from_name,
+)
 from vibroimpact.errors import ModelError
 from vibroimpact.impact import single_impact
 
@@ -41,7 +47,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--law", required=True, choices=LawNames(sorted(FORCE_LAWS)),
                    help="contact law")
     p.add_argument("--stiffness", type=float, required=True, help="contact stiffness K, N/m^n")
-    p.add_argument("--exponent", type=float, default=None, help="exponent n (default 1.5)")
+    p.add_argument("--exponent", type=float, default=None,
+                   help=f"exponent n (default {catalog_default('hertz', 'exponent'):g})")
     p.add_argument("--restitution", type=float, default=None,
                    help="restitution ce, 0 < ce <= 1 (kelvin-voigt: the dashpot c that gives "
                         "it for this mass, instead of --damping)")

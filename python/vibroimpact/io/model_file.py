@@ -231,17 +231,33 @@ def _cond(when: tuple[str, tuple[str, ...]]) -> str:
     return f"{key} = " + " | ".join(_toml(v) for v in values)
 
 
-# ---- the law parameters come from the law classes (vibroimpact.contact.LAWS) ----
+# ---- the law parameters come from the core's catalog (vibroimpact.contact.CATALOG) ----
 
 
 def _law_fields() -> dict[str, dict[str, Any]]:
     """For each law parameter: the kinds that take it and each kind's default."""
     out: dict[str, dict[str, Any]] = {}
-    for kind, cls in contact.LAWS.items():
-        for f in dataclasses.fields(cls):
-            if f.init:
-                out.setdefault(f.name, {})[kind] = f.default
+    for kind, entry in contact.CATALOG.items():
+        for p in entry["parameters"]:
+            out.setdefault(p["name"], {})[kind] = p["default"]
     return out
+
+
+def _kinds_requiring(param: str) -> tuple[str, ...]:
+    return tuple(kind for kind, entry in contact.CATALOG.items()
+                 if any(p["name"] == param and p["required"] for p in entry["parameters"]))
+
+
+def _alternatives() -> tuple[tuple[str, tuple[str, ...]], ...]:
+    """The laws whose optional parameters (no default, not required) are alternatives, one of
+    which must be given (hunt-crossley: restitution or damping)."""
+    out = []
+    for kind, entry in contact.CATALOG.items():
+        optional = tuple(p["name"] for p in entry["parameters"]
+                         if not p["required"] and p["default"] is None)
+        if optional:
+            out.append((kind, optional))
+    return tuple(out)
 
 
 _LAW_FIELDS = _law_fields()
@@ -261,10 +277,8 @@ def _exponent_default() -> str:
     return f"{_num(common)}" + (f" ({others})" if others else "")
 
 
-_RESTITUTION_LAWS = tuple(
-    k for k in (*contact.RESTITUTION_LAWS, "rigid") if k in _kinds_with("restitution")
-)
-_DAMPING_REQUIRED = tuple(k for k in ("kelvin-voigt",) if k in _kinds_with("damping"))
+_RESTITUTION_LAWS = _kinds_requiring("restitution")
+_DAMPING_REQUIRED = _kinds_requiring("damping")
 _GEOMETRY_KINDS = contact.GEOMETRY_KINDS
 _SDOF = ("kind", ("sdof",))
 _MATRICES = ("kind", ("matrices",))
@@ -466,7 +480,8 @@ SCHEMA: tuple[Field, ...] = (
           "on or below the loading curve", unit="N", default=REQUIRED,
           when=("kind", _kinds_with("unloading_force"))),
     Field("gaps[].law.reversal_band", "number", "tabulated: speed band over which the force "
-          "passes from loading to unloading, as a fraction of v_imp", default=0.01, minimum=0,
+          "passes from loading to unloading, as a fraction of v_imp",
+          default=contact.catalog_default("tabulated", "reversal_band"), minimum=0,
           minimum_inclusive=False, maximum=1, when=("kind", _kinds_with("reversal_band"))),
     # [gaps.law.geometry]
     Field("gaps[].law.geometry.kind", "string", "the two bodies (paper eq. 4)",
@@ -561,7 +576,7 @@ SCHEMA = tuple(dataclasses.replace(f, open=True) if f.path in _OPEN_TABLES else 
 #: Constraints between keys.
 RULES: tuple[ExactlyOne, ...] = (
     ExactlyOne("gaps[].law", ("stiffness", "geometry"), when=("kind", _kinds_with("stiffness"))),
-    ExactlyOne("gaps[].law", ("restitution", "damping"), when=("kind", ("hunt-crossley",))),
+    *(ExactlyOne("gaps[].law", params, when=("kind", (kind,))) for kind, params in _alternatives()),
     ExactlyOne("structure.section", ("wall_thickness", "inner_diameter"),
                when=("kind", ("tube",))),
     ExactlyOne("structure.supports[]", ("node", "at")),

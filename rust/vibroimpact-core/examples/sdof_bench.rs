@@ -8,7 +8,7 @@ use std::time::Instant;
 static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 use nalgebra::{DMatrix, DVector};
-use vibroimpact_core::contact::{Hertz, LankaraniNikravesh, Law};
+use vibroimpact_core::contact::{Hertz, Hysteretic, Law};
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings};
 use vibroimpact_core::settings::Adaptive;
@@ -20,7 +20,7 @@ fn main() {
     let k = 1.5087e11;
     for law in [
         Law::Hertz(Hertz::new(k, 1.5).unwrap()),
-        Law::LankaraniNikravesh(LankaraniNikravesh::new(k, 1.5, 0.9).unwrap()),
+        Law::Hysteretic(Hysteretic::new("lankarani-nikravesh", k, 1.5, 0.9).unwrap()),
     ] {
         let name = law.name();
         let s = LinearStructure::new(

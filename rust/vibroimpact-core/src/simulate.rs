@@ -253,7 +253,7 @@ mod tests {
     use nalgebra::{DMatrix, DVector};
 
     use super::*;
-    use crate::contact::{LankaraniNikravesh, Law};
+    use crate::contact::{Hysteretic, Law};
     use crate::gap::{Gap, Side};
     use crate::integrators::NewmarkFamily;
     use crate::interrupt;
@@ -267,7 +267,8 @@ mod tests {
             DMatrix::from_element(1, 1, 4.0e3),
         )
         .unwrap();
-        let law = Law::LankaraniNikravesh(LankaraniNikravesh::new(1.5e11, 1.5, 0.5).unwrap());
+        let law =
+            Law::Hysteretic(Hysteretic::new("lankarani-nikravesh", 1.5e11, 1.5, 0.5).unwrap());
         let gap = Gap {
             dofs: vec![0],
             coefficients: vec![1.0],

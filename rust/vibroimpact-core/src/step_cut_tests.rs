@@ -5,7 +5,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use crate::contact::{LankaraniNikravesh, Law};
+use crate::contact::{Hysteretic, Law};
 use crate::driver::Run;
 use crate::error::SimError;
 use crate::gap::{Gap, Side, WallState};
@@ -74,7 +74,8 @@ fn system() -> System {
         DMatrix::from_row_slice(2, 2, &[1e6, -1e6, -1e6, 1e6]),
     )
     .unwrap();
-    let law = |ce| Law::LankaraniNikravesh(LankaraniNikravesh::new(1.5e11, 1.5, ce).unwrap());
+    let law =
+        |ce| Law::Hysteretic(Hysteretic::new("lankarani-nikravesh", 1.5e11, 1.5, ce).unwrap());
     let gaps = vec![
         Gap {
             dofs: vec![0],

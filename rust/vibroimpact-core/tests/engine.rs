@@ -1,7 +1,7 @@
 //! End-to-end checks of the engine against closed forms.
 
 use nalgebra::{DMatrix, DVector};
-use vibroimpact_core::contact::{Hertz, LankaraniNikravesh, Law};
+use vibroimpact_core::contact::{Hertz, Hysteretic, Law};
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings};
 use vibroimpact_core::simulate::{simulate, Method, RunOutput, RunSettings};
@@ -124,7 +124,7 @@ fn bilateral_clearance_energy_account_balances() {
         coefficients: vec![1.0],
         clearance: 0.005,
         side: Side::Both,
-        law: Law::LankaraniNikravesh(LankaraniNikravesh::new(k, 1.5, 0.9).unwrap()),
+        law: Law::Hysteretic(Hysteretic::new("lankarani-nikravesh", k, 1.5, 0.9).unwrap()),
     };
     let sys = sdof(100.0, 0.0, 0.0, vec![gap]);
     let out = run(&sys, 0.02, 1e-6, 0.0, 8.0);

@@ -7,7 +7,7 @@ use nalgebra::{DMatrix, DVector};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use proptest::prelude::*;
-use vibroimpact_core::contact::{Flores, Hertz, KelvinVoigt, LankaraniNikravesh, Law};
+use vibroimpact_core::contact::{Hertz, Hysteretic, KelvinVoigt, Law};
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::integrators::{Bathe, NewmarkFamily, NewtonSettings, PreciseIntegration};
 use vibroimpact_core::settings::Adaptive;
@@ -62,10 +62,18 @@ fn law(g: &GapSpec) -> Option<Law> {
     Some(match g.law {
         0 => Law::Hertz(Hertz::new(g.stiffness, g.exponent).ok()?),
         1 => Law::KelvinVoigt(KelvinVoigt::new(g.stiffness, g.stiffness.sqrt()).ok()?),
-        2 => Law::LankaraniNikravesh(
-            LankaraniNikravesh::new(g.stiffness, g.exponent, g.restitution).ok()?,
+        2 => Law::Hysteretic(
+            Hysteretic::new(
+                "lankarani-nikravesh",
+                g.stiffness,
+                g.exponent,
+                g.restitution,
+            )
+            .ok()?,
         ),
-        _ => Law::Flores(Flores::new(g.stiffness, g.exponent, g.restitution).ok()?),
+        _ => {
+            Law::Hysteretic(Hysteretic::new("flores", g.stiffness, g.exponent, g.restitution).ok()?)
+        }
     })
 }
 

@@ -295,7 +295,7 @@ fn predictor_corrector_is_stable_on_stiff_contact() {
 /// every method agrees with a fine Newmark solution on the peaks and the impact times.
 #[test]
 fn two_gaps_and_a_load_agree_with_a_fine_reference() {
-    use vibroimpact_core::contact::{Hertz, LankaraniNikravesh};
+    use vibroimpact_core::contact::{Hertz, Hysteretic};
     let m = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, 2.0]);
     let k = DMatrix::from_row_slice(2, 2, &[3e4, -1e4, -1e4, 1e4]);
     let c = &m * 0.5 + &k * 1e-5;
@@ -313,7 +313,7 @@ fn two_gaps_and_a_load_agree_with_a_fine_reference() {
             coefficients: vec![1.0, -1.0],
             clearance: 5e-4,
             side: Side::Positive,
-            law: Law::LankaraniNikravesh(LankaraniNikravesh::new(5e8, 1.5, 0.8).unwrap()),
+            law: Law::Hysteretic(Hysteretic::new("lankarani-nikravesh", 5e8, 1.5, 0.8).unwrap()),
         },
     ];
     let load = Load {

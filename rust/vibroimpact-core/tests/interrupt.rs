@@ -2,7 +2,7 @@
 //! then. In its own test binary: the flag is process-wide, and other tests run in parallel.
 
 use nalgebra::{DMatrix, DVector};
-use vibroimpact_core::contact::{LankaraniNikravesh, Law};
+use vibroimpact_core::contact::{Hysteretic, Law};
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings};
 use vibroimpact_core::interrupt;
@@ -28,7 +28,7 @@ fn a_requested_interrupt_stops_the_run_with_its_results_up_to_then() {
         coefficients: vec![1.0],
         clearance: 0.005,
         side: Side::Both,
-        law: Law::LankaraniNikravesh(LankaraniNikravesh::new(1.5e11, 1.5, 0.9).unwrap()),
+        law: Law::Hysteretic(Hysteretic::new("lankarani-nikravesh", 1.5e11, 1.5, 0.9).unwrap()),
     };
     let sys = System::new(s, vec![gap], vec![]).unwrap();
     let settings = RunSettings {

@@ -10,10 +10,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
 use crate::{to_py_err, ModelError};
-use vibroimpact_core::contact::{
-    Hertz, HuntCrossley, HuntCrossleyDamping, KelvinVoigt, Law, Rigid, Tabulated, LAW_NAMES,
-    RIGID_NAME,
-};
+use vibroimpact_core::contact::{law_entry, Law, ParameterValue, ParameterValues, ValueKind, LAWS};
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::impulsive::{EventDriven, MoreauJean};
 use vibroimpact_core::integrators::{Bathe, NewmarkFamily, NewtonSettings, PreciseIntegration};
@@ -124,53 +121,28 @@ fn vector<'py>(d: &Bound<'py, PyDict>, key: impl Key<'py>) -> PyResult<DVector<f
     ))
 }
 
+/// A law from its spec dict: its kind and the parameters of its catalog entry (the core's
+/// defaults for those left out or `None`).
 pub(crate) fn law(d: &Bound<'_, PyDict>, ctx: &str) -> PyResult<Law> {
     let kind: String = item(d, "kind", ctx)?;
-    if kind == "tabulated" {
-        return Tabulated::new(
-            item(d, "loading_penetration", ctx)?,
-            item(d, "loading_force", ctx)?,
-            item(d, "unloading_penetration", ctx)?,
-            item(d, "unloading_force", ctx)?,
-            opt(d, "reversal_band", ctx)?.unwrap_or(0.01),
-        )
-        .map(Law::Tabulated)
-        .map_err(to_py_err);
+    let entry = law_entry(&kind).ok_or_else(|| {
+        let names: Vec<_> = LAWS.iter().map(|e| e.name).collect();
+        ModelError::new_err(format!(
+            "{ctx}.kind: '{kind}' is not a known contact law; expected one of {}",
+            names.join(", ")
+        ))
+    })?;
+    let mut values = ParameterValues::default();
+    for p in entry.parameters {
+        let value = match p.kind {
+            ValueKind::Number => opt(d, p.name, ctx)?.map(ParameterValue::Number),
+            ValueKind::Numbers => opt(d, p.name, ctx)?.map(ParameterValue::Numbers),
+        };
+        if let Some(v) = value {
+            values.set(p.name, v);
+        }
     }
-    if kind == RIGID_NAME {
-        return Rigid::new(item(d, "restitution", ctx)?)
-            .map(Law::Rigid)
-            .map_err(to_py_err);
-    }
-    let stiffness: f64 = item(d, "stiffness", ctx)?;
-    let exponent: f64 = opt(d, "exponent", ctx)?.unwrap_or(1.5);
-    let restitution = || -> PyResult<f64> { item(d, "restitution", ctx) };
-    let law = match kind.as_str() {
-        "hertz" => Hertz::new(stiffness, exponent).map(Law::Hertz),
-        "kelvin-voigt" => {
-            KelvinVoigt::new(stiffness, item(d, "damping", ctx)?).map(Law::KelvinVoigt)
-        }
-        "hunt-crossley" => {
-            let damping = match opt::<f64>(d, "damping", ctx)? {
-                Some(b) => HuntCrossleyDamping::Coefficient(b),
-                None => HuntCrossleyDamping::Restitution(restitution()?),
-            };
-            HuntCrossley::new(stiffness, exponent, damping).map(Law::HuntCrossley)
-        }
-        other => {
-            let unknown = || {
-                ModelError::new_err(format!(
-                    "{ctx}.kind: '{other}' is not a known contact law; expected one of {}",
-                    LAW_NAMES.join(", ")
-                ))
-            };
-            if !LAW_NAMES.contains(&other) {
-                return Err(unknown());
-            }
-            Law::with_restitution(other, stiffness, exponent, restitution()?).ok_or_else(unknown)?
-        }
-    };
-    law.map_err(to_py_err)
+    Law::from_parameters(entry.name, &values).map_err(to_py_err)
 }
 
 fn gap(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Gap> {

@@ -17,7 +17,9 @@ use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-use vibroimpact_core::contact::{ContactGeometry, ContactLaw, Material};
+use vibroimpact_core::contact::{
+    ContactGeometry, ContactLaw, Material, Requirement, ValueKind, LAWS,
+};
 use vibroimpact_core::gap::ImpactRecord;
 use vibroimpact_core::integrators;
 use vibroimpact_core::simulate::{Rows, RunOutput};
@@ -107,6 +109,45 @@ fn contact_force(
         None => law.force(penetration, rate, impact_speed),
     };
     Ok((f.force, f.d_penetration, f.d_rate))
+}
+
+/// The core's catalog of contact laws, in its order: for each a dict with `name`, `class_name`,
+/// `family`, `source`, `damping`, `doc` (empty when the Python class is written by hand) and
+/// `parameters`, each a dict with `name`, `unit`, `doc`, `list` (a list of numbers),
+/// `required` and `default` (`None` when required or one of alternatives).
+#[pyfunction]
+fn law_catalog(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
+    LAWS.iter()
+        .map(|law| {
+            let parameters = law
+                .parameters
+                .iter()
+                .map(|p| {
+                    let d = PyDict::new(py);
+                    d.set_item("name", p.name)?;
+                    d.set_item("unit", p.unit)?;
+                    d.set_item("doc", p.doc)?;
+                    d.set_item("list", p.kind == ValueKind::Numbers)?;
+                    d.set_item("required", p.requirement == Requirement::Required)?;
+                    let default = match p.requirement {
+                        Requirement::Default(v) => Some(v),
+                        _ => None,
+                    };
+                    d.set_item("default", default)?;
+                    Ok(d)
+                })
+                .collect::<PyResult<Vec<_>>>()?;
+            let d = PyDict::new(py);
+            d.set_item("name", law.name)?;
+            d.set_item("class_name", law.class_name)?;
+            d.set_item("family", law.family.name())?;
+            d.set_item("source", law.source)?;
+            d.set_item("damping", law.damping)?;
+            d.set_item("doc", law.doc)?;
+            d.set_item("parameters", parameters)?;
+            Ok(d)
+        })
+        .collect()
 }
 
 /// A law evaluated at arrays of states (same length): `(F, ∂F/∂δ, ∂F/∂δ̇)` as arrays, the
@@ -424,6 +465,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep::sweep, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_check, m)?)?;
     m.add_function(wrap_pyfunction!(contact_force, m)?)?;
+    m.add_function(wrap_pyfunction!(law_catalog, m)?)?;
     m.add_function(wrap_pyfunction!(contact_law_evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(geometry_stiffness, m)?)?;
     m.add("ModelError", m.py().get_type::<ModelError>())?;

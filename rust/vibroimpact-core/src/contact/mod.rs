@@ -7,11 +7,13 @@
 //!
 //! Families, one file each: [`Hertz`] (elastic); [`KelvinVoigt`] (linear spring–dashpot);
 //! the Hertzian laws with hysteresis damping `K δⁿ (1 + χ δ̇/v_imp)` in `hysteretic`
-//! ([`HuntCrossley`], [`HerbertMcWhannell`], [`LeeWang`], [`LankaraniNikravesh`],
-//! [`Gonthier`], [`ZhiyingQishao`], [`Flores`], [`HuGuo`], [`GharibHurmuzlu`], [`Ye`],
-//! [`CarvalhoMartins`], [`ExactRestitution`]); and [`Tabulated`] loading/unloading curves.
-//! Stiffness from geometry and material is in `geometry`.
+//! ([`Hysteretic`], one type for all: each law is its relation `χ(ce)`, an entry of the
+//! catalog [`LAWS`]; [`HuntCrossley`] with a given damping coefficient); [`Tabulated`]
+//! loading/unloading curves; and the massless bar [`Rigid`]. The catalog (`catalog`) names
+//! every law with its parameters, defaults and source. Stiffness from geometry and material is
+//! in `geometry`.
 
+mod catalog;
 mod geometry;
 mod hertz;
 mod hysteretic;
@@ -19,15 +21,15 @@ mod kelvin_voigt;
 mod rigid;
 mod tabulated;
 
+pub use catalog::{
+    force_law_names, law_entry, Family, LawEntry, Parameter, ParameterValue, ParameterValues,
+    Requirement, ValueKind, LAWS, RIGID,
+};
 pub use geometry::{
     combined_modulus, johnson_cylinder_in_hole_approach, ContactGeometry, Material,
 };
 pub use hertz::Hertz;
-pub use hysteretic::{
-    exact_hysteresis_factor, restitution_of_factor, CarvalhoMartins, ExactRestitution, Flores,
-    GharibHurmuzlu, Gonthier, HerbertMcWhannell, HuGuo, HuntCrossley, HuntCrossleyDamping,
-    LankaraniNikravesh, LeeWang, Ye, ZhiyingQishao,
-};
+pub use hysteretic::{exact_hysteresis_factor, restitution_of_factor, HuntCrossley, Hysteretic};
 pub use kelvin_voigt::KelvinVoigt;
 pub use rigid::Rigid;
 pub use tabulated::{Curve, Tabulated};
@@ -130,68 +132,29 @@ fn compressive(f: ContactForce) -> ContactForce {
     }
 }
 
-/// The library of laws, as plain data (enum dispatch keeps the time loop free of virtual calls).
+/// The library of laws, as plain data (enum dispatch keeps the time loop free of virtual calls);
+/// which laws there are, with their names and parameters: [`LAWS`].
 #[derive(Debug, Clone, PartialEq)]
 pub enum Law {
     Hertz(Hertz),
     KelvinVoigt(KelvinVoigt),
+    /// Every law `K δⁿ (1 + χ(ce) δ̇/v_imp)` ([`Family::Hysteretic`]).
+    Hysteretic(Hysteretic),
+    /// Hunt–Crossley with a given damping coefficient (with a restitution it is
+    /// [`Law::Hysteretic`]).
     HuntCrossley(HuntCrossley),
-    HerbertMcWhannell(HerbertMcWhannell),
-    LeeWang(LeeWang),
-    LankaraniNikravesh(LankaraniNikravesh),
-    Gonthier(Gonthier),
-    ZhiyingQishao(ZhiyingQishao),
-    Flores(Flores),
-    HuGuo(HuGuo),
-    GharibHurmuzlu(GharibHurmuzlu),
-    Ye(Ye),
-    CarvalhoMartins(CarvalhoMartins),
-    ExactRestitution(ExactRestitution),
     Tabulated(Tabulated),
-    /// The massless bar: impulsive methods only (not in [`LAW_NAMES`], which lists the
-    /// force laws; its name is [`RIGID_NAME`]).
+    /// The massless bar: impulsive methods only (not a force law).
     Rigid(Rigid),
 }
-
-/// Kebab-case name of [`Law::Rigid`] (`[gaps.law] kind = "rigid"`).
-pub const RIGID_NAME: &str = "rigid";
-
-/// Kebab-case names of the laws, in the order of [`Law`] (model files, CLI, JSON).
-pub const LAW_NAMES: [&str; 15] = [
-    "hertz",
-    "kelvin-voigt",
-    "hunt-crossley",
-    "herbert-mcwhannell",
-    "lee-wang",
-    "lankarani-nikravesh",
-    "gonthier",
-    "zhiying-qishao",
-    "flores",
-    "hu-guo",
-    "gharib-hurmuzlu",
-    "ye",
-    "carvalho-martins",
-    "exact-restitution",
-    "tabulated",
-];
 
 macro_rules! dispatch {
     ($self:ident, $law:ident => $body:expr) => {
         match $self {
             Law::Hertz($law) => $body,
             Law::KelvinVoigt($law) => $body,
+            Law::Hysteretic($law) => $body,
             Law::HuntCrossley($law) => $body,
-            Law::HerbertMcWhannell($law) => $body,
-            Law::LeeWang($law) => $body,
-            Law::LankaraniNikravesh($law) => $body,
-            Law::Gonthier($law) => $body,
-            Law::ZhiyingQishao($law) => $body,
-            Law::Flores($law) => $body,
-            Law::HuGuo($law) => $body,
-            Law::GharibHurmuzlu($law) => $body,
-            Law::Ye($law) => $body,
-            Law::CarvalhoMartins($law) => $body,
-            Law::ExactRestitution($law) => $body,
             Law::Tabulated($law) => $body,
             Law::Rigid($law) => $body,
         }
@@ -217,88 +180,46 @@ impl ContactLaw for Law {
 }
 
 impl Law {
+    /// Its entry in the catalog [`LAWS`].
+    pub fn entry(&self) -> &'static LawEntry {
+        let family = |f: fn(&Family) -> bool| {
+            LAWS.iter()
+                .find(|e| f(&e.family))
+                .expect("every family has a law in the catalog")
+        };
+        match self {
+            Law::Hertz(_) => family(|f| matches!(f, Family::Elastic)),
+            Law::KelvinVoigt(_) => family(|f| matches!(f, Family::SpringDashpot)),
+            Law::Hysteretic(law) => law.law,
+            Law::HuntCrossley(_) => {
+                law_entry("hunt-crossley").expect("hunt-crossley is in the catalog")
+            }
+            Law::Tabulated(_) => family(|f| matches!(f, Family::Tabulated)),
+            Law::Rigid(_) => &RIGID,
+        }
+    }
+
     /// Kebab-case name used in model files, the CLI and JSON output.
     pub fn name(&self) -> &'static str {
-        let index = match self {
-            Law::Hertz(_) => 0,
-            Law::KelvinVoigt(_) => 1,
-            Law::HuntCrossley(_) => 2,
-            Law::HerbertMcWhannell(_) => 3,
-            Law::LeeWang(_) => 4,
-            Law::LankaraniNikravesh(_) => 5,
-            Law::Gonthier(_) => 6,
-            Law::ZhiyingQishao(_) => 7,
-            Law::Flores(_) => 8,
-            Law::HuGuo(_) => 9,
-            Law::GharibHurmuzlu(_) => 10,
-            Law::Ye(_) => 11,
-            Law::CarvalhoMartins(_) => 12,
-            Law::ExactRestitution(_) => 13,
-            Law::Tabulated(_) => 14,
-            Law::Rigid(_) => return RIGID_NAME,
-        };
-        LAW_NAMES[index]
+        self.entry().name
     }
 
     /// Whether the law needs the approach speed `v_imp` of the current impact.
     pub fn uses_impact_speed(&self) -> bool {
-        match self {
-            Law::Hertz(_) | Law::KelvinVoigt(_) | Law::Rigid(_) => false,
-            Law::HuntCrossley(hc) => matches!(hc.damping, HuntCrossleyDamping::Restitution(_)),
-            _ => true,
-        }
+        matches!(self, Law::Hysteretic(_) | Law::Tabulated(_))
     }
 
     /// Hysteresis factor `χ` of the laws `K δⁿ (1 + χ δ̇/v_imp)`, `None` for the others.
     pub fn hysteresis_factor(&self) -> Option<f64> {
         match self {
-            Law::Hertz(_) | Law::KelvinVoigt(_) | Law::Tabulated(_) | Law::Rigid(_) => None,
-            Law::HuntCrossley(l) => l.hysteresis_factor(),
-            Law::HerbertMcWhannell(l) => Some(l.hysteresis_factor()),
-            Law::LeeWang(l) => Some(l.hysteresis_factor()),
-            Law::LankaraniNikravesh(l) => Some(l.hysteresis_factor()),
-            Law::Gonthier(l) => Some(l.hysteresis_factor()),
-            Law::ZhiyingQishao(l) => Some(l.hysteresis_factor()),
-            Law::Flores(l) => Some(l.hysteresis_factor()),
-            Law::HuGuo(l) => Some(l.hysteresis_factor()),
-            Law::GharibHurmuzlu(l) => Some(l.hysteresis_factor()),
-            Law::Ye(l) => Some(l.hysteresis_factor()),
-            Law::CarvalhoMartins(l) => Some(l.hysteresis_factor()),
-            Law::ExactRestitution(l) => Some(l.hysteresis_factor()),
+            Law::Hysteretic(law) => Some(law.hysteresis_factor()),
+            _ => None,
         }
     }
 
     /// Whether this is the massless bar (rigid wall, impulsive methods only).
     pub fn is_rigid(&self) -> bool {
         matches!(self, Law::Rigid(_))
-    }
-
-    /// Builds a law whose damping is given by a restitution `ce` from its kebab-case name
-    /// (the hysteretic family, Hunt–Crossley included).
-    pub fn with_restitution(
-        name: &str,
-        stiffness: f64,
-        exponent: f64,
-        restitution: f64,
-    ) -> Option<Result<Law, SimError>> {
-        let (k, n, ce) = (stiffness, exponent, restitution);
-        Some(match name {
-            "hunt-crossley" => {
-                HuntCrossley::new(k, n, HuntCrossleyDamping::Restitution(ce)).map(Law::HuntCrossley)
-            }
-            "herbert-mcwhannell" => HerbertMcWhannell::new(k, n, ce).map(Law::HerbertMcWhannell),
-            "lee-wang" => LeeWang::new(k, n, ce).map(Law::LeeWang),
-            "lankarani-nikravesh" => LankaraniNikravesh::new(k, n, ce).map(Law::LankaraniNikravesh),
-            "gonthier" => Gonthier::new(k, n, ce).map(Law::Gonthier),
-            "zhiying-qishao" => ZhiyingQishao::new(k, n, ce).map(Law::ZhiyingQishao),
-            "flores" => Flores::new(k, n, ce).map(Law::Flores),
-            "hu-guo" => HuGuo::new(k, n, ce).map(Law::HuGuo),
-            "gharib-hurmuzlu" => GharibHurmuzlu::new(k, n, ce).map(Law::GharibHurmuzlu),
-            "ye" => Ye::new(k, n, ce).map(Law::Ye),
-            "carvalho-martins" => CarvalhoMartins::new(k, n, ce).map(Law::CarvalhoMartins),
-            "exact-restitution" => ExactRestitution::new(k, n, ce).map(Law::ExactRestitution),
-            _ => return None,
-        })
     }
 }
 
@@ -333,12 +254,17 @@ pub(crate) fn check_restitution(law: &str, restitution: f64) -> Result<(), SimEr
 mod tests {
     use super::*;
 
-    fn tabulated() -> Tabulated {
-        // Hertz-like loading through 12 points, unloading at 40 % of it.
+    /// Hertz-like loading through 12 points, unloading at 40 % of it.
+    fn curves() -> [Vec<f64>; 4] {
         let x: Vec<f64> = (0..12).map(|i| i as f64 * 1e-5).collect();
         let f: Vec<f64> = x.iter().map(|d| 2.0e9 * d.powf(1.5)).collect();
         let g: Vec<f64> = f.iter().map(|v| 0.4 * v).collect();
-        Tabulated::new(x.clone(), f, x, g, 0.05).unwrap()
+        [x.clone(), f, x, g]
+    }
+
+    fn tabulated() -> Tabulated {
+        let [x, f, ux, g] = curves();
+        Tabulated::new(x, f, ux, g, 0.05).unwrap()
     }
 
     fn all_laws() -> Vec<Law> {
@@ -346,27 +272,85 @@ mod tests {
         let mut laws = vec![
             Law::Hertz(Hertz::new(k, 1.5).unwrap()),
             Law::KelvinVoigt(KelvinVoigt::new(4.0e7, 3.0e3).unwrap()),
-            Law::HuntCrossley(
-                HuntCrossley::new(k, 1.5, HuntCrossleyDamping::Coefficient(1.0e9)).unwrap(),
-            ),
+            Law::HuntCrossley(HuntCrossley::new(k, 1.5, 1.0e9).unwrap()),
             Law::Tabulated(tabulated()),
         ];
-        for (i, name) in LAW_NAMES.iter().enumerate() {
-            let ce = 0.15 + 0.06 * i as f64;
-            let n = if i % 2 == 0 { 1.5 } else { 1.3 };
-            if let Some(law) = Law::with_restitution(name, k, n, ce) {
-                laws.push(law.unwrap());
+        for (i, entry) in LAWS.iter().enumerate() {
+            if let Family::Hysteretic(_) = entry.family {
+                let ce = 0.15 + 0.06 * i as f64;
+                let n = if i % 2 == 0 { 1.5 } else { 1.3 };
+                laws.push(Law::Hysteretic(
+                    Hysteretic::new(entry.name, k, n, ce).unwrap(),
+                ));
             }
         }
         laws
     }
 
     #[test]
-    fn every_name_has_a_law() {
+    fn every_force_law_of_the_catalog_is_tested_and_named_back() {
         let laws = all_laws();
-        for name in LAW_NAMES {
+        for name in force_law_names() {
             assert!(laws.iter().any(|l| l.name() == name), "{name}");
         }
+        assert_eq!(Law::Rigid(Rigid::new(0.5).unwrap()).name(), "rigid");
+        for name_of in [|e: &LawEntry| e.name, |e: &LawEntry| e.class_name] {
+            let names: Vec<_> = LAWS.iter().map(name_of).collect();
+            let mut unique = names.clone();
+            unique.sort_unstable();
+            unique.dedup();
+            assert_eq!(unique.len(), names.len(), "unique: {names:?}");
+        }
+    }
+
+    /// What a spec gives is what the law's own constructor builds; a parameter left out takes
+    /// the catalog's default.
+    #[test]
+    fn laws_are_built_from_their_parameters() {
+        let mut v = ParameterValues::default();
+        v.set("stiffness", ParameterValue::Number(2e9));
+        v.set("restitution", ParameterValue::Number(0.7));
+        let built = Law::from_parameters("flores", &v).unwrap();
+        let direct = Hysteretic::new("flores", 2e9, 1.5, 0.7).unwrap();
+        assert_eq!(built, Law::Hysteretic(direct));
+        assert_eq!(built.hysteresis_factor(), Some(1.6 * (1.0 - 0.7) / 0.7));
+        v.set("exponent", ParameterValue::Number(1.3));
+        assert_eq!(
+            Law::from_parameters("hunt-crossley", &v).unwrap(),
+            Law::Hysteretic(Hysteretic::new("hunt-crossley", 2e9, 1.3, 0.7).unwrap())
+        );
+        v.set("damping", ParameterValue::Number(5.0));
+        let both = Law::from_parameters("hunt-crossley", &v)
+            .unwrap_err()
+            .to_string();
+        assert!(both.contains("both restitution and damping"), "{both}");
+        let mut b = ParameterValues::default();
+        b.set("stiffness", ParameterValue::Number(2e9));
+        b.set("damping", ParameterValue::Number(5.0));
+        assert_eq!(
+            Law::from_parameters("hunt-crossley", &b).unwrap(),
+            Law::HuntCrossley(HuntCrossley::new(2e9, 1.5, 5.0).unwrap())
+        );
+        let msg = Law::from_parameters("gonthier", &b)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.starts_with("gonthier: restitution is missing"), "{msg}");
+        let names = [
+            "loading_penetration",
+            "loading_force",
+            "unloading_penetration",
+            "unloading_force",
+        ];
+        let mut c = ParameterValues::default();
+        for (name, values) in names.into_iter().zip(curves()) {
+            c.set(name, ParameterValue::Numbers(values));
+        }
+        let [x, f, ux, g] = curves();
+        assert_eq!(
+            Law::from_parameters("tabulated", &c).unwrap(),
+            Law::Tabulated(Tabulated::new(x, f, ux, g, 0.01).unwrap())
+        );
+        assert!(Law::from_parameters("bogus", &c).is_err());
     }
 
     /// Tiny deterministic generator (no dev-dependency): uniform in [0, 1).
@@ -468,21 +452,21 @@ mod tests {
     fn invalid_parameters_are_refused() {
         assert!(Hertz::new(-1.0, 1.5).is_err());
         assert!(Hertz::new(1.0, 0.5).is_err());
-        assert!(LankaraniNikravesh::new(1e9, 1.5, 0.0).is_err());
-        assert!(Flores::new(1e9, 1.5, 1.2).is_err());
         assert!(KelvinVoigt::new(1e9, -2.0).is_err());
-        assert!(HuntCrossley::new(1e9, 1.5, HuntCrossleyDamping::Coefficient(-1.0)).is_err());
-        for name in LAW_NAMES {
-            if let Some(r) = Law::with_restitution(name, 1e9, 1.5, 0.0) {
-                let msg = r.unwrap_err().to_string();
+        assert!(HuntCrossley::new(1e9, 1.5, -1.0).is_err());
+        for law in LAWS {
+            if let Family::Hysteretic(_) = law.family {
+                let msg = Hysteretic::new(law.name, 1e9, 1.5, 0.0)
+                    .unwrap_err()
+                    .to_string();
+                let name = law.name;
                 assert!(
                     msg.starts_with(&format!("{name}: restitution = 0")),
                     "{msg}"
                 );
                 assert!(!msg.contains('\n'));
-            }
-            if let Some(r) = Law::with_restitution(name, 1e9, 1.5, f64::NAN) {
-                assert!(r.is_err(), "{name}");
+                assert!(Hysteretic::new(name, 1e9, 1.5, 1.2).is_err(), "{name}");
+                assert!(Hysteretic::new(name, 1e9, 1.5, f64::NAN).is_err(), "{name}");
             }
         }
     }
