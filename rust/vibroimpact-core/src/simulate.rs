@@ -47,18 +47,19 @@ pub fn simulate_observed(
     run_watched(sys, method, settings, x0, v0, observer, None, false)
 }
 
-/// [`simulate`], carrying the state-transition matrix `∂(x, v)(t_end)/∂(x₀, v₀)` along
-/// (`RunOutput::state_transition`; `crate::sensitivity`): DOP853 and the event-driven method
-/// only, refused before the run for the others.
+/// [`simulate_observed`], carrying the state-transition matrix `∂(x, v)(t_end)/∂(x₀, v₀)`
+/// along (`RunOutput::state_transition`; `crate::sensitivity`): DOP853 and the event-driven
+/// method only, refused before the run for the others.
 pub fn simulate_with_sensitivity(
     sys: &System,
     method: Method,
     settings: &RunSettings,
     x0: DVector<f64>,
     v0: DVector<f64>,
+    observer: Option<&mut dyn StepObserver>,
 ) -> Result<RunOutput, SimError> {
     crate::sensitivity::check_supported(sys, method)?;
-    run_watched(sys, method, settings, x0, v0, None, None, true)
+    run_watched(sys, method, settings, x0, v0, observer, None, true)
 }
 
 /// [`simulate`], with `sink` taking the recorded rows in blocks of `sink.chunk_rows()` as they

@@ -85,7 +85,7 @@ fn check(law: Law, method: Method, impacts_expected: usize) {
         DVector::from_element(1, z[0]),
         DVector::from_element(1, z[1]),
     );
-    let out = simulate_with_sensitivity(&sys, method, &settings(method), x0, v0).unwrap();
+    let out = simulate_with_sensitivity(&sys, method, &settings(method), x0, v0, None).unwrap();
     assert!(out.error.is_none(), "{:?}", out.error);
     assert_eq!(out.impacts.len(), impacts_expected, "{:?}", out.impacts);
     let phi = out.state_transition.expect("asked for").matrix;
@@ -115,6 +115,7 @@ fn check(law: Law, method: Method, impacts_expected: usize) {
         &settings(Method::Dop853),
         DVector::from_element(1, z[0]),
         DVector::from_element(1, z[1]),
+        None,
     )
     .unwrap();
     assert!(free.impacts.is_empty());
@@ -150,6 +151,7 @@ fn methods_without_a_state_transition_are_refused() {
         &settings(method),
         DVector::zeros(1),
         DVector::zeros(1),
+        None,
     )
     .unwrap_err();
     assert!(err.to_string().contains("solver.method"), "{err}");
