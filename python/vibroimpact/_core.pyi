@@ -61,6 +61,7 @@ def geometry_stiffness(
     youngs_modulus2: float,
     poisson2: float,
 ) -> tuple[float, float]: ...
+def flow_map(spec: dict[str, Any]) -> dict[str, Any]: ...
 def sweep(
     specs: list[dict[str, Any]],
     chains: list[list[int]] | None = None,

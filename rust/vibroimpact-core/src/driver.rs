@@ -11,10 +11,9 @@
 //! [`interrupt::CHECK_EVERY`] steps the sink's progress, the interrupt flag and the energy
 //! check. A located event that changes the state in place (a rigid impact's velocity jump)
 //! is reported by [`Run::impact`] and [`Run::jumped`]. [`Run::drive`] records a row every
-//! `every` advances of the policy and the last one; [`Run::finish`] ends the run. What a
-//! sensitivity needs (the Jacobian of a step with respect to its start state and a parameter,
-//! the jump at a located event) has its place in [`StepPolicy::sensitivity`], which no policy
-//! fills yet.
+//! `every` advances of the policy and the last one; [`Run::finish`] ends the run. A policy
+//! asked for the state-transition matrix (`Run::wants_sensitivity`, `crate::sensitivity`)
+//! carries it and hands it out through [`StepPolicy::sensitivity`].
 
 use std::time::Instant;
 
@@ -24,8 +23,9 @@ use crate::error::{SimError, ENERGY_GROWTH_LIMIT};
 use crate::gap::{ImpactLog, ImpactRecord, WallInterior};
 use crate::integrators::{StepFailure, Stepper};
 use crate::interrupt;
-use crate::observe::{Event, Sink, StepObserver, StepSensitivity, Turn};
+use crate::observe::{Event, Sink, StepObserver, Turn};
 use crate::output::{Rows, RunOutput, Stats};
+use crate::sensitivity::StateTransition;
 use crate::system::{State, System};
 
 /// What an integrator computed over a step beyond its ends, for the run's accounts.
@@ -48,11 +48,11 @@ pub(crate) trait StepPolicy {
     /// had already reached its end; an error stops it (the results up to then are kept).
     fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError>;
 
-    /// The sensitivity of the last advance, handed to the observer (the periodic orbits and
-    /// their Floquet multipliers, the next issue): the Jacobian of its end state with respect
-    /// to its start state and to a parameter, composed over its kept steps and, at a located
-    /// event, the jump (saltation) matrix. `None`: not computed (no policy does yet).
-    fn sensitivity(&self) -> Option<&StepSensitivity> {
+    /// The state-transition matrix from the run's start to the end of the last advance
+    /// (composed over its kept steps and, at each located event, the saltation matrix),
+    /// handed to the observer and, at the end, to the output. `None`: not computed (not asked
+    /// for, or the policy computes none).
+    fn sensitivity(&self) -> Option<&StateTransition> {
         None
     }
 }
@@ -79,6 +79,10 @@ pub(crate) struct Run<'o> {
     contact: Option<Vec<(usize, usize)>>,
     /// The sink wants [`Event`]s.
     events: bool,
+    /// The policy is to carry the state-transition matrix (`crate::sensitivity`).
+    pub wants_sensitivity: bool,
+    /// It, at the end of the last advance.
+    state_transition: Option<StateTransition>,
 }
 
 impl<'o> Run<'o> {
@@ -109,6 +113,8 @@ impl<'o> Run<'o> {
             observer: None,
             contact: None,
             events: false,
+            wants_sensitivity: false,
+            state_transition: None,
         })
     }
 
@@ -143,6 +149,7 @@ impl<'o> Run<'o> {
             stats: self.stats,
             dt,
             error,
+            state_transition: self.state_transition,
         }
     }
 
@@ -335,12 +342,16 @@ impl<'o> Run<'o> {
                     }
                 }
                 Ok(false) => {
+                    self.state_transition = policy.sensitivity().cloned();
                     if advances % every != 0 {
                         self.out.record(sys, &self.cur, &self.account);
                     }
                     return None;
                 }
-                Err(e) => return Some(e),
+                Err(e) => {
+                    self.state_transition = policy.sensitivity().cloned();
+                    return Some(e);
+                }
             }
         }
     }

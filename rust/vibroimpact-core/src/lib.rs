@@ -18,6 +18,7 @@ pub mod linalg;
 pub mod method;
 pub mod observe;
 pub mod output;
+pub mod sensitivity;
 pub mod settings;
 pub mod simulate;
 pub mod step_control;

@@ -2,6 +2,7 @@
 //! solver [`Event`]s) and a [`StepObserver`] (every accepted step: the sweeps' reducers).
 
 use crate::output::Rows;
+use crate::sensitivity::StateTransition;
 use crate::system::{State, System};
 
 /// Where a DOF's displacement turns inside a step: the fraction of the step and the value (m
@@ -28,21 +29,10 @@ pub trait StepObserver {
     /// instant between two accepted steps rather than a closing inside one.
     fn impact(&mut self, _sys: &System, _wall: usize, _t: f64, _speed: f64) {}
 
-    /// The sensitivity of the step of the output grid just taken, from the step policies that
-    /// compute one (none does yet: the hook of the periodic orbits and their Floquet
-    /// multipliers, whose monodromy matrix is the product of these over a period).
-    fn sensitivity(&mut self, _sensitivity: &StepSensitivity) {}
-}
-
-/// The linearisation of a step of the output grid (composed over the sub-steps and located
-/// events inside it); `2n` rows `[x; v]`.
-#[derive(Debug, Clone, PartialEq, Default)]
-pub struct StepSensitivity {
-    /// `∂(x₁, v₁)/∂(x₀, v₀)`, `2n × 2n`, row-major; across a located event it includes the
-    /// jump (saltation) matrix of the event.
-    pub wrt_state: Vec<f64>,
-    /// `∂(x₁, v₁)/∂p` for the parameter being continued, `2n`.
-    pub wrt_parameter: Vec<f64>,
+    /// The state-transition matrix from the run's start to the end of the step of the output
+    /// grid just taken, from the step policies that compute one (asked for by
+    /// `simulate_with_sensitivity`; `crate::sensitivity`).
+    fn sensitivity(&mut self, _transition: &StateTransition) {}
 }
 
 /// A solver event reported to a [`Sink`] that asks for them (`vibroimpact run --verbose`).

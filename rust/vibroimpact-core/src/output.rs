@@ -3,6 +3,7 @@
 
 use crate::error::SimError;
 use crate::gap::ImpactRecord;
+use crate::sensitivity::StateTransition;
 
 /// Solver statistics.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -119,6 +120,8 @@ pub struct RunOutput {
     pub dt: f64,
     /// Why the run stopped early; the arrays then hold the results up to that time.
     pub error: Option<SimError>,
+    /// `∂(x, v)(t_end)/∂(x₀, v₀)`, when asked for (`simulate_with_sensitivity`).
+    pub state_transition: Option<StateTransition>,
 }
 
 /// Consecutive recorded rows: the time histories of a run (or of a block of it) at the

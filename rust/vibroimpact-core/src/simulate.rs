@@ -44,7 +44,22 @@ pub fn simulate_observed(
     v0: DVector<f64>,
     observer: Option<&mut dyn StepObserver>,
 ) -> Result<RunOutput, SimError> {
-    run_watched(sys, method, settings, x0, v0, observer, None)
+    run_watched(sys, method, settings, x0, v0, observer, None, false)
+}
+
+/// [`simulate_observed`], carrying the state-transition matrix `∂(x, v)(t_end)/∂(x₀, v₀)`
+/// along (`RunOutput::state_transition`; `crate::sensitivity`): DOP853 and the event-driven
+/// method only, refused before the run for the others.
+pub fn simulate_with_sensitivity(
+    sys: &System,
+    method: Method,
+    settings: &RunSettings,
+    x0: DVector<f64>,
+    v0: DVector<f64>,
+    observer: Option<&mut dyn StepObserver>,
+) -> Result<RunOutput, SimError> {
+    crate::sensitivity::check_supported(sys, method)?;
+    run_watched(sys, method, settings, x0, v0, observer, None, true)
 }
 
 /// [`simulate`], with `sink` taking the recorded rows in blocks of `sink.chunk_rows()` as they
@@ -60,9 +75,10 @@ pub fn simulate_streamed(
     v0: DVector<f64>,
     sink: &mut dyn Sink,
 ) -> Result<RunOutput, SimError> {
-    run_watched(sys, method, settings, x0, v0, None, Some(sink))
+    run_watched(sys, method, settings, x0, v0, None, Some(sink), false)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn run_watched<'o>(
     sys: &System,
     method: Method,
@@ -71,6 +87,7 @@ fn run_watched<'o>(
     v0: DVector<f64>,
     observer: Option<&'o mut dyn StepObserver>,
     sink: Option<&'o mut dyn Sink>,
+    sensitivity: bool,
 ) -> Result<RunOutput, SimError> {
     let started = Instant::now();
     let RunSettings {
@@ -161,6 +178,7 @@ fn run_watched<'o>(
     };
     let mut run = Run::new(sys, x0, v0, record_dofs.clone(), n_rec)?;
     run.observer = observer;
+    run.wants_sensitivity = sensitivity;
     if let Some(sink) = sink {
         run.watch(sink);
     }

@@ -2,6 +2,7 @@
 //! Python package into core types, runs with the GIL released, and returns numpy arrays.
 
 mod convert;
+mod orbit;
 mod running;
 mod sweep;
 
@@ -463,6 +464,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(interrupt_requested, m)?)?;
     m.add_function(wrap_pyfunction!(precise_matrices, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(orbit::flow_map, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_check, m)?)?;
     m.add_function(wrap_pyfunction!(contact_force, m)?)?;
     m.add_function(wrap_pyfunction!(law_catalog, m)?)?;

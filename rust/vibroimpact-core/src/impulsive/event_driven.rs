@@ -50,6 +50,7 @@ use crate::driver::{Run, StepPolicy};
 use crate::error::{invalid, SimError};
 use crate::gap::ImpactRecord;
 use crate::integrators::expm::duhamel;
+use crate::sensitivity::{saltation_update, StateTransition};
 use crate::system::{State, System};
 
 /// The method's name in errors.
@@ -304,6 +305,17 @@ impl Driver<'_> {
         let mut v = z1.rows(n, n).into_owned();
         mode.project(&self.rig, &mut x, &mut v);
         Point { t: p.t + eta, x, v }
+    }
+
+    /// `exp(A_S η)` of the current wall set (cached for the full step).
+    fn transition(&mut self, eta: f64) -> DMatrix<f64> {
+        let set = self.stuck.clone();
+        self.ensure(&set);
+        let mode = &self.modes[&set];
+        match &mode.full {
+            Some((phi, _)) if (eta - self.h0).abs() <= 1e-12 * self.h0 => phi.clone(),
+            _ => mode.operator(eta).0,
+        }
     }
 
     /// `λ` of the stuck walls and the acceleration, with the current wall set.
@@ -662,6 +674,10 @@ pub(crate) struct EventDrivenSteps<'s> {
     n_steps: usize,
     /// Steps of the grid taken.
     k: usize,
+    /// The state-transition matrix, when the run asks for it (`Run::wants_sensitivity`):
+    /// `exp(A h)` of every flight (exact for the linear structure) and the saltation matrix
+    /// of every impact.
+    transition: Option<StateTransition>,
 }
 
 impl<'s> EventDrivenSteps<'s> {
@@ -713,12 +729,16 @@ impl<'s> EventDrivenSteps<'s> {
             x: x0,
             v: v0,
         };
+        let transition = run
+            .wants_sensitivity
+            .then(|| StateTransition::identity(d.rig.n));
         let mut policy = Self {
             d,
             p,
             h0,
             n_steps,
             k: 0,
+            transition,
         };
         policy.resolve(run, None, false);
         Ok(policy)
@@ -729,14 +749,79 @@ impl<'s> EventDrivenSteps<'s> {
         self.d.records
     }
 
-    /// Resolves the event at the current point and makes the result the run's state.
-    fn resolve(&mut self, run: &mut Run, released: Option<usize>, plastic: bool) {
+    /// Resolves the event at the current point and makes the result the run's state; returns
+    /// the walls that took an impulse.
+    fn resolve(&mut self, run: &mut Run, released: Option<usize>, plastic: bool) -> Vec<usize> {
         let (dissipated, impacts) = self.d.resolve(&mut self.p, released, plastic);
         self.d.fill(&self.p, &mut run.cur);
         run.jumped(dissipated);
-        for (j, v_in, v_out) in impacts {
-            run.impact(self.d.sys, j, self.p.t, v_in, v_out);
+        impacts
+            .into_iter()
+            .map(|(j, v_in, v_out)| {
+                run.impact(self.d.sys, j, self.p.t, v_in, v_out);
+                j
+            })
+            .collect()
+    }
+
+    /// `Φ ← exp(A h) Φ` for a flight of length `h` just committed.
+    fn carry_flight(&mut self, h: f64) {
+        if let Some(t) = &mut self.transition {
+            t.matrix = self.d.transition(h) * &t.matrix;
         }
+    }
+
+    /// `Φ ← S Φ` at the impact of wall `j` from `before` to the current point: the velocity
+    /// jump `v⁺ = R_v v⁻`, `R_v = I − (1 + e) M⁻¹ g gᵀ/(g M⁻¹ gᵀ)` with the restitution `e`
+    /// that was applied, and the saltation matrix `S = R + (f⁺ − R f⁻) ∇hᵀ/(∇hᵀ f⁻)`,
+    /// `h = g·x − d` (docs/periodic-orbits.md). A sticking wall or simultaneous impacts are
+    /// refused: their derivative is not computed.
+    fn carry_impact(&mut self, before: &Point, walls: &[usize]) -> Result<(), SimError> {
+        if self.transition.is_none() {
+            return Ok(());
+        }
+        let t = self.p.t;
+        let unsupported = |what: &str| {
+            Err(SimError::InvalidModel(format!(
+                "solver: the state-transition matrix is not available at t = {t:.9e} s: {what};                  expected separate impacts (no sticking, no simultaneous impacts)"
+            )))
+        };
+        if !self.d.stuck.is_empty() {
+            return unsupported("a wall sticks (contact at rest)");
+        }
+        let &[j] = walls else {
+            return if walls.is_empty() {
+                Ok(())
+            } else {
+                unsupported("walls are hit at the same instant")
+            };
+        };
+        let n = self.d.rig.n;
+        let g = self.d.rig.g[j].clone();
+        let (rate_in, rate_out) = (g.dot(&before.v), g.dot(&self.p.v));
+        let m_inv_g = &self.d.rig.m_inv * &g;
+        let mut jump = DMatrix::identity(2 * n, 2 * n);
+        let scale = (rate_in - rate_out) / rate_in / g.dot(&m_inv_g);
+        let mut velocity_block = jump.view_mut((n, n), (n, n));
+        velocity_block -= &m_inv_g * g.transpose() * scale;
+        let (_, a_minus) = self.d.accel(before);
+        let (_, a_plus) = self.d.accel(&self.p.clone());
+        let field = |v: &DVector<f64>, a: &DVector<f64>| {
+            let mut f = DVector::zeros(2 * n);
+            f.rows_mut(0, n).copy_from(v);
+            f.rows_mut(n, n).copy_from(a);
+            f
+        };
+        let f_minus = field(&before.v, &a_minus);
+        let f_plus = field(&self.p.v, &a_plus);
+        let mut grad = DVector::zeros(2 * n);
+        grad.rows_mut(0, n).copy_from(&g);
+        let Some(u) = saltation_update(Some(&jump), &f_minus, &f_plus, &grad) else {
+            return unsupported("an impact at zero speed (grazing)");
+        };
+        let transition = self.transition.as_mut().expect("checked");
+        transition.compose_event(Some(&jump), &u, &grad);
+        Ok(())
     }
 }
 
@@ -749,6 +834,10 @@ impl Driver<'_> {
 }
 
 impl StepPolicy for EventDrivenSteps<'_> {
+    fn sensitivity(&self) -> Option<&StateTransition> {
+        self.transition.as_ref()
+    }
+
     fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError> {
         if self.k == self.n_steps {
             return Ok(false);
@@ -771,6 +860,7 @@ impl StepPolicy for EventDrivenSteps<'_> {
                     self.d.stuck_forces(&self.p, &end);
                     end.t = t_target;
                     self.d.commit(run, sys, &end, eta)?;
+                    self.carry_flight(eta);
                     self.p = end;
                     return Ok(true);
                 }
@@ -778,6 +868,7 @@ impl StepPolicy for EventDrivenSteps<'_> {
                     at.t = self.p.t + tau;
                     self.d.stuck_forces(&self.p, &at);
                     self.d.commit(run, sys, &at, tau)?;
+                    self.carry_flight(tau);
                     self.p = at;
                     events += 1;
                     if events > 100 * max_events {
@@ -792,7 +883,9 @@ impl StepPolicy for EventDrivenSteps<'_> {
                         Event::Release(j) => Some(j),
                         Event::Impact(_) => None,
                     };
-                    self.resolve(run, released, events > max_events);
+                    let before = self.p.clone();
+                    let walls = self.resolve(run, released, events > max_events);
+                    self.carry_impact(&before, &walls)?;
                 }
             }
         }

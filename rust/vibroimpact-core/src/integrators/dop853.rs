@@ -33,8 +33,13 @@ use crate::gap::WallInterior;
 use crate::gap::WallState;
 use crate::interpolation::QuinticSegment;
 use crate::observe::Turn;
+use crate::sensitivity::StateTransition;
 use crate::settings::Adaptive;
 use crate::system::System;
+
+#[path = "dop853_variational.rs"]
+mod variational;
+use variational::Variational;
 
 /// Events closer than this fraction of the step (or of `t_end`) to a step's end are
 /// switched at the next step's start instead of being landed on: the force law is zero on
@@ -827,6 +832,8 @@ pub(crate) struct Dop853Steps<'s> {
     grid_step: usize,
     /// How close (s) to a wall's event the last step ended for the wall to be switched.
     near_switch: f64,
+    /// The state-transition matrix, when the run asks for it (`Run::wants_sensitivity`).
+    variational: Option<Variational>,
 }
 
 impl<'s> Dop853Steps<'s> {
@@ -836,7 +843,7 @@ impl<'s> Dop853Steps<'s> {
         let tol_t = EVENT_TOL * t_end;
         let mut dynamics = Dynamics::new(sys);
         let stages = Stages::new(sys);
-        let contacts: Vec<Contact> = run
+        let mut contacts: Vec<Contact> = run
             .cur
             .walls
             .iter()
@@ -849,6 +856,10 @@ impl<'s> Dop853Steps<'s> {
                 in_time: !smooth_in_root(&sys.gaps[wall.gap].law),
             })
             .collect();
+        let variational = run.wants_sensitivity.then(|| Variational::new(sys));
+        if variational.is_some() {
+            in_time_only(&mut contacts);
+        }
         let fresh = || StepEnd {
             x: vec![0.0; n],
             v: vec![0.0; n],
@@ -911,11 +922,24 @@ impl<'s> Dop853Steps<'s> {
             last: None,
             grid_step: 0,
             near_switch: tol_t,
+            variational,
         }
     }
 }
 
+/// Integrates every contact in time (no step in `ζ`, whose duration depends on the state):
+/// what the state-transition matrix is carried along.
+fn in_time_only(contacts: &mut [Contact]) {
+    for c in contacts {
+        c.in_time = true;
+    }
+}
+
 impl StepPolicy for Dop853Steps<'_> {
+    fn sensitivity(&self) -> Option<&StateTransition> {
+        self.variational.as_ref().map(|v| &v.phi)
+    }
+
     /// One accepted step (up to `t_end`).
     fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError> {
         loop {
@@ -924,8 +948,20 @@ impl StepPolicy for Dop853Steps<'_> {
             }
             let t0 = run.cur.t;
             let was_free = self.contacts.iter().all(|c| !c.active);
+            let before = self.variational.is_some().then(|| self.contacts.clone());
             let (switched, closed) =
                 switch_walls(sys, &mut self.contacts, &self.start, self.near_switch);
+            if let (Some(var), Some(before), true) = (&mut self.variational, before, switched) {
+                var.switch(
+                    sys,
+                    &mut self.dynamics,
+                    &before,
+                    &self.contacts,
+                    &self.start,
+                    t0,
+                );
+                in_time_only(&mut self.contacts);
+            }
             if switched {
                 self.dynamics.at(&self.contacts, None, t0, &mut self.start);
                 self.last = None;
@@ -1122,6 +1158,9 @@ impl StepPolicy for Dop853Steps<'_> {
             self.landings = 0;
             self.near_switch = 2.0 * near;
             let landed = h_try < target * (1.0 - 1e-12);
+            if let Some(var) = &mut self.variational {
+                var.step(sys, &self.stages, &self.contacts, &self.start, duration);
+            }
             self.inside.scan(
                 sys,
                 &self.recorded,

@@ -1,0 +1,317 @@
+"""Periodic orbits by shooting on the stroboscopic map, and their Floquet multipliers
+(docs/periodic-orbits.md).
+
+The section is the start of a forcing period: ``P^N`` maps the state ``z = (x, v)`` at
+``t = 0`` to the state ``N`` forcing periods later. :class:`Shooting` evaluates the residual
+``P^N(z) − z`` and its Jacobian ``Φ − I`` from one run of the core that carries the
+state-transition matrix ``Φ = ∂P^N/∂z`` (the variational equations of DOP853's stages with
+the saltation matrices of its switches; the exact ``exp(A h)`` of the event-driven method's
+flights with the saltation matrices of its impacts). :func:`periodic_orbit` solves
+``P^N(z) = z`` by Newton from a state reached after a transient. Continuation (a later step)
+reuses :meth:`Shooting.residual`; its parameter column is a difference of residuals of the
+models at two parameter values.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from numpy.typing import NDArray
+
+from vibroimpact import _core
+from vibroimpact.errors import ModelError, SolverError
+from vibroimpact.integrators import Adaptive, Dop853, EventDriven, Integrator
+from vibroimpact.model import ConstantLoad, HarmonicLoad, Model, TableLoad
+from vibroimpact.result import ImpactTable, Result
+from vibroimpact.simulate import check_run, simulate
+
+__all__ = ["PeriodicOrbit", "Shooting", "forcing_period", "periodic_orbit"]
+
+#: Steps (event-driven) or first step (DOP853) per forcing period by default.
+STEPS_PER_PERIOD = 1000
+#: Largest denominator of a ratio of two load frequencies taken as commensurate.
+MAX_FREQUENCY_DENOMINATOR = 64
+
+
+def forcing_period(model: Model) -> float:
+    """The common period of the model's harmonic loads, s: the smallest ``T`` with
+    ``f T`` whole for every frequency ``f > 0`` (constant loads are periodic with any period).
+
+    Raises :class:`ModelError` if there is no harmonic load, if a load is a table (not
+    periodic) or if two frequencies are not commensurate (their ratio is not a fraction with a
+    denominator up to 64, to 1e-12)."""
+    frequencies = []
+    for i, load in enumerate(model.loads):
+        if isinstance(load, TableLoad):
+            raise ModelError(f"loads[{i}]: a table load is not periodic; expected harmonic or "
+                             "constant loads for a periodic orbit")
+        if isinstance(load, HarmonicLoad) and load.frequency > 0:
+            frequencies.append(float(load.frequency))
+        elif not isinstance(load, (HarmonicLoad, ConstantLoad)):
+            raise ModelError(f"loads[{i}]: {type(load).__name__} is not periodic; expected "
+                             "harmonic or constant loads for a periodic orbit")
+    if not frequencies:
+        raise ModelError("loads: no harmonic load with a frequency > 0; expected one (its "
+                         "period is the section of the periodic orbit)")
+    base = min(frequencies)
+    ratios = []
+    for f in frequencies:
+        ratio = Fraction(f / base).limit_denominator(MAX_FREQUENCY_DENOMINATOR)
+        if abs(float(ratio) - f / base) > 1e-12 * f / base:
+            raise ModelError(f"loads: frequencies {base} and {f} Hz are not commensurate; "
+                             "expected frequencies in a ratio of small whole numbers (a common "
+                             "period)")
+        ratios.append(ratio)
+    denominator = math.lcm(*(r.denominator for r in ratios))
+    numerator = math.gcd(*(r.numerator * denominator // r.denominator for r in ratios))
+    return denominator / (numerator * base)
+
+
+def default_method(model: Model) -> Integrator:
+    """The event-driven method for rigid stops, else DOP853 at ``rtol = 1e-12`` (its
+    state-transition matrix is that of the integrated flow to about the tolerance's square
+    root near a Hertzian contact's ends)."""
+    if any(getattr(g.law, "impulsive", False) for g in model.gaps):
+        return EventDriven()
+    return Dop853(adaptive=Adaptive(rtol=1e-12, atol=1e-15))
+
+
+class Shooting:
+    """The stroboscopic map ``P^N`` of ``model`` over ``period`` forcing periods and its
+    state-transition matrix, integrated by ``method`` (default :func:`default_method`; one that
+    carries the matrix: DOP853 or the event-driven method) with steps of ``dt`` (s; default
+    the forcing period / 1000; DOP853: its first step)."""
+
+    def __init__(self, model: Model, period: int = 1, method: Integrator | None = None,
+                 dt: float | None = None) -> None:
+        if not (isinstance(period, int) and not isinstance(period, bool) and period >= 1):
+            raise ModelError(f"period: {period!r} is not valid; expected an integer >= 1 "
+                             "(forcing periods per orbit)")
+        self.model = model
+        self.periods = period
+        self.forcing_period = forcing_period(model)
+        self.duration = period * self.forcing_period
+        self.method = default_method(model) if method is None else method
+        self.dt = self.forcing_period / STEPS_PER_PERIOD if dt is None else float(dt)
+        check_run(model, self.duration, self.dt, self.method)
+        adaptive = self.method.adaptive
+        self._spec = model._run_spec()
+        self._spec.update(
+            self.method._run_spec(),
+            t_end=self.duration,
+            dt=self.dt,
+            every=1,
+            record_dofs=list(range(model.n_dof)),
+            adaptive=None if adaptive is None else adaptive.to_spec(self.duration, self.dt),
+        )
+
+    @property
+    def n_state(self) -> int:
+        """``2n``: displacements then velocities."""
+        return 2 * self.model.n_dof
+
+    def flow(self, z: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                                    dict[str, Any]]:
+        """``P^N(z)``, ``∂P^N/∂z`` and the core's output of the run (its time histories)."""
+        n = self.model.n_dof
+        spec = dict(self._spec, x0=np.ascontiguousarray(z[:n]),
+                    v0=np.ascontiguousarray(z[n:]))
+        raw = _core.flow_map(spec)
+        if raw["error"] is not None:
+            raise SolverError(f"periodic orbit: the run from the section state failed: "
+                              f"{raw['error']}")
+        end = np.concatenate([raw["displacement"][-1], raw["velocity"][-1]])
+        return end, raw["state_transition"], raw
+
+    def residual(self, z: NDArray[np.float64]) -> tuple[NDArray[np.float64],
+                                                        NDArray[np.float64]]:
+        """``P^N(z) − z`` and its Jacobian ``∂P^N/∂z − I``."""
+        end, phi, _ = self.flow(z)
+        return end - z, phi - np.eye(self.n_state)
+
+
+@dataclass(frozen=True)
+class PeriodicOrbit:
+    """A periodic orbit of ``period`` forcing periods (:func:`periodic_orbit`).
+
+    ``displacement``, ``velocity``: the state on the section (``t = 0`` of a forcing period);
+    ``result``: the time histories over the orbit's period from there; ``monodromy``:
+    ``∂P^N/∂z`` at the orbit (``2n × 2n``); ``multipliers``: its eigenvalues, largest modulus
+    first; ``residual``: ``|P^N(z) − z|`` at the returned state; ``iterations``: Newton's."""
+
+    shooting: Shooting
+    displacement: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+    result: Result
+    monodromy: NDArray[np.float64]
+    multipliers: NDArray[np.complex128]
+    residual: float
+    iterations: int
+    #: Each DOF's largest and smallest displacement over the orbit: at every step's end (the
+    #: impact instants included) and DOP853's turning points inside its steps.
+    displacement_max: NDArray[np.float64]
+    displacement_min: NDArray[np.float64]
+
+    @property
+    def period(self) -> float:
+        """The orbit's period, s (``period`` forcing periods)."""
+        return self.shooting.duration
+
+    @property
+    def stable(self) -> bool:
+        """Every multiplier inside the unit circle."""
+        return bool(np.max(np.abs(self.multipliers)) < 1.0)
+
+    @property
+    def impacts(self) -> ImpactTable:
+        """The contacts over the orbit's period (compliant laws: one row per contact; rigid:
+        one per impact)."""
+        return self.result.impacts
+
+    @property
+    def impact_phase(self) -> NDArray[np.float64]:
+        """Each impact's instant as a phase of the forcing period, rad in ``[0, 2π)``."""
+        t = np.asarray(self.impacts.t_start, dtype=float)
+        return 2 * np.pi * np.mod(t / self.shooting.forcing_period, 1.0)
+
+    def _per_gap(self, column: NDArray[np.float64]) -> list[float | None]:
+        """The largest value of an impact-table column per gap (0 without contact; None where
+        it is NaN: a rigid impact has no finite force)."""
+        gaps = np.asarray(self.impacts.gap)
+        out: list[float | None] = []
+        for g in range(len(self.shooting.model.gaps)):
+            values = np.asarray(column, dtype=float)[gaps == g]
+            if values.size == 0:
+                out.append(0.0)
+            elif np.isnan(values).any():
+                out.append(None)
+            else:
+                out.append(float(values.max()))
+        return out
+
+    @property
+    def force_max(self) -> list[float | None]:
+        """Per gap: the largest contact force over the orbit, N (None for a rigid stop)."""
+        return self._per_gap(self.impacts.force_max)
+
+    @property
+    def penetration_max(self) -> list[float | None]:
+        """Per gap: the largest penetration over the orbit, m (0 for a rigid stop)."""
+        return self._per_gap(self.impacts.delta_max)
+
+    def to_dataset(self) -> xr.Dataset:
+        """The orbit's time histories as :func:`vibroimpact.io.results_file.to_dataset` has
+        them, with the multipliers (``multiplier_real``, ``multiplier_imag``), the monodromy
+        matrix and the attributes ``orbit_period`` (s), ``orbit_forcing_periods``,
+        ``orbit_residual`` and ``orbit_stable`` (0/1)."""
+        from vibroimpact.io import results_file
+
+        ds = results_file.to_dataset(self.result)
+        ds["multiplier_real"] = ("multiplier", self.multipliers.real)
+        ds["multiplier_imag"] = ("multiplier", self.multipliers.imag)
+        ds["monodromy"] = (("state", "state_from"), self.monodromy)
+        ds.attrs.update(orbit_period=self.period, orbit_forcing_periods=self.shooting.periods,
+                        orbit_residual=self.residual, orbit_stable=int(self.stable))
+        return ds
+
+    def summary(self) -> dict[str, Any]:
+        """The JSON summary of ``vibroimpact orbit --json``."""
+        return {
+            "multipliers": [[float(m.real), float(m.imag)] for m in self.multipliers],
+            "stable": self.stable,
+            "period": self.period,
+            "residual": self.residual,
+            "initial_state": {"displacement": self.displacement.tolist(),
+                              "velocity": self.velocity.tolist()},
+            "displacement_max": self.displacement_max.tolist(),
+            "displacement_min": self.displacement_min.tolist(),
+            "impacts_per_period": len(self.impacts),
+            "force_max": self.force_max,
+            "penetration_max": self.penetration_max,
+        }
+
+
+def _multipliers(monodromy: NDArray[np.float64]) -> NDArray[np.complex128]:
+    values = np.linalg.eigvals(monodromy).astype(complex)
+    return values[np.argsort(-np.abs(values), kind="stable")]
+
+
+#: Halvings of a Newton step that does not lower the residual (or leaves a rigid wall's side).
+MAX_HALVINGS = 12
+
+
+def _line_search(shooting: Shooting, z: NDArray[np.float64], step: NDArray[np.float64],
+                 residual: float) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                           NDArray[np.float64], dict[str, Any], float]:
+    """The first of ``z + step``, ``z + step/2``, ... whose residual is below ``residual``
+    (the map is only piecewise smooth: a full step may cross a grazing or start inside a
+    rigid wall, which the core refuses); the last halving if none is."""
+    for halving in range(MAX_HALVINGS):
+        trial = z + step * 0.5**halving
+        try:
+            end, phi, raw = shooting.flow(trial)
+        except ModelError:
+            continue
+        trial_residual = float(np.linalg.norm(end - trial))
+        if trial_residual < residual:
+            return trial, end, phi, raw, trial_residual
+    trial = z + step * 0.5**MAX_HALVINGS
+    end, phi, raw = shooting.flow(trial)
+    return trial, end, phi, raw, float(np.linalg.norm(end - trial))
+
+
+def periodic_orbit(model: Model, period: int = 1, transient: int = 50, *,
+                   method: Integrator | None = None, dt: float | None = None,
+                   tol: float = 1e-9, max_iterations: int = 30) -> PeriodicOrbit:
+    """The periodic orbit of ``period`` forcing periods near the state that ``model`` reaches
+    after ``transient`` forcing periods from its initial state (0: the initial state itself is
+    the guess), by Newton on ``P^N(z) − z`` with the exact Jacobian of the map; converged when
+    ``|P^N(z) − z| <= tol · max(|z|, 1e-300)``. ``method``, ``dt``: as :class:`Shooting`.
+
+    Raises :class:`ModelError` for a model without a periodic load (or a method that does not
+    carry the state-transition matrix) and :class:`SolverError` if Newton does not converge in
+    ``max_iterations`` (naming the residual).
+
+    **Example:** ``vi.periodic_orbit(model, period=1, transient=50).multipliers``
+    """
+    if not (isinstance(transient, int) and not isinstance(transient, bool) and transient >= 0):
+        raise ModelError(f"transient: {transient!r} is not valid; expected an integer >= 0 "
+                         "(forcing periods)")
+    shooting = Shooting(model, period, method, dt)
+    z = np.concatenate([np.asarray(model.initial_displacement, dtype=float),
+                        np.asarray(model.initial_velocity, dtype=float)])
+    if transient > 0:
+        t_end = transient * shooting.forcing_period
+        run = simulate(model, t_end, shooting.dt, shooting.method,
+                       every=max(1, int(t_end / shooting.dt)))
+        z = np.concatenate([run.displacement[-1], run.velocity[-1]])
+    n = model.n_dof
+    end, phi, raw = shooting.flow(z)
+    residual = float(np.linalg.norm(end - z))
+    iteration = 0
+    while residual > tol * max(float(np.linalg.norm(z)), 1e-300):
+        if iteration == max_iterations:
+            raise SolverError(f"periodic orbit: Newton did not converge in {max_iterations} "
+                              f"iterations; residual |P^N(z) - z| = {residual:.3e}, expected "
+                              f"<= {tol:g} |z|")
+        iteration += 1
+        try:
+            step = np.linalg.solve(phi - np.eye(2 * n), z - end)
+        except np.linalg.LinAlgError:
+            raise SolverError(f"periodic orbit: the Jacobian P^N' - I is singular at iteration "
+                              f"{iteration} (a multiplier at 1: a fold or a family of orbits); "
+                              f"residual {residual:.3e}") from None
+        z, end, phi, raw, residual = _line_search(shooting, z, step, residual)
+    result = Result.from_core(raw, model=replace(model, initial_displacement=z[:n],
+                                                 initial_velocity=z[n:]),
+                              method=shooting.method, t_end=shooting.duration)
+    return PeriodicOrbit(shooting=shooting, displacement=z[:n].copy(), velocity=z[n:].copy(),
+                         result=result, monodromy=phi, multipliers=_multipliers(phi),
+                         residual=residual, iterations=iteration,
+                         displacement_max=np.asarray(raw["displacement_max"]),
+                         displacement_min=np.asarray(raw["displacement_min"]))

@@ -1,0 +1,158 @@
+//! The state-transition matrix of a run (`simulate_with_sensitivity`) against central
+//! differences of the simulated map, over one forcing period of a forced oscillator that hits
+//! its stop: DOP853 with Hertz and Lankarani–Nikravesh (its force depends on the approach
+//! speed), the event-driven method with a rigid stop (restitution: velocity jump and
+//! saltation). Not yet Kelvin–Voigt: see docs/periodic-orbits.md, "Limits".
+
+use nalgebra::{DMatrix, DVector};
+use vibroimpact_core::contact::{Hertz, LankaraniNikravesh, Law, Rigid};
+use vibroimpact_core::gap::{Gap, Side};
+use vibroimpact_core::impulsive::EventDriven;
+use vibroimpact_core::integrators::NewtonSettings;
+use vibroimpact_core::settings::Adaptive;
+use vibroimpact_core::simulate::{simulate, simulate_with_sensitivity, Method, RunSettings};
+use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
+use vibroimpact_core::system::System;
+
+/// `x'' + 0.1 x' + x = cos(0.8 t)` with a stop at `x = 0.5`.
+fn oscillator(law: Law) -> System {
+    with_clearance(law, 0.5)
+}
+
+fn with_clearance(law: Law, clearance: f64) -> System {
+    let s = LinearStructure::new(
+        DMatrix::from_element(1, 1, 1.0),
+        DMatrix::from_element(1, 1, 0.1),
+        DMatrix::from_element(1, 1, 1.0),
+    )
+    .unwrap();
+    let gap = Gap {
+        dofs: vec![0],
+        coefficients: vec![1.0],
+        clearance,
+        side: Side::Positive,
+        law,
+    };
+    let load = Load {
+        dofs: vec![0],
+        amplitude: 1.0,
+        history: LoadHistory::Harmonic {
+            frequency: 0.8 / (2.0 * std::f64::consts::PI),
+            phase: std::f64::consts::FRAC_PI_2,
+        },
+    };
+    System::new(s, vec![gap], vec![load]).unwrap()
+}
+
+const PERIOD: f64 = 2.0 * std::f64::consts::PI / 0.8;
+
+fn settings(method: Method) -> RunSettings {
+    let explicit = matches!(method, Method::Dop853);
+    RunSettings {
+        t_end: PERIOD,
+        dt: if explicit { 1e-3 } else { PERIOD / 2000.0 },
+        every: 1000,
+        record_dofs: vec![0],
+        newton: NewtonSettings::default(),
+        adaptive: explicit.then_some(Adaptive {
+            rtol: 1e-12,
+            atol: 1e-14,
+            dt_min: 1e-12,
+            dt_max: 0.05,
+        }),
+    }
+}
+
+/// The state at the end of the period from `z`.
+fn map(sys: &System, method: Method, z: [f64; 2]) -> [f64; 2] {
+    let (x0, v0) = (
+        DVector::from_element(1, z[0]),
+        DVector::from_element(1, z[1]),
+    );
+    let out = simulate(sys, method, &settings(method), x0, v0).unwrap();
+    assert!(out.error.is_none(), "{:?}", out.error);
+    let rows = &out.rows;
+    [
+        *rows.displacement.last().unwrap(),
+        *rows.velocity.last().unwrap(),
+    ]
+}
+
+fn check(law: Law, method: Method, impacts_expected: usize) {
+    let sys = oscillator(law);
+    let z = [0.2, 1.0];
+    let (x0, v0) = (
+        DVector::from_element(1, z[0]),
+        DVector::from_element(1, z[1]),
+    );
+    let out = simulate_with_sensitivity(&sys, method, &settings(method), x0, v0, None).unwrap();
+    assert!(out.error.is_none(), "{:?}", out.error);
+    assert_eq!(out.impacts.len(), impacts_expected, "{:?}", out.impacts);
+    let phi = out.state_transition.expect("asked for").matrix;
+    let eps = 1e-5;
+    let mut worst: f64 = 0.0;
+    let mut fd_matrix = DMatrix::zeros(2, 2);
+    for j in 0..2 {
+        let (mut up, mut down) = (z, z);
+        up[j] += eps;
+        down[j] -= eps;
+        let (p, m) = (map(&sys, method, up), map(&sys, method, down));
+        for i in 0..2 {
+            let fd = (p[i] - m[i]) / (2.0 * eps);
+            fd_matrix[(i, j)] = fd;
+            worst = worst.max((fd - phi[(i, j)]).abs());
+        }
+    }
+    let scale = phi.amax().max(1.0);
+    assert!(
+        worst <= 1e-6 * scale,
+        "worst |Φ − FD| = {worst:e} (|Φ| = {scale}); Φ = {phi}, FD = {fd_matrix}"
+    );
+    // the sensitivity is not the free flow's: the impacts change it
+    let free = simulate_with_sensitivity(
+        &with_clearance(Law::Hertz(Hertz::new(1e3, 1.5).unwrap()), 100.0),
+        Method::Dop853,
+        &settings(Method::Dop853),
+        DVector::from_element(1, z[0]),
+        DVector::from_element(1, z[1]),
+        None,
+    )
+    .unwrap();
+    assert!(free.impacts.is_empty());
+    let free_phi = free.state_transition.unwrap().matrix;
+    assert!((free_phi - &phi).amax() > 1e-2, "{phi}");
+}
+
+#[test]
+fn dop853_hertz_stop_matches_finite_differences() {
+    check(Law::Hertz(Hertz::new(1e4, 1.5).unwrap()), Method::Dop853, 2);
+}
+
+#[test]
+fn dop853_lankarani_nikravesh_stop_matches_finite_differences() {
+    let law = LankaraniNikravesh::new(1e4, 1.5, 0.7).unwrap();
+    check(Law::LankaraniNikravesh(law), Method::Dop853, 2);
+}
+
+#[test]
+fn event_driven_rigid_stop_matches_finite_differences() {
+    let method = Method::EventDriven(EventDriven::default());
+    check(Law::Rigid(Rigid::new(0.8).unwrap()), method, 2);
+}
+
+#[test]
+fn methods_without_a_state_transition_are_refused() {
+    let sys = oscillator(Law::Hertz(Hertz::new(1e4, 1.5).unwrap()));
+    let method =
+        Method::NewmarkFamily(vibroimpact_core::integrators::NewmarkFamily::average_acceleration());
+    let err = simulate_with_sensitivity(
+        &sys,
+        method,
+        &settings(method),
+        DVector::zeros(1),
+        DVector::zeros(1),
+        None,
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("solver.method"), "{err}");
+}

@@ -1,0 +1,211 @@
+"""Periodic orbits by shooting (``vibroimpact.periodic_orbit``, ``vibroimpact orbit``): the
+rigid stop's period-1 orbit and multipliers against the closed form, the multipliers from the
+core's state-transition matrix against finite differences of the simulated map, a stable
+orbit attracting a perturbed state in simulation, and the one-line errors."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+import scipy.linalg
+import scipy.optimize
+import vibroimpact as vi
+import xarray as xr
+from vibroimpact.cli import main
+from vibroimpact.orbits import Shooting, forcing_period
+
+ZETA, W, D, R = 0.05, 1.1, 0.5, 0.8
+
+
+def oscillator(law: vi.contact.ContactLaw, w: float = W) -> vi.Model:
+    """``x'' + 2ζx' + x = cos(wt)`` with a stop at ``x = d`` (m = k = F0 = 1)."""
+    return vi.Model(
+        vi.Structure.sdof(mass=1.0, stiffness=1.0, damping=2 * ZETA),
+        gaps=[vi.Gap(dof=0, clearance=D, side="positive", law=law)],
+        loads=[vi.HarmonicLoad(dof=0, amplitude=1.0, frequency=w / (2 * np.pi),
+                               phase=np.pi / 2)],
+    )
+
+
+A = np.array([[0.0, 1.0], [-1.0, -2 * ZETA]])
+T = 2 * np.pi / W
+H = 1 / (1 - W**2 + 2j * ZETA * W)  # the linear response's complex amplitude
+
+
+def particular(t: float) -> np.ndarray:
+    """The steady free response ``Re(H e^{iwt})`` and its rate."""
+    e = H * np.exp(1j * W * t)
+    return np.array([e.real, (1j * W * e).real])
+
+
+def closed_form_orbit(t0: float, v: float) -> tuple[float, float]:
+    """Impact instant ``t0`` (in a period) and approach speed ``v`` of the period-1 orbit with
+    one impact: from ``(d, −r v)`` at ``t0`` the free flow over ``T`` returns to ``(d, v)``."""
+
+    def equations(p: np.ndarray) -> np.ndarray:
+        t, speed = p
+        start = np.array([D, -R * speed])
+        end = scipy.linalg.expm(A * T) @ (start - particular(t)) + particular(t)
+        return end - np.array([D, speed])
+
+    solution, _info, ok, message = scipy.optimize.fsolve(equations, [t0, v], xtol=1e-14,
+                                                       full_output=True)
+    assert ok == 1, message
+    assert np.max(np.abs(equations(solution))) < 1e-13
+    return float(solution[0]), float(solution[1])
+
+
+def test_rigid_stop_period_one_orbit_matches_the_closed_form() -> None:
+    model = oscillator(vi.contact.Rigid(restitution=R))
+    orbit = vi.periodic_orbit(model, period=1, transient=5, dt=T / 4000)
+    assert len(orbit.impacts) == 1 and orbit.iterations >= 1
+    guess_t0 = float(orbit.impacts.t_start[0])
+    t0, v = closed_form_orbit(guess_t0, float(orbit.impacts.v_in[0]))
+    # a genuine one-impact orbit: the free flight stays off the wall
+    flight = [scipy.linalg.expm(A * s) @ (np.array([D, -R * v]) - particular(t0))
+              + particular(t0 + s) for s in np.linspace(1e-3, T - 1e-3, 400)]
+    assert max(z[0] for z in flight) < D
+    # the section state (t = 0 of the forcing period) from the impact at t0
+    section = (scipy.linalg.expm(A * (T - t0)) @ (np.array([D, -R * v]) - particular(t0))
+               + particular(T))
+    assert abs(orbit.displacement[0] - section[0]) < 1e-8
+    assert abs(orbit.velocity[0] - section[1]) < 1e-8
+    assert abs(orbit.impacts.v_in[0] - v) < 1e-8 and abs(guess_t0 - t0) < 1e-8
+    assert abs(orbit.impact_phase[0] - W * t0) < 1e-8
+    # multipliers: the closed-form monodromy S e^{AT}, S from the impact map (the docs' page)
+    s = np.array([[-R, 0.0], [(1 + R) * (np.cos(W * t0) - D) / v, -R]])
+    expected = np.linalg.eigvals(s @ scipy.linalg.expm(A * T))
+    expected = expected[np.argsort(-np.abs(expected))]
+    assert np.max(np.abs(orbit.multipliers - expected)) < 1e-7, (orbit.multipliers, expected)
+    assert orbit.stable == bool(np.max(np.abs(expected)) < 1)
+    assert orbit.residual <= 1e-9 * np.linalg.norm(section)
+
+
+def finite_difference_monodromy(shooting: Shooting, z: np.ndarray, eps: float) -> np.ndarray:
+    columns = []
+    for j in range(z.size):
+        dz = np.zeros_like(z)
+        dz[j] = eps
+        columns.append((shooting.flow(z + dz)[0] - shooting.flow(z - dz)[0]) / (2 * eps))
+    return np.column_stack(columns)
+
+
+@pytest.mark.parametrize("law", [
+    vi.contact.Rigid(restitution=R),
+    vi.contact.Hertz(stiffness=1e4, exponent=1.5),
+    vi.contact.LankaraniNikravesh(stiffness=1e4, exponent=1.5, restitution=0.3),
+], ids=["rigid", "hertz", "lankarani-nikravesh"])
+def test_multipliers_match_finite_differences_of_the_map(law: vi.contact.ContactLaw) -> None:
+    orbit = vi.periodic_orbit(oscillator(law), transient=30)
+    assert len(orbit.impacts) >= 1
+    z = np.concatenate([orbit.displacement, orbit.velocity])
+    fd = finite_difference_monodromy(orbit.shooting, z, 1e-5)
+    assert np.max(np.abs(fd - orbit.monodromy)) < 1e-6 * max(1.0, np.abs(fd).max())
+    expected = np.linalg.eigvals(fd)
+    expected = expected[np.argsort(-np.abs(expected))]
+    assert np.max(np.abs(orbit.multipliers - expected)) < 1e-6
+
+
+def test_a_stable_orbit_attracts_a_perturbed_state() -> None:
+    model = oscillator(vi.contact.Rigid(restitution=R))
+    orbit = vi.periodic_orbit(model, transient=30)
+    assert orbit.stable
+    z = np.concatenate([orbit.displacement, orbit.velocity])
+    periods, steps = 40, 1000
+    perturbed = vi.Model(model.structure, gaps=model.gaps, loads=model.loads,
+                         initial_displacement=orbit.displacement + 1e-6,
+                         initial_velocity=orbit.velocity - 1e-6)
+    run = vi.simulate(perturbed, periods * T, T / steps, vi.EventDriven(), every=steps)
+    samples = np.column_stack([run.displacement[:, 0], run.velocity[:, 0]])
+    distance = np.linalg.norm(samples - z, axis=1)
+    assert distance.size == periods + 1 and distance[0] == pytest.approx(math.sqrt(2) * 1e-6)
+    rho = float(np.max(np.abs(orbit.multipliers)))
+    assert distance[-1] < 1e-8 and distance[-1] < 100 * rho**periods * distance[0]
+
+
+def test_forcing_period_of_commensurate_loads_and_the_errors() -> None:
+    base = oscillator(vi.contact.Rigid(restitution=R))
+    two = vi.Model(base.structure, gaps=base.gaps, loads=[
+        vi.HarmonicLoad(dof=0, amplitude=1.0, frequency=4.0),
+        vi.HarmonicLoad(dof=0, amplitude=0.5, frequency=6.0),
+        vi.ConstantLoad(dof=0, amplitude=0.1)])
+    assert forcing_period(two) == pytest.approx(0.5, rel=1e-15)
+    free = vi.Model(base.structure, gaps=base.gaps)
+    with pytest.raises(vi.ModelError, match=r"^loads: no harmonic load") as e:
+        vi.periodic_orbit(free)
+    assert "\n" not in str(e.value)
+    odd = vi.Model(base.structure, gaps=base.gaps, loads=[
+        vi.HarmonicLoad(dof=0, amplitude=1.0, frequency=1.0),
+        vi.HarmonicLoad(dof=0, amplitude=1.0, frequency=math.sqrt(2))])
+    with pytest.raises(vi.ModelError, match="not commensurate"):
+        forcing_period(odd)
+    with pytest.raises(vi.ModelError, match=r"^solver.method: 'newmark' does not compute"):
+        vi.periodic_orbit(base, transient=0, method=vi.Newmark())
+    with pytest.raises(vi.SolverError, match=r"did not converge in 1 iterations; residual"):
+        vi.periodic_orbit(base, transient=0, max_iterations=1)
+
+
+MODEL_FILE = f"""
+schema_version = 1
+[structure]
+kind = "sdof"
+mass = 1.0
+stiffness = 1.0
+damping = {2 * ZETA}
+[[gaps]]
+dof = 0
+clearance = {D}
+side = "positive"
+[gaps.law]
+kind = "rigid"
+restitution = {R}
+[[loads]]
+kind = "harmonic"
+dof = 0
+amplitude = 1.0
+frequency = {W / (2 * np.pi)!r}
+phase = {np.pi / 2!r}
+[solver]
+method = "event-driven"
+dt = 0.01
+t_end = 10.0
+"""
+
+
+def test_cli_orbit_json_and_netcdf(tmp_path, capsys) -> None:
+    path = tmp_path / "oscillator.toml"
+    path.write_text(MODEL_FILE)
+    out = tmp_path / "orbit.nc"
+    assert main(["orbit", str(path), "--transient", "30", "--json", "-o", str(out)]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert set(summary) == {"multipliers", "stable", "period", "residual", "initial_state",
+                            "displacement_max", "displacement_min", "impacts_per_period",
+                            "force_max", "penetration_max"}
+    orbit = vi.periodic_orbit(oscillator(vi.contact.Rigid(restitution=R)), transient=30)
+    assert summary["period"] == pytest.approx(T, rel=1e-14)
+    assert summary["impacts_per_period"] == 1 and summary["stable"] is True
+    assert np.allclose([complex(*m) for m in summary["multipliers"]], orbit.multipliers,
+                       atol=1e-9)
+    assert summary["initial_state"]["displacement"] == pytest.approx(orbit.displacement,
+                                                                     abs=1e-9)
+    assert summary["displacement_max"] == pytest.approx([D], abs=1e-9)
+    assert summary["force_max"] == [None] and summary["penetration_max"] == [0.0]
+    with xr.open_dataset(out) as ds:
+        assert ds.attrs["orbit_period"] == pytest.approx(T)
+        assert ds["time"].values[-1] == pytest.approx(T)
+        assert np.allclose(ds["multiplier_real"].values, orbit.multipliers.real, atol=1e-9)
+
+
+def test_cli_orbit_refuses_a_model_without_a_periodic_load(tmp_path, capsys) -> None:
+    path = tmp_path / "free.toml"
+    path.write_text(MODEL_FILE.split("[[loads]]")[0] + MODEL_FILE.split("phase = ")[1]
+                    .split("\n", 1)[1])
+    out = tmp_path / "orbit.nc"
+    assert main(["orbit", str(path), "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["vibroimpact: error: loads: no harmonic load with a frequency > 0; expected "
+                   "one (its period is the section of the periodic orbit)"]
+    assert not out.exists()
