@@ -5,7 +5,7 @@
 //! saltation). Not yet Kelvin–Voigt: see docs/periodic-orbits.md, "Limits".
 
 use nalgebra::{DMatrix, DVector};
-use vibroimpact_core::contact::{Hertz, LankaraniNikravesh, Law, Rigid};
+use vibroimpact_core::contact::{Hertz, Hysteretic, Law, Rigid};
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::impulsive::EventDriven;
 use vibroimpact_core::integrators::NewtonSettings;
@@ -130,8 +130,8 @@ fn dop853_hertz_stop_matches_finite_differences() {
 
 #[test]
 fn dop853_lankarani_nikravesh_stop_matches_finite_differences() {
-    let law = LankaraniNikravesh::new(1e4, 1.5, 0.7).unwrap();
-    check(Law::LankaraniNikravesh(law), Method::Dop853, 2);
+    let law = Hysteretic::new("lankarani-nikravesh", 1e4, 1.5, 0.7).unwrap();
+    check(Law::Hysteretic(law), Method::Dop853, 2);
 }
 
 #[test]
