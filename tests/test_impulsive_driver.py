@@ -1,7 +1,8 @@
 """The impulsive methods through the one time-loop driver (issue 19, item 1): the rigid-stop
 impact oscillator swept in frequency with ``event-driven`` against its period-1 orbit solved
-here from the linear flow and the restitution map; streamed runs equal in-memory ones bit for
-bit; progress and solver events as for the other methods. (Interrupts:
+here from the linear flow and the restitution map, and compliant stops of growing stiffness
+(DOP853) converging to it; streamed runs equal in-memory ones bit for bit; solver events as
+for the other methods. (Progress: ``tests/test_run_progress.py``; interrupts:
 ``tests/test_interrupt.py``; the core's own: ``rust/vibroimpact-core/tests/interrupt.rs``.)"""
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import numpy as np
 import pytest
 import vibroimpact as vi
 from scipy.linalg import expm
-from scipy.optimize import fsolve
+from scipy.optimize import brentq, fsolve
 from vibroimpact.sweeps import Param, Sweep, run_sweep
 
 # m x'' + c x' + k x = F sin(2π f t): 1 Hz natural frequency, 5 % damping; a rigid stop at
@@ -88,6 +89,52 @@ def test_event_driven_sweep_matches_the_period_one_orbit() -> None:
         x = point["poincare_displacement"].isel(dof=0).values
         z = flow(f, t0, np.array([D, -E * v]), 1 / f)
         assert np.abs(x - z[0]).max() < 1e-8 * D
+
+
+def restitution_for(e: float) -> float:
+    """The ``ce`` of Lankarani–Nikravesh whose factor ``χ = 3(1 − ce²)/4`` makes one impact of
+    a free mass restitute exactly ``e``: ``χ`` is the root in ``(0, 1/e)`` of
+    ``χ − ln(1 + χ) = −χ e − ln(1 − χ e)`` (Hunt & Crossley's energy integral, derived in
+    ``vi.contact.ExactRestitution``'s docstring). LN's own ``ce = e`` restitutes more than e
+    (0.847 for 0.8)."""
+    chi = brentq(lambda c: c - np.log1p(c) + c * e + np.log1p(-c * e), 1e-9, 1 / e - 1e-9,
+                 xtol=1e-15)
+    return float(np.sqrt(1 - 4 * chi / 3))
+
+
+#: Stiffness levels of the compliant stop, N/m^1.5: ×10 each.
+STIFFNESSES = 10.0 ** np.arange(8, 13)
+
+
+def test_compliant_stops_of_growing_stiffness_converge_to_the_rigid_orbit() -> None:
+    """The same sweep with a Lankarani–Nikravesh stop (exponent 1.5, restituting E for a free
+    impact) of stiffness 1e8 … 1e12, run by DOP853 at rtol 1e-10 (~0.1 s a sweep): the impact
+    speeds tend to those of the closed-form period-1 orbit of the rigid stop. The error comes
+    from the contact's depth and duration, both ∝ K^(−2/5), so each ×10 in stiffness divides
+    it by 10^(2/5) ≈ 2.51: measured 2.42–2.58 on every level and frequency, down to 2.4e-5
+    (1.2 Hz) … 1.9e-3 (2.1 Hz) of the speed at 1e12. A stop that restitutes anything but E
+    stalls at its own orbit (with LN's ``ce = E``, which restitutes 0.847, the ratios wander
+    between 0.2 and 9 and the error stays at 1e-2 … 3e-2)."""
+    ce = restitution_for(E)
+    method = vi.Dop853(adaptive=vi.Adaptive(rtol=1e-10, atol=1e-14))
+    levels = []
+    for k in STIFFNESSES:
+        law = vi.contact.LankaraniNikravesh(stiffness=k, exponent=1.5, restitution=ce)
+        ds = run_sweep(Sweep(oscillator(FREQS[0], law), [Param("loads.0.frequency", FREQS)],
+                             dt=1e-3, method=method, transient=150, periods=8), threads=1)
+        assert np.all(ds["impact_count"].values == 8)  # one impact per period
+        levels.append(ds.isel(gap=0))
+    for f in FREQS:
+        # the closed form, from the stiffest stop's first impact as the guess
+        stiffest = levels[-1].sel({"loads.0.frequency": f})
+        _, v = period_one(f, (float(stiffest["impact_phase"][0]) / f,
+                              float(stiffest["impact_velocity"][0])))
+        speeds = np.array([ds.sel({"loads.0.frequency": f})["impact_velocity"].values
+                           for ds in levels])
+        errors = np.abs(speeds - v).max(axis=1) / v
+        ratios = errors[:-1] / errors[1:]
+        assert np.all((2.3 < ratios) & (ratios < 2.7)), (f, errors, ratios)
+        assert errors[-1] < 2.5e-3, (f, errors)
 
 
 @pytest.mark.parametrize("method", [vi.EventDriven(), vi.MoreauJean()],

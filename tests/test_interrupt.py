@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import vibroimpact as vi
+from test_impulsive_driver import E, oscillator
 from vibroimpact import _core, cases
 from vibroimpact.io import results_file
 
@@ -89,14 +90,37 @@ def _signal_soon(sig: int, delay: float = 0.3) -> threading.Timer:
     return timer
 
 
+def _rigid_stop() -> vi.Model:
+    """tests/test_impulsive_driver.py's impact oscillator with a rigid stop, at 1.8 Hz."""
+    return oscillator(1.8, vi.contact.Rigid(restitution=E))
+
+
+# (model, run options, those of a short run): runs of minutes, every 1e4–1e5-th step kept
+IN_PROCESS_RUNS = {
+    "newmark": (lambda: cases.sdof_model("lankarani-nikravesh"),
+                dict(t_end=1000.0, dt=1e-6, every=100000), dict(t_end=0.002, dt=1e-6)),
+    "event-driven": (_rigid_stop, dict(t_end=1e4, dt=1e-4, every=10000,
+                                       method=vi.EventDriven()),
+                     dict(t_end=1.0, dt=1e-4, method=vi.EventDriven())),
+    "moreau-jean": (_rigid_stop, dict(t_end=1e5, dt=1e-4, every=100000,
+                                      method=vi.MoreauJean()),
+                    dict(t_end=1.0, dt=1e-4, method=vi.MoreauJean())),
+}
+
+
+@pytest.mark.parametrize("method", list(IN_PROCESS_RUNS))
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
-def test_in_process_a_signal_raises_interrupted_with_the_partial_result(sig: int) -> None:
-    model = cases.sdof_model("lankarani-nikravesh")
+def test_in_process_a_signal_raises_interrupted_with_the_partial_result(
+        sig: int, method: str) -> None:
+    """The impulsive methods (their impacts kept by their own table) stop as the others."""
+    build, options, short = IN_PROCESS_RUNS[method]
+    model = build()
+    t_end = options["t_end"]
     term_handler = signal.getsignal(signal.SIGTERM)
     timer = _signal_soon(sig)
     try:
         with pytest.raises(vi.Interrupted) as err:
-            vi.simulate(model, t_end=1000.0, dt=1e-6, every=100000)
+            vi.simulate(model, **options)
     finally:
         timer.cancel()
     e = err.value
@@ -104,12 +128,12 @@ def test_in_process_a_signal_raises_interrupted_with_the_partial_result(sig: int
     assert "interrupted at t = " in str(e) and signal.Signals(sig).name in str(e)
     partial = e.partial
     assert partial is not None and not partial.complete
-    assert 0 < partial.time[-1] < 1000.0
-    assert len(partial.impacts) > 0
+    assert 0 < partial.time[-1] < t_end
+    assert len(partial.impacts) > 0 and np.all(partial.impacts.t_start <= partial.time[-1])
     # the handler is restored and the flag withdrawn: the next run completes
     assert signal.getsignal(signal.SIGTERM) == term_handler
     assert not _core.interrupt_requested()
-    assert vi.simulate(model, t_end=0.002, dt=1e-6).complete
+    assert vi.simulate(model, **short).complete
 
 
 def test_a_stale_interrupt_request_does_not_stop_the_next_run() -> None:

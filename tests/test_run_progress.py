@@ -6,13 +6,16 @@ from __future__ import annotations
 
 import importlib
 import io
+import itertools
 import json
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 import vibroimpact as vi
+from test_impulsive_driver import E, oscillator
 from vibroimpact import cases
 from vibroimpact.cli import main as cli_main
 from vibroimpact.simulate import ProgressBar
@@ -141,6 +144,45 @@ def test_api_progress_flag_and_events_logger(caplog: pytest.LogCaptureFixture) -
     assert len(closing) == len(r.impacts) == 9
     times = np.array([rec.args[0] for rec in closing])
     assert np.all((times >= r.impacts.t_start) & (times - r.impacts.t_start <= 1e-6 * 1.001))
+
+
+def _model(name: str) -> vi.Model:
+    """The paper's SDOF case, or tests/test_impulsive_driver.py's impact oscillator at 1.8 Hz
+    with a stiff Lankarani–Nikravesh stop or a rigid one."""
+    if name == "sdof":
+        return cases.sdof_model("lankarani-nikravesh")
+    if name == "rigid-stop":
+        return oscillator(1.8, vi.contact.Rigid(restitution=E))
+    return oscillator(1.8, vi.contact.LankaraniNikravesh(stiffness=1e10, exponent=1.5,
+                                                         restitution=E))
+
+
+@pytest.mark.parametrize(("model", "options"), [
+    ("sdof", dict(t_end=1.0, dt=1e-6)),
+    ("stiff-stop", dict(t_end=2000.0, dt=1e-3, method=vi.Dop853())),
+    ("rigid-stop", dict(t_end=12.0, dt=1e-4, method=vi.EventDriven())),
+    ("rigid-stop", dict(t_end=50.0, dt=1e-4, method=vi.MoreauJean())),
+], ids=["newmark", "dop853", "event-driven", "moreau-jean"])
+def test_the_core_publishes_its_progress_during_the_run(
+        monkeypatch: pytest.MonkeyPatch, model: str, options: dict[str, Any]) -> None:
+    """Every method reports the simulated time it reached while it runs (0.2–0.8 s here,
+    polled every 50 ms): the bar of ``progress=True``, on a clock that lets it draw at every
+    poll, is updated with times that grow from inside the run to its end."""
+    bars: list[ProgressBar] = []
+
+    def bar(t_end: float) -> ProgressBar:
+        ticks = itertools.count()
+        bars.append(ProgressBar(t_end, stream=io.StringIO(), enabled=True, delay=0.0,
+                                clock=lambda: float(next(ticks))))
+        return bars[-1]
+
+    monkeypatch.setattr(simulate_module, "ProgressBar", bar)
+    r = vi.simulate(_model(model), every=1000, progress=True, **options)
+    assert r.complete and len(bars) == 1
+    drawn = [float(m) for m in re.findall(r"t = ([-+0-9.e]+) of", bars[0].stream.getvalue())]
+    inside = [t for t in drawn if 0 < t < options["t_end"]]
+    assert len(inside) >= 2 and np.all(np.diff(drawn) >= 0), drawn
+    assert drawn[-1] == pytest.approx(options["t_end"], rel=1e-12)
 
 
 def test_verbose_logs_the_step_cuts_of_adaptive_runs(

@@ -39,7 +39,7 @@ pub trait StepObserver {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Event {
     /// Newton did not converge on the step of length `dt` from `t` (after `iterations`
-    /// iterations, worst at `gap` with that penetration, m); it is retried as two halves.
+    /// iterations, worst at `gap` with that penetration, m); it is retried with shorter steps.
     StepCut {
         t: f64,
         dt: f64,
@@ -82,10 +82,11 @@ pub enum Event {
     },
 }
 
-/// Watches a run from inside the time loop (every method): takes the recorded rows in blocks, so that they need not
-/// be held until the end, follows the simulated time and receives [`Event`]s. Every method
-/// has a default that does nothing; the calls cost nothing measurable (rows: once per block;
-/// progress: every [`crate::interrupt::CHECK_EVERY`] steps; events: only if asked for).
+/// Watches a run of any method from inside the time loop: takes the recorded rows in blocks,
+/// so that they need not be held until the end, follows the simulated time and receives
+/// [`Event`]s. Each of its functions has a default that does nothing; the calls cost nothing
+/// measurable (rows: once per block; progress: every [`crate::interrupt::CHECK_EVERY`]
+/// steps; events: only if asked for).
 pub trait Sink {
     /// Hand the rows over every this many recorded rows (`None`: keep them all).
     fn chunk_rows(&self) -> Option<usize> {

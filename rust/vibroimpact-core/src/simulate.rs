@@ -64,9 +64,9 @@ pub fn simulate_with_sensitivity(
 
 /// [`simulate`], with `sink` taking the recorded rows in blocks of `sink.chunk_rows()` as they
 /// are recorded (the returned [`RunOutput`] then holds only the rows recorded after the last
-/// block, at least the last one; the impact table, the peaks and the statistics are whole), following the simulated
-/// time and receiving the solver events. [`BalanceError`] gives the energy balance error over
-/// all the blocks.
+/// block, at least the last one; the impact table, the peaks and the statistics are whole),
+/// following the simulated time and receiving the solver events. [`BalanceError`] gives the
+/// energy balance error over all the blocks.
 pub fn simulate_streamed(
     sys: &System,
     method: Method,

@@ -149,10 +149,10 @@ impl<'s> Dynamics<'s> {
             }
         }
         let mut contact = 0.0;
-        self.forces.fill(0.0);
         let walls = sys.walls.iter().zip(contacts).zip(&mut self.forces);
         for (j, ((wall, c), wall_force)) in walls.enumerate() {
             if !c.active {
+                *wall_force = 0.0;
                 continue;
             }
             let gap = &sys.gaps[wall.gap];
@@ -887,16 +887,6 @@ impl<'s> Dop853Steps<'s> {
             Steps::Fixed(dt) => (dt, Some(dt)),
             Steps::Adaptive { first, dt_max, .. } => (first.min(dt_max), None),
         };
-        // A step to retake ending on an event: its length and whether the event is singular.
-        // The last attempt was rejected for its error: the next accepted step does not grow.
-        // The first accepted step of the last contact: the first step of the next one, if it
-        // is not integrated in ζ.
-        // The step proposed when the last contact began from free motion.
-        // The step in ζ of the last contact's start: the first try of the next one.
-        // A wall closed at the start of the pending step (its size goes to `h_contact`).
-        // A contact's start or end in progress in ζ (adaptive steps only).
-        // Length and error of the last accepted step, for the predictive controller.
-        // How close (s) to a wall's event the last step ended for the wall to be switched.
         Self {
             steps,
             t_end,
