@@ -15,9 +15,10 @@ from typing import Any
 
 import pytest
 import vibroimpact as vi
-from vibroimpact import _core, contact, report
+from vibroimpact import _core, contact
 from vibroimpact.errors import ModelError
 from vibroimpact.io import model_file
+from vibroimpact.paper import report
 
 CATALOG = _core.law_catalog()
 KINDS = [e["name"] for e in CATALOG]
@@ -165,7 +166,8 @@ def test_every_law_has_its_docs_page_with_the_cores_parameters() -> None:
     assert {p.stem for p in (DOCS / "laws").glob("*.md")} == set(KINDS)
     for entry in CATALOG:
         page = (DOCS / "laws" / f"{entry['name']}.md").read_text(encoding="utf-8")
-        assert page == report.law_page(entry["name"]), "run: python -m vibroimpact.report docs docs"
+        assert page == report.law_page(entry["name"]), \
+            "run: python -m vibroimpact.paper.report docs docs"
         for p in entry["parameters"]:
             row = next(line for line in page.splitlines() if line.startswith(f"| `{p['name']}` |"))
             default = row.split("|")[2].strip()
@@ -177,7 +179,8 @@ def test_every_law_has_its_docs_page_with_the_cores_parameters() -> None:
 
 def test_the_table_of_the_laws_is_generated_from_the_catalog() -> None:
     text = (DOCS / "contact-laws.md").read_text(encoding="utf-8")
-    assert text == report.contact_laws_page(text), "run: python -m vibroimpact.report docs docs"
+    assert text == report.contact_laws_page(text), \
+        "run: python -m vibroimpact.paper.report docs docs"
     table = report.law_table()
     for entry in CATALOG:
         if entry["family"] != "rigid":

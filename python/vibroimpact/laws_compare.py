@@ -173,7 +173,7 @@ def restitution_table(
     """Effective restitution of one impact, ``{law: {ce: e_eff}}``, computed by the core
     (default: the paper's two spheres, K from its ball-in-socket geometry)."""
     if stiffness is None:
-        from vibroimpact.cases import paper_geometry
+        from vibroimpact.paper.cases import paper_geometry
 
         stiffness = paper_geometry()
     names = list(FORCE_LAWS) if laws is None else list(laws)

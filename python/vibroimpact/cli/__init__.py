@@ -25,7 +25,9 @@ __all__ = ["main"]
 
 
 def _build_parser() -> argparse.ArgumentParser:
-    from vibroimpact.cli import bench, impact, laws, modal, plot, reproduce, run, sweep
+    from vibroimpact.benchmarks import command as bench
+    from vibroimpact.cli import impact, laws, modal, plot, run, sweep
+    from vibroimpact.paper import reproduce
 
     parser = argparse.ArgumentParser(
         prog="vibroimpact",

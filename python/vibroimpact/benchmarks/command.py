@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from vibroimpact.bench import adaptive_benchmark, integrator_table, sdof_benchmark
+from vibroimpact.benchmarks.sdof import adaptive_benchmark, integrator_table, sdof_benchmark
 
 TARGET_S = 1e-3
 PAPER_MATLAB_S = 1.3
@@ -44,7 +44,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def main(args: argparse.Namespace) -> int:
     if getattr(args, "peers", False):
-        from vibroimpact.peers.table import cli_main
+        from vibroimpact.benchmarks.peers.table import cli_main
 
         if not args.quick and args.peer_repeats < 5:
             raise SystemExit(f"--peer-repeats: expected at least 5 (medians of at least 5 runs), "
@@ -91,8 +91,8 @@ def main(args: argparse.Namespace) -> int:
     _print_large_models(quick=args.quick)
     points = args.sweep_points if args.sweep_points is not None else (40 if args.quick else 400)
     if points > 0:
-        from vibroimpact.bench import sweep_benchmark
-        from vibroimpact.sweeps.bench import format_rows
+        from vibroimpact.benchmarks.sdof import sweep_benchmark
+        from vibroimpact.benchmarks.sweep import format_rows
 
         print()
         rows = sweep_benchmark(points=points, repeats=1 if args.quick else 2)
@@ -104,7 +104,7 @@ def _print_large_models(quick: bool) -> None:
     """Issue 6's speed targets: the hollow shaft (1 s at 1 µs in under 1 s) and a 2,004-DOF
     imported model with 6 gaps (cost per step within 3× of its linear-only run); issue 23's:
     a 49,980-DOF solid with a gap (a step within 2× of its factor's bare substitution)."""
-    from vibroimpact.fe.bench import (
+    from vibroimpact.benchmarks.large_models import (
         hollow_shaft_benchmark,
         imported_model_benchmark,
         solid_model_benchmark,

@@ -6,8 +6,8 @@ import argparse
 import json
 import logging
 
-from vibroimpact import cases
-from vibroimpact.report import log_run
+from vibroimpact.paper import cases
+from vibroimpact.paper.report import log_run
 from vibroimpact.simulate import simulate
 
 CASES = ("sdof", "two-spheres", "hollow-shaft")
@@ -37,7 +37,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "(default: paper-figures)")
     p.add_argument("--format", choices=("png", "svg", "pdf"), default="png",
                    help="all: figure format (default png)")
-    from vibroimpact.report import add_verbosity_options
+    from vibroimpact.paper.report import add_verbosity_options
 
     add_verbosity_options(p)
     p.add_argument(
@@ -146,7 +146,7 @@ def _all(args: argparse.Namespace) -> int:
     import sys
     import time
 
-    from vibroimpact.report import reproduce_all
+    from vibroimpact.paper.report import reproduce_all
 
     start = time.perf_counter()
     out = args.output or "paper-figures"
@@ -160,7 +160,7 @@ def _all(args: argparse.Namespace) -> int:
 
 
 def main(args: argparse.Namespace) -> int:
-    from vibroimpact.report import configure_logging
+    from vibroimpact.paper.report import configure_logging
 
     configure_logging(args)
     if args.case == ALL:
