@@ -521,7 +521,7 @@ def method_from_options(name: str, options: dict[str, Any] | None = None) -> Int
 
 
 #: Longer documentation of some methods, rendered after their parameters in
-#: docs/integrators.md (``python -m vibroimpact.paper.report docs docs``).
+#: docs/integrators.md (``python -m vibroimpact.docs``).
 DOC_NOTES: dict[str, str] = {
     "event-driven": """\
 Rigid gaps only (`contact.Rigid`, the massless bar). The method, the rules for simultaneous
