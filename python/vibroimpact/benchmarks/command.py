@@ -1,9 +1,11 @@
-"""``vibroimpact bench``: how fast we are, against peers run in this same process."""
+"""``vibroimpact bench``: how fast we are, against peers run in this same process; its flags
+and its work. The command line names the command and hands its arguments to :func:`main`."""
 
 from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Sequence
 
 from vibroimpact.benchmarks.sdof import adaptive_benchmark, integrator_table, sdof_benchmark
 
@@ -11,10 +13,10 @@ TARGET_S = 1e-3
 PAPER_MATLAB_S = 1.3
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
-        "bench",
-        help="time the engine against SciPy on the paper's cases",
+def build_parser() -> argparse.ArgumentParser:
+    """The flags of ``vibroimpact bench``."""
+    p = argparse.ArgumentParser(
+        prog="vibroimpact bench",
         description=(
             "Times the paper's SDOF case (0.02 s at dt = 1 us, 20,000 steps) with the Hertz and "
             "Lankarani-Nikravesh laws through the Python API (median of --repeats runs) and "
@@ -39,11 +41,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--readme", metavar="README.md", default=None,
                    help="with --peers: also replace the generated peer table (between "
                    "<!-- bench-peers:start --> and <!-- bench-peers:end -->) in README.md")
-    p.set_defaults(handler=main)
+    return p
 
 
-def main(args: argparse.Namespace) -> int:
-    if getattr(args, "peers", False):
+def main(argv: Sequence[str]) -> int:
+    """Run ``vibroimpact bench`` with its arguments ``argv``."""
+    args = build_parser().parse_args(argv)
+    if args.peers:
         from vibroimpact.benchmarks.peers.table import cli_main
 
         if not args.quick and args.peer_repeats < 5:

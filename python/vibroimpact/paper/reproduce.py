@@ -1,13 +1,15 @@
-"""``vibroimpact reproduce``: the paper's cases (docs/paper-cases.md)."""
+"""``vibroimpact reproduce``: the paper's cases (docs/paper-cases.md), its flags and its work.
+The command line names the command and hands its arguments to :func:`main`."""
 
 from __future__ import annotations
 
 import argparse
 import json
 import logging
+from collections.abc import Sequence
 
+from vibroimpact.cli.verbosity import add_verbosity_options, configure_logging, log_run
 from vibroimpact.paper import cases
-from vibroimpact.paper.report import log_run
 from vibroimpact.simulate import simulate
 
 CASES = ("sdof", "two-spheres", "hollow-shaft")
@@ -15,10 +17,10 @@ CASES = ("sdof", "two-spheres", "hollow-shaft")
 ALL = "all"
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser(
-        "reproduce",
-        help="reproduce one of the paper's cases",
+def build_parser() -> argparse.ArgumentParser:
+    """The flags of ``vibroimpact reproduce``."""
+    p = argparse.ArgumentParser(
+        prog="vibroimpact reproduce",
         description=(
             "sdof: the 100 kg block between two walls 5 mm away, leaving at 8 m/s, with the "
             "paper's five contact laws (0.02 s at dt = 1 us); prints per law the peak "
@@ -37,8 +39,6 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    "(default: paper-figures)")
     p.add_argument("--format", choices=("png", "svg", "pdf"), default="png",
                    help="all: figure format (default png)")
-    from vibroimpact.paper.report import add_verbosity_options
-
     add_verbosity_options(p)
     p.add_argument(
         "--restitution", type=float, default=None,
@@ -51,7 +51,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                    help=f"hollow-shaft: simulated time in s (default {cases.HOLLOW_SHAFT_T_END})")
     p.add_argument("--dt", type=float, default=None,
                    help=f"hollow-shaft: time step in s (default {cases.HOLLOW_SHAFT_DT})")
-    p.set_defaults(handler=main)
+    return p
 
 
 def _sdof(args: argparse.Namespace) -> dict:
@@ -159,9 +159,9 @@ def _all(args: argparse.Namespace) -> int:
     return 0
 
 
-def main(args: argparse.Namespace) -> int:
-    from vibroimpact.paper.report import configure_logging
-
+def main(argv: Sequence[str]) -> int:
+    """Run ``vibroimpact reproduce`` with its arguments ``argv``."""
+    args = build_parser().parse_args(argv)
     configure_logging(args)
     if args.case == ALL:
         return _all(args)
