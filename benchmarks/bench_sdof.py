@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 import sys
 
-from vibroimpact.bench import sdof_benchmark
+from vibroimpact.benchmarks.sdof import sdof_benchmark
 
 if __name__ == "__main__":
     repeats = int(sys.argv[1]) if len(sys.argv) > 1 else 20

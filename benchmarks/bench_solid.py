@@ -1,7 +1,7 @@
 """The large-model benchmark of issue 23: a 49,980-DOF steel block of hexahedra (generated
-here by :func:`vibroimpact.fe.bench.hexahedral_block`, nothing committed) with a gap at its
-tip, its cost per Newmark step against the bare forward and backward substitution with its
-own factor. Same as the solid row of ``vibroimpact bench``; run with
+here by :func:`vibroimpact.benchmarks.large_models.hexahedral_block`, nothing committed)
+with a gap at its tip, its cost per Newmark step against the bare forward and backward
+substitution with its own factor. Same as the solid row of ``vibroimpact bench``; run with
 ``python benchmarks/bench_solid.py [STEPS] [--json]``."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ from __future__ import annotations
 import json
 import sys
 
-from vibroimpact.fe.bench import solid_model_benchmark
+from vibroimpact.benchmarks.large_models import solid_model_benchmark
 
 if __name__ == "__main__":
     args = [a for a in sys.argv[1:] if not a.startswith("--")]

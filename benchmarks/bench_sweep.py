@@ -8,7 +8,7 @@ from __future__ import annotations
 import json
 import sys
 
-from vibroimpact.sweeps.bench import format_rows, sweep_benchmark
+from vibroimpact.benchmarks.sweep import format_rows, sweep_benchmark
 
 if __name__ == "__main__":
     args = [a for a in sys.argv[1:] if not a.startswith("--")]

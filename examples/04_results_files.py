@@ -12,8 +12,9 @@ from pathlib import Path
 import numpy as np
 import vibroimpact as vi
 import xarray as xr
-from vibroimpact import cases, plotting
+from vibroimpact import plotting
 from vibroimpact.io import results_file
+from vibroimpact.paper import cases
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "example-output")
 out.mkdir(parents=True, exist_ok=True)

@@ -11,9 +11,10 @@ import sys
 from pathlib import Path
 
 import vibroimpact as vi
-from vibroimpact import cases, plotting
+from vibroimpact import plotting
 from vibroimpact.fe import modes
 from vibroimpact.fe.modal import plot_mode_shapes
+from vibroimpact.paper import cases
 
 out = Path(sys.argv[1] if len(sys.argv) > 1 else "example-output")
 out.mkdir(parents=True, exist_ok=True)

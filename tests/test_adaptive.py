@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import reference
 import vibroimpact as vi
-from vibroimpact import cases
+from vibroimpact.paper import cases
 
 
 @functools.cache

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import vibroimpact as vi
-from vibroimpact import cases
+from vibroimpact.paper import cases
 
 
 @pytest.fixture(scope="module")

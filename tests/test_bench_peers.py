@@ -10,8 +10,8 @@ import sys
 from pathlib import Path
 
 import pytest
-from vibroimpact.peers import scipy_peer, table
-from vibroimpact.peers.reference import impact_time_error
+from vibroimpact.benchmarks.peers import scipy_peer, table
+from vibroimpact.benchmarks.peers.reference import impact_time_error
 
 
 def test_bench_peers_quick_completes(tmp_path: Path) -> None:

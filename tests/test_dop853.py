@@ -13,8 +13,8 @@ import pytest
 import reference
 import vibroimpact as vi
 from scipy.integrate import solve_ivp
-from vibroimpact import cases
 from vibroimpact.integrators import method_from_options
+from vibroimpact.paper import cases
 
 
 @functools.cache
@@ -213,7 +213,7 @@ def test_sweep_with_dop853_agrees_with_adaptive_newmark() -> None:
     gives the largest displacement per point that adaptive Newmark gives at a tight
     tolerance: within 1e-7 relative (two methods of the project; each is within 3e-8 of
     DOP853 at rtol 1e-11)."""
-    from vibroimpact.sweeps import bench as sweep_bench
+    from vibroimpact.benchmarks import sweep as sweep_bench
     from vibroimpact.sweeps.grid import Param
     from vibroimpact.sweeps.runner import Sweep, run_sweep
 

@@ -1,6 +1,6 @@
 """The generated documentation pages are up to date with the code (issue 7: one page per contact
 law with its e_eff against ce, the integrators page) and the hand-written pages name what
-exists. Regenerate with ``python -m vibroimpact.report docs docs``."""
+exists. Regenerate with ``python -m vibroimpact.docs``."""
 
 from __future__ import annotations
 
@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 from vibroimpact.contact import LAWS
+from vibroimpact.docs import integrators_page, law_page
 from vibroimpact.plotting import KINDS
-from vibroimpact.report import integrators_page, law_page
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -20,9 +20,9 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 @pytest.mark.parametrize("kind", list(LAWS))
 def test_every_law_has_its_generated_page(kind: str) -> None:
     page = DOCS / "laws" / f"{kind}.md"
-    assert page.exists(), "run: python -m vibroimpact.report docs docs"
+    assert page.exists(), "run: python -m vibroimpact.docs"
     assert page.read_text(encoding="utf-8") == law_page(kind), (
-        "stale; run: python -m vibroimpact.report docs docs")
+        "stale; run: python -m vibroimpact.docs")
 
 
 def test_no_page_for_a_law_that_does_not_exist() -> None:

@@ -9,10 +9,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from vibroimpact import cases
 from vibroimpact.cli import main as cli_main
 from vibroimpact.fe import modes
 from vibroimpact.io import load_model
+from vibroimpact.paper import cases
 from vibroimpact.simulate import simulate
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 import reference
 import vibroimpact as vi
-from vibroimpact import cases
 from vibroimpact.integrators import FORCE_METHODS as METHODS  # rigid-gap methods: test_rigid.py
+from vibroimpact.paper import cases
 
 METHOD_CASES: dict[str, vi.Integrator] = {
     "newmark": vi.Newmark(),

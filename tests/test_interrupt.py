@@ -17,8 +17,9 @@ import numpy as np
 import pytest
 import vibroimpact as vi
 from test_impulsive_driver import E, oscillator
-from vibroimpact import _core, cases
+from vibroimpact import _core
 from vibroimpact.io import results_file
+from vibroimpact.paper import cases
 
 PAPER = Path(__file__).parents[1] / "examples" / "models" / "sdof_paper_ln.toml"
 

@@ -15,7 +15,8 @@ from typing import Any
 
 import pytest
 import vibroimpact as vi
-from vibroimpact import _core, contact, report
+from vibroimpact import _core, contact
+from vibroimpact import docs as docs_generator
 from vibroimpact.errors import ModelError
 from vibroimpact.io import model_file
 
@@ -165,7 +166,8 @@ def test_every_law_has_its_docs_page_with_the_cores_parameters() -> None:
     assert {p.stem for p in (DOCS / "laws").glob("*.md")} == set(KINDS)
     for entry in CATALOG:
         page = (DOCS / "laws" / f"{entry['name']}.md").read_text(encoding="utf-8")
-        assert page == report.law_page(entry["name"]), "run: python -m vibroimpact.report docs docs"
+        assert page == docs_generator.law_page(entry["name"]), \
+            "run: python -m vibroimpact.docs"
         for p in entry["parameters"]:
             row = next(line for line in page.splitlines() if line.startswith(f"| `{p['name']}` |"))
             default = row.split("|")[2].strip()
@@ -177,8 +179,9 @@ def test_every_law_has_its_docs_page_with_the_cores_parameters() -> None:
 
 def test_the_table_of_the_laws_is_generated_from_the_catalog() -> None:
     text = (DOCS / "contact-laws.md").read_text(encoding="utf-8")
-    assert text == report.contact_laws_page(text), "run: python -m vibroimpact.report docs docs"
-    table = report.law_table()
+    assert text == docs_generator.contact_laws_page(text), \
+        "run: python -m vibroimpact.docs"
+    table = docs_generator.law_table()
     for entry in CATALOG:
         if entry["family"] != "rigid":
             assert f"| [`{entry['name']}`](laws/{entry['name']}.md) | {entry['source']} | " in table
@@ -197,7 +200,7 @@ def test_a_new_hysteretic_entry_needs_nothing_else(monkeypatch: pytest.MonkeyPat
     monkeypatch.setitem(contact.FORCE_LAWS, "new-law", cls)
     assert "new-law" in model_file._kinds_requiring("restitution")
     assert model_file._law_fields()["exponent"]["new-law"] == 1.5
-    assert "| [`new-law`](laws/new-law.md) | Somebody (2030) |" in report.law_table()
+    assert "| [`new-law`](laws/new-law.md) | Somebody (2030) |" in docs_generator.law_table()
 
 
 def test_no_generated_law_is_written_in_python() -> None:

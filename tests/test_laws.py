@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 import reference
 from vibroimpact import contact
+from vibroimpact.docs import documented_restitution_table
 from vibroimpact.impact import single_impact, single_impact_result
 from vibroimpact.laws_compare import (
     COMPARE_FIELDS,
@@ -19,7 +20,6 @@ from vibroimpact.laws_compare import (
     DOC_RESTITUTIONS,
     DOC_VELOCITY,
     comparison_laws,
-    documented_table,
     render_restitution_table,
     restitution_table,
 )
@@ -70,17 +70,20 @@ def test_laws_designed_for_ce_reproduce_it(
 
 def test_documented_table_is_current(core_table: dict[str, dict[float, float]]) -> None:
     """docs/contact-laws.md holds the table the core computes (regenerate it with
-    ``python -c "from vibroimpact import laws_compare; laws_compare.update_docs()"``)."""
+    ``python -m vibroimpact.docs``)."""
     docs = Path(__file__).resolve().parents[1] / "docs" / "contact-laws.md"
-    assert documented_table(docs) == render_restitution_table(core_table), (
-        "docs/contact-laws.md is stale; run vibroimpact.laws_compare.update_docs()"
+    text = docs.read_text(encoding="utf-8")
+    assert documented_restitution_table(text) == render_restitution_table(core_table), (
+        "docs/contact-laws.md is stale; run: python -m vibroimpact.docs"
     )
 
 
 def test_restitution_independent_of_stiffness_mass_and_speed() -> None:
     """For K δⁿ (1 + χ δ̇/v_imp) the restitution depends on χ alone."""
-    a = restitution_table((0.5,), ["flores", "carvalho-martins"], 0.04, 0.3, K, 1.5)
-    b = restitution_table((0.5,), ["flores", "carvalho-martins"], 2.0, 1.7, 3.0e7, 1.0)
+    a = restitution_table((0.5,), ["flores", "carvalho-martins"], 0.04, 0.3, stiffness=K,
+                          exponent=1.5)
+    b = restitution_table((0.5,), ["flores", "carvalho-martins"], 2.0, 1.7, stiffness=3.0e7,
+                          exponent=1.0)
     for name in a:
         assert a[name][0.5] == pytest.approx(b[name][0.5], abs=1e-9)
 

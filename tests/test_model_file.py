@@ -391,7 +391,7 @@ def test_the_schema_is_one_table() -> None:
 def test_reference_docs_are_generated_from_the_schema() -> None:
     committed = (ROOT / "docs" / "model-file.md").read_text(encoding="utf-8")
     assert committed == render_reference(), (
-        "docs/model-file.md is stale; regenerate it (see vibroimpact.io.model_file's docstring)"
+        "docs/model-file.md is stale; run: python -m vibroimpact.docs"
     )
 
 

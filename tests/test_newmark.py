@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 import vibroimpact as vi
-from vibroimpact import cases
+from vibroimpact.paper import cases
 
 
 def _forced_oscillator_exact(m, c, k, amp, freq, x0, v0):

@@ -15,11 +15,12 @@ import pytest
 import scipy.linalg
 import vibroimpact as vi
 from matplotlib.backends.backend_agg import FigureCanvasAgg
-from vibroimpact import cases, plotting
+from vibroimpact import plotting
 from vibroimpact.cli import main as cli_main
 from vibroimpact.errors import ModelError
 from vibroimpact.impact import single_impact_result
 from vibroimpact.io import load_model
+from vibroimpact.paper import cases
 
 matplotlib.use("Agg")
 

@@ -15,9 +15,9 @@ from typing import Any
 import pandas as pd
 import pytest
 import vibroimpact as vi
-from vibroimpact import cases
 from vibroimpact.integrators import FORCE_METHODS as METHODS  # rigid-gap methods: test_rigid.py
-from vibroimpact.report import Progress, _fmt
+from vibroimpact.paper import cases
+from vibroimpact.paper.report import Progress, _fmt
 
 SHAFT = callable(getattr(cases, "hollow_shaft_model", None))
 

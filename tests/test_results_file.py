@@ -19,11 +19,11 @@ import pandas as pd
 import pytest
 import vibroimpact as vi
 import xarray as xr
-from vibroimpact import cases
 from vibroimpact.cli import main as cli_main
 from vibroimpact.errors import ModelError
 from vibroimpact.io import load_model
 from vibroimpact.io import results_file as rf
+from vibroimpact.paper import cases
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "examples" / "models"

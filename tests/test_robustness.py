@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import vibroimpact as vi
-from vibroimpact import cases
 from vibroimpact.io import results_file
+from vibroimpact.paper import cases
 from vibroimpact.simulate import contact_periods
 
 PAPER = Path(__file__).parents[1] / "examples" / "models" / "sdof_paper_ln.toml"

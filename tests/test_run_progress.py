@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 import vibroimpact as vi
 from test_impulsive_driver import E, oscillator
-from vibroimpact import cases
 from vibroimpact.cli import main as cli_main
+from vibroimpact.paper import cases
 from vibroimpact.simulate import ProgressBar
 
 # the module (``vibroimpact.simulate`` is also the function the package exports)
@@ -205,7 +205,7 @@ def test_verbose_logs_the_linear_solver_and_its_size(caplog: pytest.LogCaptureFi
     paper's SDOF case (n² values), a general sparse factor for a block of 5,880 DOFs of
     hexahedra (3-D: a wide band), whose stored values lie between the lower triangle of
     ``K̃`` and a full triangle."""
-    from vibroimpact.fe.bench import hexahedral_block
+    from vibroimpact.benchmarks.large_models import hexahedral_block
 
     fe = hexahedral_block((40, 6, 6), (0.5, 0.06, 0.06))
     models = [(cases.sdof_model("lankarani-nikravesh"), 1e-6),

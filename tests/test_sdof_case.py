@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import reference
 import vibroimpact as vi
-from vibroimpact import cases
+from vibroimpact.paper import cases
 
 K = reference.paper_stiffness()
 

@@ -454,7 +454,7 @@ def _cli(*args: str, timeout: float = 120) -> subprocess.CompletedProcess:
 
 
 def test_benchmark_model_is_the_example_file() -> None:
-    from vibroimpact.sweeps.bench import impact_oscillator
+    from vibroimpact.benchmarks.sweep import impact_oscillator
 
     mf = vi.load_model(MODEL_FILE)
     model, method, dt = impact_oscillator(frequency=mf.model.loads[0].frequency)

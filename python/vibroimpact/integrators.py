@@ -521,7 +521,7 @@ def method_from_options(name: str, options: dict[str, Any] | None = None) -> Int
 
 
 #: Longer documentation of some methods, rendered after their parameters in
-#: docs/integrators.md (``python -m vibroimpact.report docs docs``).
+#: docs/integrators.md (``python -m vibroimpact.docs``).
 DOC_NOTES: dict[str, str] = {
     "event-driven": """\
 Rigid gaps only (`contact.Rigid`, the massless bar). The method, the rules for simultaneous
@@ -678,7 +678,7 @@ rejected) at the benchmark's `dt_max = 1 ms`; the default `dt_max = t_end/50` ta
 
 ```python
 import vibroimpact as vi
-from vibroimpact import cases
+from vibroimpact.paper import cases
 
 model = cases.sdof_model("lankarani-nikravesh", 0.9)       # the paper's SDOF case
 bench = vi.Dop853(adaptive=vi.Adaptive(rtol=1e-8, atol=1e-12, dt_max=1e-3))
@@ -813,9 +813,10 @@ a little faster in the impact times).
 
 `vibroimpact bench` times the same case (0.02 s at dt = 1 µs, 20,000 steps, every step
 recorded) per method through the Python API, round-robin over the methods (median of the
-repeats), with the paper's MATLAB times beside (`vibroimpact.bench.integrator_table`). On this
-project's 2-core CI machine (median of 40), and as instructions executed by the core
-(valgrind, insensitive to the machine's load):
+repeats), with the paper's MATLAB times beside
+(`vibroimpact.benchmarks.sdof.integrator_table`). On this project's 2-core CI machine
+(median of 40), and as instructions executed by the core (valgrind, insensitive to the
+machine's load):
 
 | method | wall time | vs Newmark | instructions vs Newmark | paper (MATLAB) | paper ratio |
 |---|---|---|---|---|---|

@@ -3,6 +3,13 @@
 user mistakes into one-line errors (exit code 2), solver failures into exit code 3 and
 interruptions (:class:`~vibroimpact.Interrupted`) into 130 (SIGINT) or 143 (SIGTERM).
 
+``reproduce`` and ``bench`` run the research harness (the paper's reproduction,
+:mod:`vibroimpact.paper`; the benchmarks and peer drivers, :mod:`vibroimpact.benchmarks`),
+which the engine never imports: their modules here only name the command
+(``forwards_arguments``), and their ``main`` imports the harness when the command runs and
+hands it the command's arguments, which it parses itself. That lazy import is the command
+line's one seam to the harness (``tests/test_layers.py`` holds it to that).
+
 No library's warning text reaches the terminal: a warning of vibroimpact's own
 (:class:`~vibroimpact.ContactResolutionWarning`, ``CondensationWarning``) is printed as
 ``vibroimpact: warning: <its message>``, and one that escapes from a library (numpy, SciPy,
@@ -72,7 +79,11 @@ class _LibraryLogHandler(logging.Handler):
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``vibroimpact`` script."""
     parser = _build_parser()
-    args = parser.parse_args(argv)
+    args, rest = parser.parse_known_args(argv)
+    if getattr(args, "forwards_arguments", False):
+        args.arguments = rest
+    elif rest:
+        parser.error(f"unrecognized arguments: {' '.join(rest)}")
     root = logging.getLogger()
     handler = _LibraryLogHandler(logging.WARNING)
     root.addHandler(handler)

@@ -21,10 +21,10 @@ import warnings
 from pathlib import Path
 from typing import Any
 
+from vibroimpact.cli.verbosity import add_verbosity_options, configure_logging, log_run
 from vibroimpact.errors import Interrupted, ModelError, PreRunWarning, SolverError
 from vibroimpact.io import results_file
 from vibroimpact.io.model_file import ModelFile, ModelFileError, load_model
-from vibroimpact.report import add_verbosity_options, configure_logging, log_run
 from vibroimpact.simulate import pre_run_warnings
 
 __all__ = ["OUTPUT_SUFFIXES", "add_parser", "main"]

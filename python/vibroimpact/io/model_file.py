@@ -7,7 +7,7 @@ Both are read by :func:`load_model`, which checks a file against them and report
 of the file at once, and by :func:`render_reference`, which renders the reference committed as
 ``docs/model-file.md``. After changing the schema, a contact law or an integrator, regenerate it::
 
-    python -c "import vibroimpact.io as m; print(m.render_reference(), end='')" > docs/model-file.md
+    python -m vibroimpact.docs        # every generated page of docs/, this one included
 
 Example::
 
@@ -1811,7 +1811,7 @@ def render_reference() -> str:
         "# Model file reference",
         "",
         "<!-- Generated from vibroimpact.io.model_file (SCHEMA, RULES); do not edit by hand.",
-        "     Regenerate it as the docstring of vibroimpact.io.model_file says. -->",
+        "     Regenerate it with `python -m vibroimpact.docs`. -->",
         "",
         "A model file is [TOML](https://toml.io) describing a linear structure with clearances,",
         "its loads, its initial state and how to integrate it. Units are SI throughout.",

@@ -4,7 +4,7 @@ where a wall's gap closes or opens (``v_imp`` stored at the closing event), a no
 event at ``x' = 0`` to catch the peaks, every solver step kept, ``max_step`` 1/64 of the
 structural and forcing periods, ``atol = rtol/10 ×`` (penetration, speed) scales.
 
-This is the integration of :func:`vibroimpact.peers.reference.sdof_piecewise`, at the
+This is the integration of :func:`vibroimpact.benchmarks.peers.reference.sdof_piecewise`, at the
 tolerance chosen by :func:`matching_tolerance`: the loosest of :data:`RTOLS` whose peak and
 impact-time errors against the converged reference are both at most ours."""
 
@@ -13,8 +13,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from vibroimpact.peers.problems import SdofProblem
-from vibroimpact.peers.reference import impact_time_error, sdof_piecewise
+from vibroimpact.benchmarks.peers.problems import SdofProblem
+from vibroimpact.benchmarks.peers.reference import impact_time_error, sdof_piecewise
 
 __all__ = ["METHODS", "RTOLS", "errors", "matching_tolerance", "run_sdof"]
 

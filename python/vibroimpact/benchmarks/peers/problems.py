@@ -107,7 +107,7 @@ def paper_sdof() -> SdofProblem:
     """The paper's SDOF case (docs/paper-cases.md): 100 kg at 8 m/s between two walls 5 mm
     away, k0 = c0 = 0, Lankarani–Nikravesh ce 0.9 with the case-1 stiffness (K ≈ 1.509e11), 0.02 s
     at dt = 1 µs."""
-    from vibroimpact import cases
+    from vibroimpact.paper import cases
 
     return SdofProblem(
         key="paper-sdof", title="paper SDOF case (0.02 s)", mass=100.0,
@@ -131,8 +131,9 @@ def forced_sdof() -> SdofProblem:
 
 @dataclass(frozen=True)
 class BeamProblem:
-    """The paper's hollow shaft on three sliders (:func:`vibroimpact.cases.hollow_shaft_model`),
-    run for ``t_end`` at ``dt``; the response is the x displacement at the middle slider."""
+    """The paper's hollow shaft on three sliders
+    (:func:`vibroimpact.paper.cases.hollow_shaft_model`), run for ``t_end`` at ``dt``; the
+    response is the x displacement at the middle slider."""
 
     key: str
     title: str
@@ -141,20 +142,20 @@ class BeamProblem:
     elements: int = 20
 
     def model(self) -> Any:
-        from vibroimpact import cases
+        from vibroimpact.paper import cases
 
         return cases.hollow_shaft_model("timoshenko", self.elements)
 
     def describe(self) -> str:
-        return (f"{self.title}: vibroimpact.cases.hollow_shaft_model('timoshenko', "
+        return (f"{self.title}: vibroimpact.paper.cases.hollow_shaft_model('timoshenko', "
                 f"{self.elements}), Hertz K 1.509e11 N/m^1.5, 3 mm clearance both sides at 3 "
                 f"sliders, F = 100 sin(20 pi t) N at every node, {self.t_end:g} s at dt "
                 f"{self.dt:g} s")
 
 
 def hollow_shaft() -> BeamProblem:
-    """The hollow shaft (0.2 s at :data:`vibroimpact.cases.HOLLOW_SHAFT_DT`)."""
-    from vibroimpact import cases
+    """The hollow shaft (0.2 s at :data:`vibroimpact.paper.cases.HOLLOW_SHAFT_DT`)."""
+    from vibroimpact.paper import cases
 
     return BeamProblem(key="hollow-shaft", title="hollow shaft beam (0.2 s)", t_end=0.2,
                        dt=cases.HOLLOW_SHAFT_DT)

@@ -1,5 +1,5 @@
 """The hollow shaft (paper §3.2) in ``vibroimpact bench --peers``: our integrators on
-:func:`vibroimpact.cases.hollow_shaft_model`, and SciPy ``solve_ivp`` on the full beam
+:func:`vibroimpact.paper.cases.hollow_shaft_model`, and SciPy ``solve_ivp`` on the full beam
 (42 DOFs, undamped, ω_max ≈ 1.7e5 rad/s).
 
 The contact law of this case is Hertz (``K δ^1.5``, no ``v_imp``): the force is C¹ in the
@@ -21,8 +21,8 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from vibroimpact.peers.problems import BeamProblem
-from vibroimpact.peers.reference import impact_time_error
+from vibroimpact.benchmarks.peers.problems import BeamProblem
+from vibroimpact.benchmarks.peers.reference import impact_time_error
 
 __all__ = ["beam_rows", "scipy_beam"]
 
@@ -151,8 +151,8 @@ def beam_rows(b: BeamProblem, quick: bool, repeats: int, ours_repeats: int,
               log: Callable[[str], None]) -> list[dict[str, Any]]:
     """The beam's rows: ours, SciPy on the full beam, OpenSeesPy and Exudyn on the same model,
     all against :func:`reference`."""
-    from vibroimpact.peers import exudyn_peer, opensees_peer
-    from vibroimpact.peers.table import newmark_run, ours_rows, peer_rows, scipy_rows
+    from vibroimpact.benchmarks.peers import exudyn_peer, opensees_peer
+    from vibroimpact.benchmarks.peers.table import newmark_run, ours_rows, peer_rows, scipy_rows
 
     key = b.key
     log(f"{key}: reference (SciPy DOP853 rtol 1e-10, full beam)")

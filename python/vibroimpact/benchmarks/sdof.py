@@ -11,7 +11,6 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from vibroimpact import cases
 from vibroimpact.contact import ContactLaw
 from vibroimpact.integrators import (
     HHT,
@@ -23,6 +22,7 @@ from vibroimpact.integrators import (
     Newmark,
     PreciseIntegration,
 )
+from vibroimpact.paper import cases
 from vibroimpact.simulate import simulate
 
 __all__ = [
@@ -277,7 +277,7 @@ def sweep_benchmark(points: int = 400, dask: bool = True, repeats: int = 2
                     ) -> list[dict[str, Any]]:
     """Parameter sweeps (issue 8): ``points`` forcing frequencies x 300 forcing periods of the
     SDOF impact oscillator in this process on 1 and 2 threads and on a Dask LocalCluster of 2
-    workers, fastest of ``repeats`` (:func:`vibroimpact.sweeps.bench.sweep_benchmark`)."""
-    from vibroimpact.sweeps.bench import sweep_benchmark as run
+    workers, fastest of ``repeats`` (:func:`vibroimpact.benchmarks.sweep.sweep_benchmark`)."""
+    from vibroimpact.benchmarks.sweep import sweep_benchmark as run
 
     return run(points=points, dask=dask, repeats=repeats)

@@ -28,8 +28,8 @@ from typing import Any
 
 import numpy as np
 
-from vibroimpact.peers.opensees_peer import crossings
-from vibroimpact.peers.problems import SdofProblem
+from vibroimpact.benchmarks.peers.opensees_peer import crossings
+from vibroimpact.benchmarks.peers.problems import SdofProblem
 
 __all__ = ["available", "run_beam", "run_sdof", "version"]
 
@@ -146,7 +146,7 @@ def _solve(exu: Any, mbs: Any, steps: int, t_end: float, integrator: str,
 def run_beam(b: Any, integrator: str = "newmark") -> dict[str, Any]:
     """The hollow shaft as the same model in Exudyn: one ``NodeGenericODE2`` with our beam's
     42 coordinates and an ``ObjectGenericODE2`` with its mass and stiffness matrices (taken
-    from :func:`vibroimpact.cases.hollow_shaft_model`, so the discretisation is ours), the
+    from :func:`vibroimpact.paper.cases.hollow_shaft_model`, so the discretisation is ours), the
     10 Hz load as one ``LoadCoordinate`` per node with a Python ``loadUserFunction`` (a
     ``forceUserFunction`` on the object is 3x slower: Exudyn differentiates it numerically for
     the Jacobian, 84 calls a step), and Hertz sliders as two ``ObjectContactCoordinate``

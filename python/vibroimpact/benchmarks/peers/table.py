@@ -1,7 +1,8 @@
-"""``vibroimpact bench --peers``: every problem of :mod:`vibroimpact.peers.problems` through our
-integrators, SciPy ``solve_ivp`` with contact events, OpenSeesPy and Exudyn, in this process,
-in one table: tool, method, step or tolerance, wall time (median), ratio to our Newmark, and
-the errors against one converged reference per problem (:mod:`vibroimpact.peers.reference`).
+"""``vibroimpact bench --peers``: every problem of :mod:`vibroimpact.benchmarks.peers.problems`
+through our integrators, SciPy ``solve_ivp`` with contact events, OpenSeesPy and Exudyn, in
+this process, in one table: tool, method, step or tolerance, wall time (median), ratio to our
+Newmark, and the errors against one converged reference per problem
+(:mod:`vibroimpact.benchmarks.peers.reference`).
 
 A peer that is not installed (or fails) gives a row ``not available: reason``; a problem a peer
 cannot express gives a row ``cannot express: reason``; nothing here fails because a peer is
@@ -21,15 +22,15 @@ from typing import Any
 
 import numpy as np
 
-from vibroimpact.peers import exudyn_peer, opensees_peer, scipy_peer
-from vibroimpact.peers.problems import (
+from vibroimpact.benchmarks.peers import exudyn_peer, opensees_peer, scipy_peer
+from vibroimpact.benchmarks.peers.problems import (
     BeamProblem,
     SdofProblem,
     forced_sdof,
     hollow_shaft,
     paper_sdof,
 )
-from vibroimpact.peers.reference import converged
+from vibroimpact.benchmarks.peers.reference import converged
 
 __all__ = ["TARGETS", "format_markdown", "format_readme", "format_text", "machine", "run",
            "targets"]
@@ -274,7 +275,7 @@ def run(quick: bool = False, repeats: int | None = None,
     rows: list[dict[str, Any]] = []
     for p in problem_list(quick):
         if isinstance(p, BeamProblem):
-            from vibroimpact.peers.beam import beam_rows
+            from vibroimpact.benchmarks.peers.beam import beam_rows
 
             prows = beam_rows(p, quick, repeats, ours_repeats, log)
         else:
@@ -524,8 +525,9 @@ NOTES = [
     "are located inside the step.",
     "* SciPy: SDOF problems: `solve_ivp` phase by phase with terminal events where a gap closes "
     "or opens and a non-terminal event at x' = 0 for the peaks "
-    "(`vibroimpact.peers.scipy_peer`); the beam: one call on the full 42-DOF model (Hertz "
-    "force, C1) with events at every gap crossing (`vibroimpact.peers.beam`). The tolerance is "
+    "(`vibroimpact.benchmarks.peers.scipy_peer`); the beam: one call on the full 42-DOF model "
+    "(Hertz force, C1) with events at every gap crossing (`vibroimpact.benchmarks.peers.beam`). "
+    "The tolerance is "
     "the loosest of 1e-3 ... 1e-11 (beam: 1e-3 ... 1e-7) whose peak and impact-time errors are "
     "both at most our Newmark's and whose number of contacts is as close to the reference's as "
     "ours, so each SciPy row is at least as accurate as our Newmark; the note gives the run one "

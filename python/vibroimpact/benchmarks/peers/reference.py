@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from vibroimpact.peers.problems import SdofProblem
+from vibroimpact.benchmarks.peers.problems import SdofProblem
 
 __all__ = ["converged", "impact_time_error", "sdof_piecewise"]
 

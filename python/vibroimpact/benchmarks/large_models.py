@@ -27,8 +27,8 @@ __all__ = ["hexahedral_block", "hollow_shaft_benchmark", "imported_model_benchma
 def hollow_shaft_benchmark(t_end: float = 1.0, dt: float = 1e-6) -> dict[str, Any]:
     """Wall time of the hollow shaft (forced, with sliders) and of the same model without
     gaps, both ``t_end`` at ``dt``; per-step costs in µs."""
-    from vibroimpact import cases
     from vibroimpact.model import Model
+    from vibroimpact.paper import cases
     from vibroimpact.simulate import simulate
 
     model = cases.hollow_shaft_model("timoshenko", 20)

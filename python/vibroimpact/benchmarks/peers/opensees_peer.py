@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from vibroimpact.peers.problems import SdofProblem
+from vibroimpact.benchmarks.peers.problems import SdofProblem
 
 __all__ = ["available", "crossings", "load", "run_beam", "run_sdof", "version"]
 
@@ -156,16 +156,16 @@ def crossings(t: np.ndarray, x: np.ndarray, d: float, sides: tuple[int, ...]) ->
 
 
 def run_beam(b: Any, integrator: str = "newmark") -> dict[str, Any]:
-    """The hollow shaft (:class:`~vibroimpact.peers.problems.BeamProblem`) in OpenSees, as the
-    same model: ``ndm = 2, ndf = 3``, the beam along Y with its axial DOFs fixed,
+    """The hollow shaft (:class:`~vibroimpact.benchmarks.peers.problems.BeamProblem`) in
+    OpenSees, as the same model: ``ndm = 2, ndf = 3``, the beam along Y with its axial DOFs fixed,
     ``ElasticTimoshenkoBeam`` elements (E, G, A, I, κA from
-    :func:`vibroimpact.cases.hollow_shaft_beam`) with ``-cMass`` (consistent mass: its
+    :func:`vibroimpact.paper.cases.hollow_shaft_beam`) with ``-cMass`` (consistent mass: its
     free–free frequencies equal ours to 9 digits, 477.712 / 1038.60 / 1647.25 Hz), Hertz sliders
     as two ``zeroLength`` ``Hertzdamp`` elements (ξ = 0) at the start, middle and end nodes,
     the load as a ``Trig`` series at every node; ``BandGeneral``, ``RCM``, Newton,
     ``NormDispIncr`` 1e-12; ``analyze(1, dt)`` in a loop keeping the three slider
     displacements every step. Returns the middle slider's ``peak`` and all ``impacts``."""
-    from vibroimpact import cases
+    from vibroimpact.paper import cases
 
     ops = load()
     beam = cases.hollow_shaft_beam("timoshenko", b.elements)

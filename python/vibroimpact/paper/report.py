@@ -1,6 +1,5 @@
 """The paper reproduced figure by figure and table by table (``vibroimpact reproduce all``),
-with a report that sets the paper's stated numbers beside ours; plus the progress lines and
-logging the command line shares.
+with a report that sets the paper's stated numbers beside ours, and its progress lines.
 
 :func:`reproduce_all` writes into a folder:
 
@@ -18,7 +17,6 @@ logging the command line shares.
 
 from __future__ import annotations
 
-import argparse
 import base64
 import contextlib
 import html
@@ -44,19 +42,13 @@ if TYPE_CHECKING:
 __all__ = [
     "PAPER",
     "Progress",
-    "add_verbosity_options",
-    "configure_logging",
-    "integrators_page",
-    "law_page",
-    "log_run",
     "reproduce_all",
-    "write_docs",
 ]
 
-log = logging.getLogger("vibroimpact.report")
+log = logging.getLogger("vibroimpact.paper.report")
 
 # --------------------------------------------------------------------------------------------
-# Progress lines and logging (shared by the command line)
+# Progress lines
 # --------------------------------------------------------------------------------------------
 
 
@@ -101,67 +93,6 @@ class Progress:
             self._write(f"{head} failed after {time.perf_counter() - start:.1f} s", "\n")
             raise
         self._write(f"{head} done in {time.perf_counter() - start:.1f} s", "\n")
-
-
-def add_verbosity_options(parser: argparse.ArgumentParser) -> None:
-    """``-q/--quiet`` (no progress, no summary) and ``-v/--verbose`` (log solver statistics
-    and every contact to stderr)."""
-    group = parser.add_mutually_exclusive_group()
-    group.add_argument("-q", "--quiet", action="store_true",
-                       help="print nothing but errors (and --json output)")
-    group.add_argument("-v", "--verbose", action="store_true",
-                       help="log solver statistics and the contacts to stderr")
-
-
-_HANDLER: logging.Handler | None = None
-
-
-def configure_logging(args: argparse.Namespace) -> None:
-    """Send the ``vibroimpact`` loggers to stderr: INFO with ``--verbose``, else WARNING."""
-    global _HANDLER
-    logger = logging.getLogger("vibroimpact")
-    if _HANDLER is not None:
-        logger.removeHandler(_HANDLER)
-    _HANDLER = logging.StreamHandler(sys.stderr)
-    _HANDLER.setFormatter(logging.Formatter("vibroimpact: %(message)s"))
-    logger.addHandler(_HANDLER)
-    logger.setLevel(logging.INFO if getattr(args, "verbose", False) else logging.WARNING)
-    logger.propagate = False
-
-
-#: Contacts listed one by one in the verbose log (the rest are counted).
-LOGGED_CONTACTS = 50
-
-
-def log_run(logger: logging.Logger, summary: Mapping[str, Any]) -> None:
-    """Log a run's solver statistics and its contacts (from :meth:`Result.summary`) at INFO.
-    Per-step events (each step cut, each Newton iteration) are not reported by the compiled
-    core, only their totals."""
-    if not logger.isEnabledFor(logging.INFO):
-        return
-    steps = max(int(summary["steps"]), 1)
-    wall = float(summary["wall_time_s"])
-    logger.info("solver: %d steps (dt = %.3g s, t_end = %.6g s), %d rejected, %d step cuts",
-                summary["steps"], summary["dt"], summary["t_end"], summary["rejected_steps"],
-                summary["step_cuts"])
-    logger.info("solver: %d Newton iterations (%.3f per step), wall time %.4f s "
-                "(%.3g steps/s), energy balance error %.3e",
-                summary["newton_iterations"], summary["newton_iterations"] / steps, wall,
-                steps / wall if wall > 0 else math.inf, summary["energy_balance_error"])
-    impacts = summary["impacts"]
-    logger.info("contacts: %d", len(impacts))
-    for row in impacts[:LOGGED_CONTACTS]:
-        t_end = row["t_end"]
-        logger.info(
-            "contact: gap %d %s, t = %.6e s .. %s, v_in = %.4g m/s, v_out = %s, "
-            "delta_max = %.4g m, force_max = %.4g N",
-            row["gap"], row["side"], row["t_start"],
-            "open at the end" if t_end is None else f"{t_end:.6e} s",
-            row["v_in"], "-" if row["v_out"] is None else f"{row['v_out']:.4g} m/s",
-            row["delta_max"] or 0.0, row["force_max"] or 0.0,
-        )
-    if len(impacts) > LOGGED_CONTACTS:
-        logger.info("contact: ... %d more", len(impacts) - LOGGED_CONTACTS)
 
 
 # --------------------------------------------------------------------------------------------
@@ -374,7 +305,7 @@ class _Writer:
 
 
 def _hollow_shaft_available() -> bool:
-    from vibroimpact import cases
+    from vibroimpact.paper import cases
 
     return callable(getattr(cases, "hollow_shaft_model", None))
 
@@ -391,10 +322,10 @@ def reproduce_all(
     (created if needed), with ``report.md``, ``report.html`` and ``report.json``. Figures as
     ``fmt`` (png, svg or pdf). Progress lines go to ``stream`` (default stderr) when it is a
     terminal and not ``quiet``. Returns the numbers of ``report.json``."""
-    from vibroimpact import cases
     from vibroimpact.errors import ModelError
     from vibroimpact.impact import single_impact_result
     from vibroimpact.integrators import FORCE_METHODS
+    from vibroimpact.paper import cases
     from vibroimpact.plotting import compare, draw, new_figure
     from vibroimpact.simulate import simulate
 
@@ -592,7 +523,7 @@ def reproduce_all(
     else:
         s = _Section("Case 3: hollow shaft on sliders (paper §3.2, Figs. 14–17, Table 4)")
         s.text("Not reproduced: this build has no hollow-shaft case "
-               "(`vibroimpact.cases.hollow_shaft_model`).")
+               "(`vibroimpact.paper.cases.hollow_shaft_model`).")
         sections.append(s)
 
     # ---- report ---------------------------------------------------------------------------
@@ -627,10 +558,10 @@ def _jsonable(value: Any) -> Any:
 
 def _hollow_shaft(progress: Progress, writer: _Writer, numbers: dict[str, Any]) -> _Section:
     """Table 4 (free–free frequencies, with the mode shapes) and Fig. 17 (the forced response
-    at the sliders) from :func:`vibroimpact.cases.hollow_shaft_model`."""
-    from vibroimpact import cases
+    at the sliders) from :func:`vibroimpact.paper.cases.hollow_shaft_model`."""
     from vibroimpact.fe import modes
     from vibroimpact.fe.modal import plot_mode_shapes
+    from vibroimpact.paper import cases
     from vibroimpact.plotting import draw, new_figure
     from vibroimpact.simulate import simulate
 
@@ -710,215 +641,3 @@ def _hollow_shaft(progress: Progress, writer: _Writer, numbers: dict[str, Any]) 
     s.figure(path, "Fig. 17: displacement (dashed: the 3 mm clearance) and acceleration at the "
                    "sliders")
     return s
-
-
-# --------------------------------------------------------------------------------------------
-# Documentation pages generated from the code (docs/laws/*.md, docs/integrators.md)
-# --------------------------------------------------------------------------------------------
-
-def _shown_default(parameter: dict[str, Any], parameters: list[dict[str, Any]]) -> str:
-    """A parameter's default as the docs show it (the core's catalog's)."""
-    if parameter["required"]:
-        return "required"
-    if parameter["default"] is None:
-        alternatives = [p["name"] for p in parameters
-                        if not p["required"] and p["default"] is None]
-        return "one of " + " or ".join(f"`{a}`" for a in alternatives)
-    return f"`{parameter['default']!r}`"
-
-
-def law_page(kind: str) -> str:
-    """The documentation page of contact law ``kind`` (``docs/laws/<kind>.md``): its docstring
-    (formula and source), its parameters (the core's catalog) and its effective restitution
-    against ce, computed with :func:`vibroimpact.laws_compare.compare_laws` (one impact of the
-    paper's two spheres, :func:`vibroimpact.impact.single_impact`)."""
-    import inspect
-
-    from vibroimpact.cases import paper_geometry
-    from vibroimpact.contact import CATALOG, LAWS
-    from vibroimpact.laws_compare import DOC_MASS, DOC_RESTITUTIONS, DOC_VELOCITY, compare_laws
-
-    cls = LAWS[kind]
-    doc = inspect.cleandoc(cls.__doc__ or "")
-    parameters = CATALOG[kind]["parameters"]
-    lines = [f"# {cls.__name__} (`{kind}`)", "",
-             "<!-- generated by `python -m vibroimpact.report docs docs`; do not edit -->", "",
-             doc, "", "## Parameters", "", "| parameter | default | unit | meaning |",
-             "|---|---|---|---|"]
-    lines += [f"| `{p['name']}` | {_shown_default(p, parameters)} | {p['unit'] or '-'} | "
-              f"{p['doc']} |" for p in parameters]
-    if cls.impulsive:  # the massless bar: no force law, no single impact to tabulate
-        lines += ["", f"Model file: `[gaps.law] kind = \"{kind}\"` with `[solver] method = "
-                  "\"event-driven\"` or `\"moreau-jean\"`; Python: "
-                  f"`vi.contact.{cls.__name__}(...)`. The methods, their rules and their "
-                  "verification: [rigid-impacts.md](../rigid-impacts.md).", ""]
-        return "\n".join(lines)
-    geometry = paper_geometry()
-    lines += ["", "## Effective restitution against ce", "",
-              f"One central impact of the paper's two spheres (m = {DOC_MASS} kg, approach "
-              f"speed {DOC_VELOCITY} m/s, K = {geometry.stiffness():.4e} N/m^1.5, n = 1.5), "
-              "computed by the core with `vibroimpact.laws_compare.compare_laws` (laws without "
-              "a ce get the equivalent parameters described there).", "",
-              "| ce | e_eff = v_out/v_in | δmax [m] | Fmax [N] | duration [s] |",
-              "|---|---|---|---|---|"]
-    for ce in DOC_RESTITUTIONS:
-        row = compare_laws(ce, DOC_MASS, DOC_VELOCITY, geometry, laws=[kind])[kind]
-        lines.append(f"| {ce:g} | {row['restitution_effective']:.4f} | "
-                     f"{row['delta_max']:.4e} | {row['force_max']:.4e} | "
-                     f"{row['duration']:.4e} |")
-    lines += ["", f"Model file: `[gaps.law] kind = \"{kind}\"`; Python: "
-              f"`vi.contact.{cls.__name__}(...)`. All laws side by side: "
-              "[contact-laws.md](../contact-laws.md).", ""]
-    return "\n".join(lines)
-
-
-#: Markers of the table of the laws in docs/contact-laws.md.
-_LAW_TABLE = ("<!-- BEGIN law-table (generated by `python -m vibroimpact.report docs docs`) -->",
-              "<!-- END law-table -->")
-
-
-def _parameter_list(parameters: list[dict[str, Any]]) -> str:
-    """``stiffness`` (N/m^n), ``exponent`` = 1.5, ``restitution`` or ``damping``, ..."""
-    words: list[str] = []
-    alternative = False
-    for p in parameters:
-        word = f"`{p['name']}`" + (f" = {p['default']:g}" if p["default"] is not None else "")
-        word += f" ({p['unit']})" if p["unit"] else ""
-        optional = not p["required"] and p["default"] is None
-        if optional and alternative:
-            words[-1] += f" or {word}"
-        else:
-            words.append(word)
-        alternative = optional
-    return ", ".join(words)
-
-
-def law_table() -> str:
-    """The table of the force laws of docs/contact-laws.md (name, source, damping, parameters),
-    from the core's catalog."""
-    from vibroimpact.contact import CATALOG, FORCE_LAWS
-
-    lines = ["| name | source | damping (how it depends on ce and v_imp) | parameters |",
-             "|---|---|---|---|"]
-    previous = None
-    for kind in FORCE_LAWS:
-        entry = CATALOG[kind]
-        params = _parameter_list(entry["parameters"])
-        lines.append(f"| [`{kind}`](laws/{kind}.md) | {entry['source']} | {entry['damping']} | "
-                     f"{'same' if params == previous else params} |")
-        previous = params
-    return "\n".join(lines)
-
-
-def with_generated_section(text: str, markers: tuple[str, str], body: str) -> str:
-    """``text`` with what lies between the two ``markers`` replaced by ``body``."""
-    begin, end = markers
-    if begin not in text or end not in text:
-        raise ValueError(f"the markers {begin!r} and {end!r} are missing")
-    head, rest = text.split(begin, 1)
-    return f"{head}{begin}\n{body}\n{end}{rest.split(end, 1)[1]}"
-
-
-def contact_laws_page(text: str) -> str:
-    """docs/contact-laws.md (``text``) with its table of the laws regenerated."""
-    return with_generated_section(text, _LAW_TABLE, law_table())
-
-
-def integrators_page() -> str:
-    """``docs/integrators.md``: every method of :data:`vibroimpact.integrators.METHODS` with
-    its docstring and parameters."""
-    import inspect
-    from dataclasses import MISSING
-    from dataclasses import fields as dc_fields
-
-    from vibroimpact import integrators as integrators_module
-    from vibroimpact.integrators import METHODS
-
-    lines = ["# Integrators", "",
-             "Every method is a settings object passed to `vibroimpact.simulate(model, t_end, "
-             "dt, method)` (or `[solver] method = \"...\"` in a model file); the time loop runs "
-             "in the compiled core. Generated from `vibroimpact.integrators.METHODS` "
-             "(`python -m vibroimpact.report docs docs`).", "",
-             "| name | class | adaptive stepping |", "|---|---|---|"]
-    for name, cls in METHODS.items():
-        lines.append(f"| `{name}` | `vi.integrators.{cls.__name__}` | "
-                     f"{'yes' if getattr(cls, 'supports_adaptive', False) else 'no'} |")
-    for name, cls in METHODS.items():
-        lines += ["", f"## `{name}`: {cls.__name__}", "", inspect.cleandoc(cls.__doc__ or ""),
-                  "", "| parameter | default |", "|---|---|"]
-        for f in dc_fields(cls):
-            if not f.init:
-                continue
-            if f.default is not MISSING:
-                default = f.default
-            elif f.default_factory is not MISSING:
-                default = f.default_factory()
-            else:
-                default = "required"
-            lines.append(f"| `{f.name}` | `{default!r}` |")
-        notes = getattr(integrators_module, "DOC_NOTES", {}).get(name)
-        if notes:
-            lines += ["", notes.rstrip("\n")]
-    from vibroimpact import integrators
-
-    adaptive = getattr(integrators, "Adaptive", None)
-    if adaptive is not None:
-        lines += ["", "## Adaptive stepping: `vi.Adaptive`", "",
-                  inspect.cleandoc(adaptive.__doc__ or ""), "",
-                  "| parameter | default |", "|---|---|"]
-        lines += [f"| `{f.name}` | `{f.default!r}` |" for f in dc_fields(adaptive) if f.init]
-    lines += ["", "## When to use which", "",
-              "* `newmark` (average acceleration): the default; second order, no numerical "
-              "damping, unconditionally stable for linear structures; the paper's choice.",
-              "* `generalized-alpha` / `hht`: when the high-frequency content excited by stiff "
-              "contacts (or fine FE meshes) should be damped numerically; ρ∞ < 1 damps it, "
-              "second order is kept.",
-              "* adaptive stepping (`adaptive=vi.Adaptive(...)`, where supported): long runs "
-              "with short contacts; large steps in free flight, small ones in contact, every "
-              "closing and opening instant located.",
-              "* `precise`: the linear structure integrated exactly (no period error at any "
-              "step) and the contact forces by Adams (explicit, third order, most accurate at "
-              "small steps); `predictor_corrector = true` when the contact is stiff for the "
-              "step (unconditionally stable).",
-              "* `bathe`: strong damping of the unresolved high frequencies that stiff contacts "
-              "excite, second order, at about 1.6× Newmark's cost.",
-              "* `vibroimpact reproduce all` times every method above on the paper's SDOF case "
-              "(its Table 3); see [paper-cases.md](paper-cases.md).", ""]
-    notes = getattr(integrators_module, "VERIFICATION_NOTES", "")
-    if notes:
-        lines += [notes.rstrip("\n"), ""]
-    return "\n".join(lines)
-
-
-def write_docs(folder: str | Path) -> list[Path]:
-    """Write the generated pages into ``folder``: ``laws/<kind>.md`` for every law of
-    :data:`vibroimpact.contact.LAWS`, ``integrators.md`` and the table of the laws in
-    ``contact-laws.md`` (its restitution table, the laws side by side, is written by
-    :func:`vibroimpact.laws_compare.update_docs`)."""
-    from vibroimpact.contact import LAWS
-    from vibroimpact.io.results_file import atomic_write
-
-    folder = Path(folder)
-    (folder / "laws").mkdir(parents=True, exist_ok=True)
-    pages: dict[Path, str] = {folder / "laws" / f"{kind}.md": law_page(kind) for kind in LAWS}
-    pages[folder / "integrators.md"] = integrators_page()
-    laws = folder / "contact-laws.md"
-    pages[laws] = contact_laws_page(laws.read_text(encoding="utf-8"))
-    atomic_write({p: (lambda path, text=text: path.write_text(text, encoding="utf-8"))
-                  for p, text in pages.items()})
-    return list(pages)
-
-
-def _main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m vibroimpact.report")
-    sub = parser.add_subparsers(dest="what", required=True)
-    docs = sub.add_parser("docs", help="write the generated documentation pages")
-    docs.add_argument("folder", help="the docs folder")
-    args = parser.parse_args(argv)
-    for path in write_docs(args.folder):
-        print(path)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(_main())

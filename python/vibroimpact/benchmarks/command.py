@@ -1,0 +1,133 @@
+"""``vibroimpact bench``: how fast we are, against peers run in this same process; its flags
+and its work. The command line names the command and hands its arguments to :func:`main`."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Sequence
+
+from vibroimpact.benchmarks.sdof import adaptive_benchmark, integrator_table, sdof_benchmark
+
+TARGET_S = 1e-3
+PAPER_MATLAB_S = 1.3
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The flags of ``vibroimpact bench``."""
+    p = argparse.ArgumentParser(
+        prog="vibroimpact bench",
+        description=(
+            "Times the paper's SDOF case (0.02 s at dt = 1 us, 20,000 steps) with the Hertz and "
+            "Lankarani-Nikravesh laws through the Python API (median of --repeats runs) and "
+            "SciPy solve_ivp DOP853 with contact events (rtol 1e-8) in the same process."
+        ),
+    )
+    p.add_argument("--repeats", type=int, default=20, help="timed runs per case (default 20)")
+    p.add_argument("--quick", action="store_true", help="fewer repeats, for a smoke test")
+    p.add_argument("--json", action="store_true", help="print the rows as JSON")
+    p.add_argument("--sweep-points", type=int, default=None, metavar="N",
+                   help="sweep rows (text output): N frequencies x 300 periods of the impact "
+                   "oscillator, in-process on 1 and 2 threads and on Dask (default 400, 40 "
+                   "with --quick; 0 skips them; JSON: python benchmarks/bench_sweep.py)")
+    p.add_argument("--peers", action="store_true",
+                   help="instead: the side-by-side table against SciPy solve_ivp, OpenSeesPy and "
+                   "Exudyn (pip install '.[peers]'; a missing peer gives a 'not available' row)")
+    p.add_argument("--peer-repeats", type=int, default=5, metavar="N",
+                   help="with --peers: timed runs per peer (median; default and minimum 5; 1 "
+                   "with --quick)")
+    p.add_argument("--write", metavar="FILE.md", default=None,
+                   help="with --peers: also write the table and the machine to FILE.md")
+    p.add_argument("--readme", metavar="README.md", default=None,
+                   help="with --peers: also replace the generated peer table (between "
+                   "<!-- bench-peers:start --> and <!-- bench-peers:end -->) in README.md")
+    return p
+
+
+def main(argv: Sequence[str]) -> int:
+    """Run ``vibroimpact bench`` with its arguments ``argv``."""
+    args = build_parser().parse_args(argv)
+    if args.peers:
+        from vibroimpact.benchmarks.peers.table import cli_main
+
+        if not args.quick and args.peer_repeats < 5:
+            raise SystemExit(f"--peer-repeats: expected at least 5 (medians of at least 5 runs), "
+                             f"got {args.peer_repeats}")
+        return cli_main(quick=args.quick, repeats=None if args.quick else args.peer_repeats,
+                        write=args.write, as_json=args.json, readme=args.readme)
+    repeats = 3 if args.quick else max(1, args.repeats)
+    rows = sdof_benchmark(repeats=repeats, peer_repeats=1 if args.quick else 5)
+    if args.json:
+        print(json.dumps(rows))
+        return 0
+    print(f"{'case':28s} {'median':>10s} {'steps/s':>12s} {'SciPy DOP853':>13s} {'ratio':>7s}")
+    for r in rows:
+        print(
+            f"{r['problem'] + ' ' + r['law']:28s} {r['median_s'] * 1e3:8.3f} ms "
+            f"{r['steps_per_s']:12.3e} {r['scipy_dop853_s'] * 1e3:10.2f} ms "
+            f"{r['speedup_vs_scipy']:6.1f}x"
+        )
+    print(f"target: <= {TARGET_S * 1e3:.0f} ms per run; the paper's MATLAB Newmark: "
+          f"{PAPER_MATLAB_S} s")
+    print()
+    print("Integrators (paper Table 3): SDOF case, Lankarani-Nikravesh, 0.02 s at dt = 1 us")
+    print(f"{'method':32s} {'median':>10s} {'vs Newmark':>11s} {'paper (MATLAB)':>15s} "
+          f"{'paper ratio':>12s}")
+    for r in integrator_table(repeats=repeats):
+        paper = "" if r["paper_s"] is None else f"{r['paper_s']:.1f} s"
+        paper_ratio = ("" if r["paper_ratio_to_newmark"] is None
+                       else f"{r['paper_ratio_to_newmark']:.1f}x")
+        print(f"{r['label']:32s} {r['median_s'] * 1e3:8.3f} ms {r['ratio_to_newmark']:10.2f}x "
+              f"{paper:>15s} {paper_ratio:>12s}")
+    print("targets: generalized-alpha <= 1.3x Newmark, precise <= 3x Newmark (paper: 19x)")
+    print()
+    print("Adaptive stepping with located events: SDOF case, 0.02 s (target: 1e-08 m / "
+          "1e-09 s in 0.2 ms)")
+    for a in adaptive_benchmark(repeats=repeats):
+        print(f"{a['method']:18s} rtol {a['tolerance']['rtol']:g}: "
+              f"{a['median_s'] * 1e3:.3f} ms (core {a['core_median_s'] * 1e3:.3f} ms), "
+              f"{a['steps']} steps + {a['rejected_steps']} discarded; peak error "
+              f"{a['peak_error_m']:.1e} m, impact times {a['impact_time_error_s']:.1e} s; "
+              f"SciPy DOP853 with events {a['scipy_dop853_s'] * 1e3:.1f} ms at rtol "
+              f"{a['scipy_rtol']:g} ({a['scipy_peak_error_m']:.1e} m, "
+              f"{a['scipy_impact_time_error_s']:.1e} s)")
+    print()
+    _print_large_models(quick=args.quick)
+    points = args.sweep_points if args.sweep_points is not None else (40 if args.quick else 400)
+    if points > 0:
+        from vibroimpact.benchmarks.sdof import sweep_benchmark
+        from vibroimpact.benchmarks.sweep import format_rows
+
+        print()
+        rows = sweep_benchmark(points=points, repeats=1 if args.quick else 2)
+        print("\n".join(format_rows(rows)))
+    return 0
+
+
+def _print_large_models(quick: bool) -> None:
+    """Issue 6's speed targets: the hollow shaft (1 s at 1 µs in under 1 s) and a 2,004-DOF
+    imported model with 6 gaps (cost per step within 3× of its linear-only run); issue 23's:
+    a 49,980-DOF solid with a gap (a step within 2× of its factor's bare substitution)."""
+    from vibroimpact.benchmarks.large_models import (
+        hollow_shaft_benchmark,
+        imported_model_benchmark,
+        solid_model_benchmark,
+    )
+
+    t_end = 0.05 if quick else 1.0
+    h = hollow_shaft_benchmark(t_end=t_end)
+    print(f"Hollow shaft ({h['n_dof']} DOFs, 3 sliders, Newmark), {t_end:g} s at dt = 1 us: "
+          f"{h['gaps_wall_time_s']:.3f} s ({h['gaps_us_per_step']:.3f} us/step; linear only "
+          f"{h['linear_us_per_step']:.3f} us/step); target: 1 s simulated in under 1 s"
+          + (" (--quick: 0.05 s)" if quick else ""))
+    m = imported_model_benchmark(steps=2000)
+    print(f"Imported model ({m['n_dof']} DOFs, {m['gaps']} gaps): {m['gaps_ms_per_step']:.3f} "
+          f"ms/step vs linear only {m['linear_ms_per_step']:.3f} ms/step = {m['ratio']:.2f}x "
+          f"(target: within 3x); Craig-Bampton to {m['reduced_n_dof']} DOFs in "
+          f"{m['reduction_s']:.2f} s")
+    s = solid_model_benchmark(steps=10 if quick else 20)
+    print(f"Solid block ({s['n_dof']} DOFs of hexahedra, 1 gap, in contact "
+          f"{s['contact_steps']} of {s['steps']} steps, Newmark): "
+          f"{s['ms_per_step']:.2f} ms/step vs the bare substitution with its own factor "
+          f"({s['solver']}, {s['stored_values']:,} values) {s['floor_ms']:.2f} ms = "
+          f"{s['ratio']:.2f}x (target: within 2x); setup {s['setup_s']:.1f} s")
