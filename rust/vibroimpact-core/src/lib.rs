@@ -8,6 +8,7 @@
 pub mod contact;
 pub(crate) mod driver;
 pub mod error;
+pub mod floor;
 pub mod gap;
 pub mod impulsive;
 pub mod integrators;
