@@ -120,11 +120,11 @@ impl GapNewton {
         if !sys.walls.iter().zip(p.start).all(open) {
             return false;
         }
-        for gi in 0..self.du.len() {
+        for (gi, force) in phi.iter_mut().enumerate().take(self.du.len()) {
             self.du[gi] = p.du_lin[gi];
             self.u[gi] = p.u0[gi] + p.du_lin[gi];
             self.u_rate[gi] = c_v * p.du_lin[gi] + p.rate_lin[gi];
-            phi[gi] = 0.0;
+            *force = 0.0;
         }
         for (wall, state) in sys.walls.iter().zip(walls.iter_mut()) {
             *state = WallState {
