@@ -486,11 +486,33 @@ def test_cli_sweep_and_plot(tmp_path: Path) -> None:
         assert fig.stat().st_size > 1000
 
 
+def test_cli_method_overrides_the_model_files_method(tmp_path: Path) -> None:
+    """``--method dop853`` sweeps with DOP853 at its defaults: the same Dataset as the API's
+    sweep with ``method=Dop853()``, and other steps than the file's adaptive Newmark."""
+    mf = vi.load_model(MODEL_FILE)
+    grid = [Param("loads.0.frequency", [9.0, 14.0, 20.0])]
+    options = {"transient": 10, "periods": 5}
+    out = tmp_path / "dop853.nc"
+    p = _cli("sweep", str(MODEL_FILE), "--param", "loads.0.frequency=9,14,20", "--transient",
+             "10", "--periods", "5", "--method", "dop853", "-o", str(out), "--quiet")
+    assert p.returncode == 0, p.stderr
+    cli = load_sweep(out)
+    api = run_sweep(Sweep.from_model_file(mf, grid, method=vi.Dop853(), **options))
+    file_method = run_sweep(Sweep.from_model_file(mf, grid, **options))
+    assert not isinstance(mf.method, vi.Dop853)
+    for name in ("steps", "displacement_max", "impact_count"):
+        xr.testing.assert_equal(cli[name], api[name])
+    assert not np.array_equal(cli["steps"].values, file_method["steps"].values)
+
+
 @pytest.mark.parametrize(("args", "message"), [
     (["--param", "loads.0.freq=5:50:4"], "--param loads.0.freq"),
     (["--param", "loads.0.frequency=5:50"], "expected PATH=A:B:N"),
     (["--param", "gaps.0.clearance=-1,1"], "sweep point gaps.0.clearance=-1"),
     (["--param", "loads.0.frequency=5:50:4", "--workers", "2"], "--workers"),
+    (["--param", "loads.0.frequency=5:50:4", "--method", "rk4"], "--method: 'rk4'"),
+    (["--param", "loads.0.frequency=5:50:4", "--method", "event-driven"],
+     "--method: 'event-driven' cannot take gaps[0].law.kind = 'lankarani-nikravesh'"),
 ])
 def test_cli_mistakes_are_one_line_with_exit_code_2(tmp_path: Path, args: list[str],
                                                      message: str) -> None:

@@ -34,6 +34,18 @@ def precise_matrices(
     stiffness: NDArray[np.float64],
     dt: float,
 ) -> dict[str, Any]: ...
+def newmark_floor_sdof(
+    mass: float,
+    stiffness: float,
+    damping: float,
+    clearance: float,
+    contact_stiffness: float,
+    exponent: float,
+    hysteresis: float,
+    v0: float,
+    dt: float,
+    steps: int,
+) -> dict[str, NDArray[np.float64]]: ...
 def contact_force(
     law: dict[str, Any],
     penetration: float,

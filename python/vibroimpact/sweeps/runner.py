@@ -166,11 +166,12 @@ class Sweep:
 
     @classmethod
     def from_model_file(cls, mf: ModelFile, params: Sequence[Param], **options: Any) -> Sweep:
-        """A sweep of a model file's model with its solver (``dt``, method; ``t_end`` is
-        replaced by the transient and the sampled periods) and its output DOFs (of the model
-        that runs: :attr:`~vibroimpact.io.ModelFile.run_dofs`)."""
+        """A sweep of a model file's model with its solver (``dt``, method unless ``method``
+        is given; ``t_end`` is replaced by the transient and the sampled periods) and its
+        output DOFs (of the model that runs: :attr:`~vibroimpact.io.ModelFile.run_dofs`)."""
         options.setdefault("dofs", mf.run_dofs)
-        return cls(model=mf.model, params=params, dt=mf.dt, method=mf.method, **options)
+        options.setdefault("method", mf.method)
+        return cls(model=mf.model, params=params, dt=mf.dt, **options)
 
     @property
     def shape(self) -> tuple[int, ...]:

@@ -1,6 +1,7 @@
 //! Times the paper's SDOF case (0.02 s at dt = 1 µs) in the core alone, without Python:
 //! `cargo run --release --example sdof_bench -p vibroimpact-core`; `METHOD=dop853` times
-//! adaptive DOP853 (rtol 1e-8) instead of Newmark.
+//! adaptive DOP853 (rtol 1e-8) instead of Newmark, `METHOD=floor` the benchmark's floor
+//! (`vibroimpact_core::floor`: the same Newmark steps as a bare loop).
 
 use std::time::Instant;
 
@@ -9,6 +10,7 @@ static GLOBAL: mimalloc::MiMalloc = mimalloc::MiMalloc;
 
 use nalgebra::{DMatrix, DVector};
 use vibroimpact_core::contact::{Hertz, Hysteretic, Law};
+use vibroimpact_core::floor::{self, FloorCase};
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings};
 use vibroimpact_core::settings::Adaptive;
@@ -38,6 +40,42 @@ fn main() {
             side: Side::Both,
             law,
         };
+        let runs: usize = std::env::var("RUNS")
+            .map(|s| s.parse().unwrap())
+            .unwrap_or(200);
+        if std::env::var("METHOD").is_ok_and(|m| m == "floor") {
+            let (k, n, chi) = match &gap.law {
+                Law::Hertz(l) => (l.stiffness, l.exponent, 0.0),
+                Law::Hysteretic(l) => (l.stiffness, l.exponent, l.hysteresis_factor()),
+                _ => unreachable!(),
+            };
+            let case = FloorCase {
+                mass: 100.0,
+                stiffness: 0.0,
+                damping: 0.0,
+                clearance: gap.clearance,
+                contact_stiffness: k,
+                exponent: n,
+                hysteresis: chi,
+                v0: 8.0,
+                dt: 1e-6,
+                steps: 20_000,
+                rtol: 1e-10,
+            };
+            let mut times: Vec<f64> = (0..runs)
+                .map(|_| {
+                    let t0 = Instant::now();
+                    assert!(floor::newmark_sdof(&case).is_some());
+                    t0.elapsed().as_secs_f64()
+                })
+                .collect();
+            times.sort_by(|a, b| a.partial_cmp(b).unwrap());
+            println!(
+                "{name} floor: median {:.3} ms",
+                times[times.len() / 2] * 1e3
+            );
+            continue;
+        }
         let sys = System::new(s, vec![gap], vec![]).unwrap();
         let dop853 = std::env::var("METHOD").is_ok_and(|m| m == "dop853");
         let (method, adaptive) = if dop853 {
@@ -62,9 +100,6 @@ fn main() {
         };
         let mut times = vec![];
         let mut stats = None;
-        let runs: usize = std::env::var("RUNS")
-            .map(|s| s.parse().unwrap())
-            .unwrap_or(200);
         for _ in 0..runs {
             let t0 = Instant::now();
             let out = simulate(

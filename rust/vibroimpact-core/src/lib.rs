@@ -9,6 +9,7 @@ pub mod contact;
 pub(crate) mod driver;
 pub mod error;
 pub mod factor;
+pub mod floor;
 pub mod gap;
 pub mod impulsive;
 pub mod integrators;

@@ -161,8 +161,14 @@ impl State {
     /// by a residual within tolerance amplified by 2/h), and the walls' rates to match.
     pub fn finish_gaps(&mut self, sys: &System, u: &[f64]) {
         self.u.copy_from_slice(u);
-        sys.gap_coordinates(&self.v, &mut self.u_rate);
-        sys.gap_coordinates(&self.a, &mut self.u_accel);
+        for ((g, rate), accel) in sys.gaps.iter().zip(&mut self.u_rate).zip(&mut self.u_accel) {
+            let (mut r, mut acc) = (-0.0, -0.0); // as `Iterator::sum`
+            for (&d, &c) in g.dofs.iter().zip(&g.coefficients) {
+                r += c * self.v[d];
+                acc += c * self.a[d];
+            }
+            (*rate, *accel) = (r, acc);
+        }
         for (wall, state) in sys.walls.iter().zip(self.walls.iter_mut()) {
             state.rate = wall.sign * self.u_rate[wall.gap];
         }

@@ -304,6 +304,48 @@ fn expm<'py>(
     to_numpy(py, &integrators::expm::expm(&a))
 }
 
+/// The benchmark's floor (`vibroimpact_core::floor`, only for `vibroimpact bench`): the
+/// paper's SDOF scheme as a bare loop, a mass between walls at `±clearance` from `x = 0` at
+/// velocity `v0`; every step's `displacement`, `velocity`, `acceleration` and `force`.
+#[pyfunction]
+#[allow(clippy::too_many_arguments)]
+fn newmark_floor_sdof<'py>(
+    py: Python<'py>,
+    mass: f64,
+    stiffness: f64,
+    damping: f64,
+    clearance: f64,
+    contact_stiffness: f64,
+    exponent: f64,
+    hysteresis: f64,
+    v0: f64,
+    dt: f64,
+    steps: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let case = vibroimpact_core::floor::FloorCase {
+        mass,
+        stiffness,
+        damping,
+        clearance,
+        contact_stiffness,
+        exponent,
+        hysteresis,
+        v0,
+        dt,
+        steps,
+        rtol: vibroimpact_core::integrators::NewtonSettings::default().rtol,
+    };
+    let run = py
+        .detach(|| vibroimpact_core::floor::newmark_sdof(&case))
+        .ok_or_else(|| PyRuntimeError::new_err("floor: Newton did not converge in a step"))?;
+    let out = PyDict::new(py);
+    out.set_item("displacement", PyArray1::from_vec(py, run.displacement))?;
+    out.set_item("velocity", PyArray1::from_vec(py, run.velocity))?;
+    out.set_item("acceleration", PyArray1::from_vec(py, run.acceleration))?;
+    out.set_item("force", PyArray1::from_vec(py, run.force))?;
+    Ok(out)
+}
+
 /// The precise integration method's matrices for a step `dt` (paper eqs. 36–41): `H`,
 /// `Φ = exp(H dt)` and the Duhamel columns `D_m = dt^{m+1} Φ_m(dt) [0; I]`, m = 0, 1, 2.
 #[pyfunction]
@@ -463,6 +505,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(clear_interrupt, m)?)?;
     m.add_function(wrap_pyfunction!(interrupt_requested, m)?)?;
     m.add_function(wrap_pyfunction!(precise_matrices, m)?)?;
+    m.add_function(wrap_pyfunction!(newmark_floor_sdof, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep, m)?)?;
     m.add_function(wrap_pyfunction!(orbit::flow_map, m)?)?;
     m.add_function(wrap_pyfunction!(sweep::sweep_check, m)?)?;

@@ -577,7 +577,6 @@ impl Stepper for NewmarkStepper {
         // Newton on the gap coordinates, starting from the previous step's contact forces;
         // the gap rates follow the increment through eq. 17: u̇₁ = a₁ Δu − a₄ u̇₀ − a₅ ü₀.
         let newton = &mut self.gap_newton;
-        newton.start_from(&op.w, &self.du_lin, &s0.phi);
         for gi in 0..ng {
             self.rate_lin[gi] = -a4 * s0.u_rate[gi] - a5 * s0.u_accel[gi];
         }
@@ -590,7 +589,12 @@ impl Stepper for NewmarkStepper {
             start: &s0.walls,
             h,
         };
-        let iterations = newton.solve(sys, &self.newton, &problem, &mut s1.walls, &mut s1.phi)?;
+        let iterations = if newton.free_flight(sys, &problem, &mut s1.walls, &mut s1.phi) {
+            0
+        } else {
+            newton.start_from(&op.w, &self.du_lin, &s0.phi);
+            newton.solve(sys, &self.newton, &problem, &mut s1.walls, &mut s1.phi)?
+        };
 
         // e = e_lin − Σ_g G_g φ_g; then the Newmark relations (eqs. 14, 18) in predictor
         // form: x₁ = x₀ + d̃ + e and a₁ = a₀ e (the same as a₀ Δx − a₂ v₀ − a₃ a₀ without its

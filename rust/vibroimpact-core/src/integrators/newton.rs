@@ -9,7 +9,7 @@
 //! [`GapProblem`] (`W`, `Δu_lin`, and how the gap rates follow `Δu`).
 
 use super::StepFailure;
-use crate::gap::WallState;
+use crate::gap::{Wall, WallState};
 use crate::system::System;
 
 /// Stopping rule and limits of the Newton iterations.
@@ -95,6 +95,45 @@ impl GapNewton {
             let wphi: f64 = wrow.iter().zip(phi).map(|(w, p)| w * p).sum();
             *du = du_lin[gi] - wphi;
         }
+    }
+
+    /// The step's solution without iterating when no wall closes in it: every wall open at
+    /// the start (so no contact force there, and Newton's first iterate is the linear
+    /// predictor `Δu_lin` itself) and still open at `u₀ + Δu_lin` (so that iterate has no
+    /// force either: zero residual, what [`Self::solve`] would return after evaluating every
+    /// wall). Writes the walls' gaps, zero forces and `self.u`, `self.u_rate` as `solve` does;
+    /// `false` (nothing written) otherwise, and for a full rate map.
+    #[inline]
+    pub fn free_flight(
+        &mut self,
+        sys: &System,
+        p: &GapProblem<'_>,
+        walls: &mut [WallState],
+        phi: &mut [f64],
+    ) -> bool {
+        let RateMap::Diagonal(c_v) = p.rate else {
+            return false;
+        };
+        let open = |(wall, start): (&Wall, &WallState)| {
+            !start.closed() && wall.sign * (p.u0[wall.gap] + p.du_lin[wall.gap]) <= wall.clearance
+        };
+        if !sys.walls.iter().zip(p.start).all(open) {
+            return false;
+        }
+        for (gi, force) in phi.iter_mut().enumerate().take(self.du.len()) {
+            self.du[gi] = p.du_lin[gi];
+            self.u[gi] = p.u0[gi] + p.du_lin[gi];
+            self.u_rate[gi] = c_v * p.du_lin[gi] + p.rate_lin[gi];
+            *force = 0.0;
+        }
+        for (wall, state) in sys.walls.iter().zip(walls.iter_mut()) {
+            *state = WallState {
+                penetration: wall.sign * self.u[wall.gap] - wall.clearance,
+                rate: wall.sign * self.u_rate[wall.gap],
+                ..WallState::default()
+            };
+        }
+        true
     }
 
     pub fn new(n_gaps: usize) -> Self {
