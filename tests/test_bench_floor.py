@@ -2,7 +2,7 @@
 runs the same case with the same scheme (its histories equal ours to Newton's tolerance; a
 wrong law, clearance or step would differ by millimetres). No timing is asserted."""
 
-from vibroimpact.bench import floor_benchmark
+from vibroimpact.benchmarks.sdof import floor_benchmark
 
 
 def test_floor_runs_the_same_steps_as_ours() -> None:
