@@ -2,6 +2,7 @@
 //! Python package into core types, runs with the GIL released, and returns numpy arrays.
 
 mod convert;
+mod method;
 mod running;
 mod sweep;
 
@@ -61,7 +62,7 @@ fn substitution_time<'py>(
     spec: &Bound<'py, PyDict>,
     solves: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let job = convert::job_from_spec(spec)?;
+    let job = convert::job_from_spec(spec, None)?;
     let vibroimpact_core::simulate::Method::NewmarkFamily(scheme) = job.method else {
         return Err(ModelError::new_err(
             "solver.method: expected a Newmark-family method for the substitution floor",
@@ -466,6 +467,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep::sweep_check, m)?)?;
     m.add_function(wrap_pyfunction!(contact_force, m)?)?;
     m.add_function(wrap_pyfunction!(law_catalog, m)?)?;
+    m.add_function(wrap_pyfunction!(method::method_catalog, m)?)?;
+    m.add_function(wrap_pyfunction!(method::method_spec, m)?)?;
+    m.add_function(wrap_pyfunction!(method::check_settings, m)?)?;
+    m.add_class::<method::PyMethodSpec>()?;
     m.add_function(wrap_pyfunction!(contact_law_evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(geometry_stiffness, m)?)?;
     m.add("ModelError", m.py().get_type::<ModelError>())?;
