@@ -174,7 +174,7 @@ fn load(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Load> {
         "constant" => LoadHistory::Constant,
         "harmonic" => LoadHistory::Harmonic {
             frequency: item(d, "frequency", &ctx)?,
-            phase: opt(d, "phase", &ctx)?.unwrap_or(0.0),
+            phase: item(d, "phase", &ctx)?,
         },
         "table" => LoadHistory::Table {
             time: item(d, "time", &ctx)?,
@@ -188,7 +188,7 @@ fn load(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Load> {
     };
     Ok(Load {
         dofs: item(d, "dofs", &ctx)?,
-        amplitude: opt(d, "amplitude", &ctx)?.unwrap_or(1.0),
+        amplitude: item(d, "amplitude", &ctx)?,
         history,
     })
 }

@@ -1,5 +1,6 @@
-//! Thin PyO3 binding of `vibroimpact-core`: converts the plain-data model spec built by the
-//! Python package into core types, runs with the GIL released, and returns numpy arrays.
+//! Thin PyO3 binding of `vibroimpact-core`: converts the model spec built by the Python package
+//! (plain data for the model, a typed `MethodSpec` for the method) into core types, runs with
+//! the GIL released, and returns numpy arrays.
 
 mod convert;
 mod method;
