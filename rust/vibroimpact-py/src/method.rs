@@ -42,7 +42,21 @@ impl PyMethodSpec {
     }
 
     fn __repr__(&self) -> String {
-        format!("MethodSpec({:?})", self.0)
+        let MethodSpec {
+            entry,
+            method,
+            newton,
+            adaptive,
+        } = &self.0;
+        format!(
+            "MethodSpec(kind={:?}, method={method:?}, newton={newton:?}, adaptive={adaptive:?})",
+            entry.name
+        )
+    }
+
+    /// Equal when the core would run the same method with the same settings.
+    fn __eq__(&self, other: &Self) -> bool {
+        self.0 == other.0
     }
 }
 
