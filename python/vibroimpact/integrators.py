@@ -1,15 +1,23 @@
 """Time integrators (paper §2.3; docs/integrators.md). Each is a small settings object passed to
-:func:`vibroimpact.simulate`; the stepping itself runs in the Rust core."""
+:func:`vibroimpact.simulate`; the stepping itself runs in the Rust core.
+
+Which methods there are, their parameters, defaults and checks come from the core's catalog
+(``_core.method_catalog()``, :data:`CATALOG`): an integrator's name is the method's name there
+(and the model file's ``solver.method``), its fields' defaults are the catalog's, and building
+one checks it in the core (``_core.method_spec``), which keeps the checked, typed method that
+every run of the integrator hands to the core."""
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
+from vibroimpact import _core
 from vibroimpact.errors import require
 
 __all__ = [
+    "CATALOG",
     "HHT",
     "METHODS",
     "Adaptive",
@@ -22,8 +30,30 @@ __all__ = [
     "Newmark",
     "NewtonOptions",
     "PreciseIntegration",
+    "catalog_default",
     "method_from_options",
 ]
+
+#: The core's catalog of methods: ``methods`` (each with its ``name``, ``class_name``,
+#: ``parameters``, ``newton``, ``impulsive``, ``adaptive`` and ``adaptive_defaults``), and the
+#: settings of ``newton`` and ``adaptive``; each setting with its ``kind``, ``default``,
+#: ``unit``, ``doc`` and ``expected`` (what a valid value is).
+CATALOG: dict[str, Any] = _core.method_catalog()
+_ENTRIES: dict[str, dict[str, Any]] = {m["name"]: m for m in CATALOG["methods"]}
+
+
+def _settings(group: str) -> list[dict[str, Any]]:
+    return CATALOG[group] if group in ("newton", "adaptive") else _ENTRIES[group]["parameters"]
+
+
+def catalog_default(group: str, name: str) -> Any:
+    """The core's default of setting ``name`` of ``group``: a method's name, ``"newton"`` or
+    ``"adaptive"`` (``None``: computed from the run)."""
+    return next(s["default"] for s in _settings(group) if s["name"] == name)
+
+
+#: Python type of a setting's kind.
+_PLAIN = {"number": float, "integer": int, "flag": bool}
 
 
 @dataclass(frozen=True)
@@ -35,34 +65,17 @@ class NewtonOptions:
     step; ``max_step_cuts``: how often a failing step may be halved before the run fails.
     """
 
-    rtol: float = 1e-10
-    atol: float = 1e-15
-    max_iterations: int = 30
-    max_step_cuts: int = 12
+    rtol: float = catalog_default("newton", "rtol")
+    atol: float = catalog_default("newton", "atol")
+    max_iterations: int = catalog_default("newton", "max_iterations")
+    max_step_cuts: int = catalog_default("newton", "max_step_cuts")
 
     def __post_init__(self) -> None:
-        require(0 < self.rtol < 1, "solver.rtol", self.rtol, "0 < rtol < 1")
-        require(self.atol >= 0, "solver.atol", self.atol, "atol >= 0 in m")
-        require(
-            isinstance(self.max_iterations, int) and self.max_iterations >= 1,
-            "solver.max_iterations",
-            self.max_iterations,
-            "an integer >= 1",
-        )
-        require(
-            isinstance(self.max_step_cuts, int) and 0 <= self.max_step_cuts <= 40,
-            "solver.max_step_cuts",
-            self.max_step_cuts,
-            "an integer from 0 to 40",
-        )
+        _core.check_settings("newton", self)
 
     def to_spec(self) -> dict[str, Any]:
-        return {
-            "rtol": float(self.rtol),
-            "atol": float(self.atol),
-            "max_iterations": int(self.max_iterations),
-            "max_step_cuts": int(self.max_step_cuts),
-        }
+        """The options as plain data (sweep definitions)."""
+        return {s["name"]: _PLAIN[s["kind"]](getattr(self, s["name"])) for s in CATALOG["newton"]}
 
 
 @dataclass(frozen=True)
@@ -89,38 +102,13 @@ class Adaptive:
     on the peak, every impact time and ``v_out`` with about 15× fewer steps, and ``rtol = 2e-7``
     reaches 2e-11 m / 6e-10 s (``tests/test_adaptive.py``, ``vibroimpact bench``)."""
 
-    rtol: float = 1e-6
-    atol: float = 1e-10
+    rtol: float = catalog_default("adaptive", "rtol")
+    atol: float = catalog_default("adaptive", "atol")
     dt_min: float | None = None
     dt_max: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("rtol", "atol"):
-            v = getattr(self, name)
-            require(
-                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-                and v >= 0,
-                f"solver.{name}", v, "a tolerance >= 0",
-            )
-        require(self.rtol > 0 or self.atol > 0, "solver.rtol", self.rtol,
-                "rtol > 0 or atol > 0")
-        for name in ("dt_min", "dt_max"):
-            v = getattr(self, name)
-            require(
-                v is None or (isinstance(v, (int, float)) and math.isfinite(v) and v > 0),
-                f"solver.{name}", v, "a step > 0 in s",
-            )
-
-    def to_spec(self, t_end: float, dt: float) -> dict[str, float]:
-        dt_max = t_end / 50 if self.dt_max is None else float(self.dt_max)
-        dt_min = min(dt, dt_max) / 1e4 if self.dt_min is None else float(self.dt_min)
-        # (the messages formatted only on failure: a float's repr costs ~1 µs a run)
-        if dt_min > dt_max:
-            require(False, "solver.dt_min", dt_min, f"dt_min <= dt_max = {dt_max}")
-        if dt_max > t_end:
-            require(False, "solver.dt_max", dt_max, f"dt_max <= t_end = {t_end}")
-        return {"rtol": float(self.rtol), "atol": float(self.atol), "dt_min": dt_min,
-                "dt_max": dt_max}
+        _core.check_settings("adaptive", self)
 
 
 @dataclass(frozen=True)
@@ -129,6 +117,8 @@ class Integrator:
     supports it (``supports_adaptive``)."""
 
     name: str = field(default="", init=False)
+    # what the catalog says of the method (set below, from :data:`CATALOG`):
+    #: Whether it steps adaptively (with ``adaptive``).
     supports_adaptive: ClassVar[bool] = False
     #: Adaptive stepping unless the model file says ``adaptive = false``, with these
     #: tolerances where it gives none (the explicit method).
@@ -141,28 +131,32 @@ class Integrator:
     adaptive: Adaptive | None = None
 
     def __post_init__(self) -> None:
+        require(isinstance(self.newton, NewtonOptions), "solver.newton", self.newton,
+                "a vibroimpact.NewtonOptions")
         require(
             self.adaptive is None or isinstance(self.adaptive, Adaptive),
             "solver.adaptive", self.adaptive, "a vibroimpact.Adaptive or None",
         )
-        if self.adaptive is not None and not self.supports_adaptive:
-            require(
-                False, "solver.adaptive", True,
-                "false for method " + repr(self.name) + "; adaptive stepping is available for "
-                + ", ".join(n for n, c in METHODS.items() if c.supports_adaptive),
-            )
+        object.__setattr__(self, "_spec", {"method": _core.method_spec(self)})
 
     def to_spec(self) -> dict[str, Any]:
-        raise NotImplementedError
+        """The method as plain data: its name (``kind``) and parameters (results files and
+        sweep definitions)."""
+        return {"kind": self.name, **{p["name"]: _PLAIN[p["kind"]](getattr(self, p["name"]))
+                                      for p in _settings(self.name)}}
 
     def _run_spec(self) -> dict[str, Any]:
-        """``method`` and ``newton`` of a run's spec (read-only: the core only reads them),
-        built at the first run and kept, as the integrator is immutable."""
+        """``method`` of a run's spec: the core's checked, typed method (``_core.MethodSpec``),
+        built with the integrator (it is immutable) and rebuilt after unpickling."""
         spec = self.__dict__.get("_spec")
         if spec is None:
-            spec = {"method": self.to_spec(), "newton": self.newton.to_spec()}
+            spec = {"method": _core.method_spec(self)}
             object.__setattr__(self, "_spec", spec)
         return spec
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Pickled and copied without the core's method spec (:meth:`_run_spec`)."""
+        return {k: v for k, v in self.__dict__.items() if k != "_spec"}
 
 
 @dataclass(frozen=True)
@@ -186,25 +180,8 @@ class Newmark(Integrator):
     complex at every ω·dt, so that ``gamma > 1/2`` damps the high frequencies most."""
 
     name: str = field(default="newmark", init=False)
-    supports_adaptive: ClassVar[bool] = True
-    gamma: float = 0.5
-    beta: float = 0.25
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        require(
-            isinstance(self.gamma, (int, float)) and math.isfinite(self.gamma)
-            and self.gamma >= 0.5,
-            "solver.gamma",
-            self.gamma,
-            "gamma >= 0.5 (paper eq. 16)",
-        )
-        require(
-            isinstance(self.beta, (int, float)) and math.isfinite(self.beta) and self.beta > 0,
-            "solver.beta",
-            self.beta,
-            "beta > 0",
-        )
+    gamma: float = catalog_default("newmark", "gamma")
+    beta: float = catalog_default("newmark", "beta")
 
     @property
     def critical_omega_dt(self) -> float:
@@ -212,9 +189,6 @@ class Newmark(Integrator):
         ``1/√(gamma/2 − beta)``, ``inf`` when ``beta >= gamma/2`` (unconditionally stable)."""
         margin = self.gamma / 2 - self.beta
         return math.inf if margin <= 0 else 1.0 / math.sqrt(margin)
-
-    def to_spec(self) -> dict[str, Any]:
-        return {"kind": "newmark", "beta": float(self.beta), "gamma": float(self.gamma)}
 
 
 @dataclass(frozen=True)
@@ -226,27 +200,11 @@ class GeneralizedAlpha(Integrator):
     average-acceleration rule, smaller values damp the high frequencies (the contact's)."""
 
     name: str = field(default="generalized-alpha", init=False)
-    supports_adaptive: ClassVar[bool] = True
-    rho_inf: float = 0.8
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        require(
-            isinstance(self.rho_inf, (int, float)) and 0 <= self.rho_inf <= 1,
-            "solver.rho_inf",
-            self.rho_inf,
-            "0 <= rho_inf <= 1",
-        )
+    rho_inf: float = catalog_default("generalized-alpha", "rho_inf")
 
     def parameters(self) -> dict[str, float]:
-        """``alpha_m``, ``alpha_f``, ``gamma``, ``beta`` of the α-form."""
-        r = float(self.rho_inf)
-        am, af = (2 * r - 1) / (r + 1), r / (r + 1)
-        return {"alpha_m": am, "alpha_f": af, "gamma": 0.5 - am + af,
-                "beta": 0.25 * (1 - am + af) ** 2}
-
-    def to_spec(self) -> dict[str, Any]:
-        return {"kind": "newmark", **self.parameters()}
+        """``alpha_m``, ``alpha_f``, ``gamma``, ``beta`` of the α-form (the core's)."""
+        return self._run_spec()["method"].newmark_parameters()
 
 
 @dataclass(frozen=True)
@@ -256,24 +214,11 @@ class HHT(Integrator):
     (HHT's own α is ``−alpha``.) Spectral radius at infinity ``(1 − alpha)/(1 + alpha)``."""
 
     name: str = field(default="hht", init=False)
-    supports_adaptive: ClassVar[bool] = True
-    alpha: float = 0.1
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        require(
-            isinstance(self.alpha, (int, float)) and 0 <= self.alpha <= 1 / 3,
-            "solver.alpha",
-            self.alpha,
-            "0 <= alpha <= 1/3",
-        )
+    alpha: float = catalog_default("hht", "alpha")
 
     def parameters(self) -> dict[str, float]:
-        a = float(self.alpha)
-        return {"alpha_m": 0.0, "alpha_f": a, "gamma": 0.5 + a, "beta": 0.25 * (1 + a) ** 2}
-
-    def to_spec(self) -> dict[str, Any]:
-        return {"kind": "newmark", **self.parameters()}
+        """``alpha_m``, ``alpha_f``, ``gamma``, ``beta`` of the α-form (the core's)."""
+        return self._run_spec()["method"].newmark_parameters()
 
 
 @dataclass(frozen=True)
@@ -290,19 +235,7 @@ class PreciseIntegration(Integrator):
     linear structure. See docs/integrators.md."""
 
     name: str = field(default="precise", init=False)
-    predictor_corrector: bool = False
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        require(
-            isinstance(self.predictor_corrector, bool),
-            "solver.predictor_corrector",
-            self.predictor_corrector,
-            "true or false",
-        )
-
-    def to_spec(self) -> dict[str, Any]:
-        return {"kind": "precise", "predictor_corrector": self.predictor_corrector}
+    predictor_corrector: bool = catalog_default("precise", "predictor_corrector")
 
 
 @dataclass(frozen=True)
@@ -315,20 +248,7 @@ class Bathe(Integrator):
     both sub-steps the same effective stiffness. About twice the work of Newmark per step."""
 
     name: str = field(default="bathe", init=False)
-    gamma: float = 0.5
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        require(
-            isinstance(self.gamma, (int, float)) and not isinstance(self.gamma, bool)
-            and 0 < self.gamma < 1,
-            "solver.gamma",
-            self.gamma,
-            "0 < gamma < 1",
-        )
-
-    def to_spec(self) -> dict[str, Any]:
-        return {"kind": "bathe", "gamma": float(self.gamma)}
+    gamma: float = catalog_default("bathe", "gamma")
 
 
 @dataclass(frozen=True)
@@ -349,18 +269,8 @@ class Dop853(Integrator):
     the reference in about 135 steps solved (``vibroimpact bench``). No Newton iterations."""
 
     name: str = field(default="dop853", init=False)
-    supports_adaptive: ClassVar[bool] = True
-    uses_newton: ClassVar[bool] = False
-    adaptive_defaults: ClassVar[dict[str, float] | None] = {"rtol": 1e-8, "atol": 1e-12}
-    adaptive: Adaptive | None = field(default_factory=lambda: Adaptive(rtol=1e-8, atol=1e-12))
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        require(self.newton == NewtonOptions(), "solver.newton", self.newton,
-                "the defaults: dop853 is explicit and runs no Newton iterations")
-
-    def to_spec(self) -> dict[str, Any]:
-        return {"kind": "dop853"}
+    adaptive: Adaptive | None = field(
+        default_factory=lambda: Adaptive(**_ENTRIES["dop853"]["adaptive_defaults"]))
 
 
 @dataclass(frozen=True)
@@ -381,28 +291,8 @@ class EventDriven(Integrator):
     plastic."""
 
     name: str = field(default="event-driven", init=False)
-    impulsive: ClassVar[bool] = True
-    chatter_fraction: float = 1e-3
-    max_events_per_step: int = 1000
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        require(
-            isinstance(self.chatter_fraction, (int, float))
-            and not isinstance(self.chatter_fraction, bool)
-            and 0 <= self.chatter_fraction < 1,
-            "solver.chatter_fraction", self.chatter_fraction, "0 <= chatter_fraction < 1",
-        )
-        require(
-            isinstance(self.max_events_per_step, int)
-            and not isinstance(self.max_events_per_step, bool)
-            and self.max_events_per_step >= 1,
-            "solver.max_events_per_step", self.max_events_per_step, "an integer >= 1",
-        )
-
-    def to_spec(self) -> dict[str, Any]:
-        return {"kind": "event-driven", "chatter_fraction": float(self.chatter_fraction),
-                "max_events_per_step": int(self.max_events_per_step)}
+    chatter_fraction: float = catalog_default("event-driven", "chatter_fraction")
+    max_events_per_step: int = catalog_default("event-driven", "max_events_per_step")
 
 
 @dataclass(frozen=True)
@@ -418,33 +308,20 @@ class MoreauJean(Integrator):
     energy account balances exactly."""
 
     name: str = field(default="moreau-jean", init=False)
-    impulsive: ClassVar[bool] = True
-    theta: float = 0.5
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        require(
-            isinstance(self.theta, (int, float)) and not isinstance(self.theta, bool)
-            and 0.5 <= self.theta <= 1,
-            "solver.theta", self.theta, "0.5 <= theta <= 1",
-        )
-
-    def to_spec(self) -> dict[str, Any]:
-        return {"kind": "moreau-jean", "theta": float(self.theta)}
+    theta: float = catalog_default("moreau-jean", "theta")
 
 
-#: Integrators by their model-file / CLI name (``[solver] method``). The last two are the
-#: impulsive methods (``impulsive = True``) of rigid gaps; the others take force laws only.
+#: Integrators by their name (``[solver] method``, the CLI), in the catalog's order: the
+#: methods of force laws, then the impulsive ones (``impulsive = True``) of rigid gaps.
 METHODS: dict[str, type[Integrator]] = {
-    "newmark": Newmark,
-    "generalized-alpha": GeneralizedAlpha,
-    "hht": HHT,
-    "precise": PreciseIntegration,
-    "bathe": Bathe,
-    "dop853": Dop853,
-    "event-driven": EventDriven,
-    "moreau-jean": MoreauJean,
+    m["name"]: globals()[m["class_name"]] for m in CATALOG["methods"]
 }
+for _name, _cls in METHODS.items():
+    _entry = _ENTRIES[_name]
+    _cls.supports_adaptive = _entry["adaptive"] != "fixed"
+    _cls.adaptive_defaults = _entry["adaptive_defaults"]
+    _cls.impulsive = _entry["impulsive"]
+    _cls.uses_newton = _entry["newton"]
 
 #: The integrators of force laws (every method of :data:`METHODS` but the impulsive ones).
 FORCE_METHODS: dict[str, type[Integrator]] = {
@@ -460,31 +337,25 @@ NEWTON_KEYS = {
 }
 
 #: ``[solver]`` keys of adaptive stepping (with ``adaptive = true``).
-ADAPTIVE_KEYS = ("rtol", "atol", "dt_min", "dt_max")
+ADAPTIVE_KEYS = tuple(s["name"] for s in CATALOG["adaptive"])
 
 
 def method_options(name: str) -> dict[str, tuple[str, Any]]:
     """Every ``[solver]`` option of method ``name`` (besides ``method``, ``dt``, ``t_end``):
-    TOML key -> (type name, default). The model-file loader and its reference use this."""
-    cls = METHODS[name]
-    out: dict[str, tuple[str, Any]] = {}
-    for f in fields(cls):
-        if f.init and f.name not in ("newton", "adaptive"):
-            kind = ("bool" if isinstance(f.default, bool)
-                    else "int" if isinstance(f.default, int) else "float")
-            out[f.name] = (kind, f.default)
-    if cls.impulsive:
-        return out  # no Newton iterations, no adaptive stepping
-    newton = {f.name: f for f in fields(NewtonOptions)}
-    for key, attr in NEWTON_KEYS.items() if cls.uses_newton else ():
-        f = newton[attr]
-        out[key] = ("int" if isinstance(f.default, int) else "float", f.default)
-    if cls.supports_adaptive:
-        defaults = cls.adaptive_defaults or {}
-        out["adaptive"] = ("bool", cls.adaptive_defaults is not None)
-        adaptive = {f.name: f for f in fields(Adaptive)}
-        for key in ADAPTIVE_KEYS:
-            out[key] = ("float", defaults.get(key, adaptive[key].default))
+    TOML key -> (type name, default), from the core's catalog. The model-file loader and its
+    reference use this."""
+    entry = _ENTRIES[name]
+    kind = {"number": "float", "integer": "int", "flag": "bool"}
+    out = {p["name"]: (kind[p["kind"]], p["default"]) for p in entry["parameters"]}
+    if entry["newton"]:
+        newton = {s["name"]: s for s in CATALOG["newton"]}
+        for key, attr in NEWTON_KEYS.items():
+            out[key] = (kind[newton[attr]["kind"]], newton[attr]["default"])
+    if entry["adaptive"] != "fixed":
+        defaults = entry["adaptive_defaults"] or {}
+        out["adaptive"] = ("bool", entry["adaptive"] == "by-default")
+        for s in CATALOG["adaptive"]:
+            out[s["name"]] = (kind[s["kind"]], defaults.get(s["name"], s["default"]))
     return out
 
 

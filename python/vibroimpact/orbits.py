@@ -99,7 +99,6 @@ class Shooting:
         self.method = default_method(model) if method is None else method
         self.dt = self.forcing_period / STEPS_PER_PERIOD if dt is None else float(dt)
         check_run(model, self.duration, self.dt, self.method)
-        adaptive = self.method.adaptive
         self._spec = model._run_spec()
         self._spec.update(
             self.method._run_spec(),
@@ -107,7 +106,6 @@ class Shooting:
             dt=self.dt,
             every=1,
             record_dofs=list(range(model.n_dof)),
-            adaptive=None if adaptive is None else adaptive.to_spec(self.duration, self.dt),
         )
 
     @property

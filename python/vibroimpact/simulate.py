@@ -437,7 +437,6 @@ def simulate(
         dt=float(dt),
         every=int(every),
         record_dofs=record,
-        adaptive=None if method.adaptive is None else method.adaptive.to_spec(t_end, dt),
     )
     for warning in pre_run_warnings(model, method, float(dt)):
         warnings.warn(warning, stacklevel=2)

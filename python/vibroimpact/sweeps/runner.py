@@ -51,7 +51,7 @@ import scipy.sparse as sp
 
 from vibroimpact import _core
 from vibroimpact.errors import Interrupted, ModelError, require
-from vibroimpact.integrators import Adaptive, Integrator, Newmark
+from vibroimpact.integrators import Integrator, Newmark
 from vibroimpact.io.results_file import atomic_write, netcdf_engine
 from vibroimpact.model import Model
 from vibroimpact.result import DOF_UNIT_DESCRIPTION, dof_variable_units
@@ -205,9 +205,7 @@ class _Plan:
     """Everything a worker needs to build and run any job of a sweep (picklable)."""
 
     base: dict[str, Any]
-    method: dict[str, Any]
-    newton: dict[str, Any]
-    adaptive: dict[str, Any] | None
+    integrator: Integrator
     dt: float
     paths: tuple[str, ...]
     values: tuple[np.ndarray, ...]
@@ -217,6 +215,12 @@ class _Plan:
     max_impacts: int
     period_load: int | None
     directions: tuple[str, ...]
+
+    @property
+    def adaptive(self) -> dict[str, Any] | None:
+        """The integrator's adaptive stepping as plain data (``None``: fixed steps)."""
+        a = self.integrator.adaptive
+        return None if a is None else dataclasses.asdict(a)
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -261,21 +265,13 @@ class _Plan:
         period = self.period(spec)
         if start is not None:
             spec["x0"], spec["v0"] = np.asarray(start[0]), np.asarray(start[1])
-        t_end = (self.transient + self.periods) * period
-        adaptive = None
-        if self.adaptive is not None:
-            a = dict(self.adaptive)
-            if a.get("dt_max") is None:
-                a["dt_max"] = min(period / 16, t_end)
-            adaptive = Adaptive(**a).to_spec(t_end, min(self.dt, a["dt_max"]))
+        # (adaptive stepping's limits: the core's defaults for a sweep, from the period)
         spec.update(
-            t_end=t_end,
-            dt=self.dt if adaptive is None else min(self.dt, adaptive["dt_max"]),
+            self.integrator._run_spec(),
+            t_end=(self.transient + self.periods) * period,
+            dt=self.dt,
             every=_NEVER,
             record_dofs=list(self.dofs),
-            method=self.method,
-            newton=self.newton,
-            adaptive=adaptive,
             sweep={"period": period, "transient": self.transient, "samples": self.periods,
                    "dofs": list(self.dofs), "max_impacts": self.max_impacts},
         )
@@ -303,8 +299,8 @@ class _Plan:
         return plain({
             "format": _FORMAT,
             "model": self.base,
-            "method": self.method,
-            "newton": self.newton,
+            "method": self.integrator.to_spec(),
+            "newton": self.integrator.newton.to_spec(),
             "adaptive": self.adaptive,
             "dt": self.dt,
             "params": [{"path": p, "values": v}
@@ -323,9 +319,7 @@ def _plan(sweep: Sweep) -> _Plan:
     assert m is not None and sweep.max_impacts is not None and sweep.dofs is not None
     return _Plan(
         base=sweep.model.to_spec(),
-        method=m.to_spec(),
-        newton=m.newton.to_spec(),
-        adaptive=None if m.adaptive is None else dataclasses.asdict(m.adaptive),
+        integrator=m,
         dt=float(sweep.dt),
         paths=tuple(p.path for p in sweep.params),
         values=tuple(np.asarray(p.values, dtype=float) for p in sweep.params),
@@ -825,7 +819,7 @@ def _dataset(sweep: Sweep, plan: _Plan, chunks: Sequence[_Chunk],
         "continuation": sweep.continuation,
         "continuation_axis": plan.paths[0] if sweep.continuation != "none" else "",
         "dt": plan.dt,
-        "method": json.dumps(plan.method),
+        "method": json.dumps(plan.integrator.to_spec()),
         "adaptive": json.dumps(plan.adaptive),
         "period_load": -1 if plan.period_load is None else plan.period_load,
         "definition_hash": digest,

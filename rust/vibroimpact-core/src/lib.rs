@@ -17,6 +17,7 @@ pub mod interpolation;
 pub mod interrupt;
 pub mod linalg;
 pub mod method;
+pub mod method_catalog;
 pub mod observe;
 pub mod output;
 pub mod sensitivity;

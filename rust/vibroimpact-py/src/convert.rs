@@ -1,4 +1,5 @@
-//! Spec dict → core types. The Python side has validated the model already; these checks
+//! Spec dict → core types: the model's arrays and lists, and the run's method as the typed
+//! `MethodSpec` (crate::method). The Python side has validated the model already; these checks
 //! repeat the essentials so that the core is never handed something malformed.
 
 use std::sync::Arc;
@@ -9,13 +10,11 @@ use pyo3::intern;
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyList};
 
+use crate::method::PyMethodSpec;
 use crate::{to_py_err, ModelError};
 use vibroimpact_core::contact::{law_entry, Law, ParameterValue, ParameterValues, ValueKind, LAWS};
 use vibroimpact_core::gap::{Gap, Side};
-use vibroimpact_core::impulsive::{EventDriven, MoreauJean};
-use vibroimpact_core::integrators::{Bathe, NewmarkFamily, NewtonSettings, PreciseIntegration};
 use vibroimpact_core::linalg::Csr;
-use vibroimpact_core::settings::Adaptive;
 use vibroimpact_core::simulate::{Method, RunSettings};
 use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
 use vibroimpact_core::system::System;
@@ -175,7 +174,7 @@ fn load(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Load> {
         "constant" => LoadHistory::Constant,
         "harmonic" => LoadHistory::Harmonic {
             frequency: item(d, "frequency", &ctx)?,
-            phase: opt(d, "phase", &ctx)?.unwrap_or(0.0),
+            phase: item(d, "phase", &ctx)?,
         },
         "table" => LoadHistory::Table {
             time: item(d, "time", &ctx)?,
@@ -189,71 +188,9 @@ fn load(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Load> {
     };
     Ok(Load {
         dofs: item(d, "dofs", &ctx)?,
-        amplitude: opt(d, "amplitude", &ctx)?.unwrap_or(1.0),
+        amplitude: item(d, "amplitude", &ctx)?,
         history,
     })
-}
-
-fn method(d: &Bound<'_, PyDict>) -> PyResult<Method> {
-    let py = d.py();
-    let kind: String = item(d, intern!(py, "kind"), "solver")?;
-    match kind.as_str() {
-        "newmark" | "newmark-family" => {
-            let scheme = NewmarkFamily {
-                beta: item(d, intern!(py, "beta"), "solver")?,
-                gamma: item(d, intern!(py, "gamma"), "solver")?,
-                alpha_m: opt(d, intern!(py, "alpha_m"), "solver")?.unwrap_or(0.0),
-                alpha_f: opt(d, intern!(py, "alpha_f"), "solver")?.unwrap_or(0.0),
-            };
-            scheme.validate().map_err(to_py_err)?;
-            Ok(Method::NewmarkFamily(scheme))
-        }
-        "precise" => Ok(Method::Precise(PreciseIntegration {
-            predictor_corrector: opt(d, "predictor_corrector", "solver")?.unwrap_or(false),
-        })),
-        "bathe" => {
-            let scheme = Bathe {
-                gamma: opt(d, intern!(py, "gamma"), "solver")?.unwrap_or(0.5),
-            };
-            scheme.validate().map_err(to_py_err)?;
-            Ok(Method::Bathe(scheme))
-        }
-        "event-driven" => {
-            let default = EventDriven::default();
-            let scheme = EventDriven {
-                chatter_fraction: opt(d, "chatter_fraction", "solver")?
-                    .unwrap_or(default.chatter_fraction),
-                max_events_per_step: opt(d, "max_events_per_step", "solver")?
-                    .unwrap_or(default.max_events_per_step),
-            };
-            scheme.validate().map_err(to_py_err)?;
-            Ok(Method::EventDriven(scheme))
-        }
-        "dop853" => Ok(Method::Dop853),
-        "moreau-jean" => {
-            let scheme = MoreauJean {
-                theta: opt(d, "theta", "solver")?.unwrap_or(0.5),
-            };
-            scheme.validate().map_err(to_py_err)?;
-            Ok(Method::MoreauJean(scheme))
-        }
-        other => Err(ModelError::new_err(format!(
-            "solver.method: '{other}' is not available"
-        ))),
-    }
-}
-
-fn adaptive(spec: &Bound<'_, PyDict>) -> PyResult<Option<Adaptive>> {
-    let py = spec.py();
-    let Some(d) = opt::<Bound<'_, PyDict>>(spec, intern!(py, "adaptive"), "solver")? else {
-        return Ok(None);
-    };
-    Ok(Some(Adaptive {
-        rtol: item(&d, intern!(py, "rtol"), "solver")?,
-        atol: item(&d, intern!(py, "atol"), "solver")?,
-        dt_min: item(&d, intern!(py, "dt_min"), "solver")?,
-        dt_max: item(&d, intern!(py, "dt_max"), "solver")?,
-    }))
 }
 
 /// A model's structure, gaps and loads as the core's `System`, built once by
@@ -294,35 +231,49 @@ fn system(spec: &Bound<'_, PyDict>) -> PyResult<System> {
     System::new(structure, gaps, loads).map_err(to_py_err)
 }
 
-/// The run of a spec: the model's fields (or `system`, compiled), initial state and settings.
-pub(crate) fn job_from_spec(spec: &Bound<'_, PyDict>) -> PyResult<Job> {
+/// The run of a spec: the model's fields (or `system`, compiled), initial state, settings and
+/// `method` (a `MethodSpec`); a sweep's point gives the period it samples at (adaptive
+/// stepping's default largest step follows from it).
+pub(crate) fn job_from_spec(spec: &Bound<'_, PyDict>, sweep_period: Option<f64>) -> PyResult<Job> {
     let py = spec.py();
     let system = match spec.get_item(intern!(py, "system"))? {
         Some(compiled) => compiled.cast::<CompiledSystem>()?.get().0.clone(),
         None => Arc::new(system(spec)?),
     };
-    let method_dict: Bound<'_, PyDict> = item(spec, intern!(py, "method"), "solver")?;
-    let newton_dict: Bound<'_, PyDict> = item(spec, intern!(py, "newton"), "solver")?;
-    let default = NewtonSettings::default();
-    let newton = NewtonSettings {
-        rtol: opt(&newton_dict, intern!(py, "rtol"), "solver")?.unwrap_or(default.rtol),
-        atol: opt(&newton_dict, intern!(py, "atol"), "solver")?.unwrap_or(default.atol),
-        max_iterations: opt(&newton_dict, intern!(py, "max_iterations"), "solver")?
-            .unwrap_or(default.max_iterations),
-        max_step_cuts: opt(&newton_dict, intern!(py, "max_step_cuts"), "solver")?
-            .unwrap_or(default.max_step_cuts),
+    let method = spec
+        .get_item(intern!(py, "method"))?
+        .ok_or_else(|| ModelError::new_err("solver.method: missing"))?;
+    let method = method
+        .cast::<PyMethodSpec>()
+        .map_err(|_| {
+            ModelError::new_err(
+                "solver.method: expected a MethodSpec (_core.method_spec of an integrator)",
+            )
+        })?
+        .get()
+        .0;
+    let t_end: f64 = item(spec, intern!(py, "t_end"), "solver")?;
+    let dt: f64 = item(spec, intern!(py, "dt"), "solver")?;
+    let (adaptive, dt) = match method.adaptive {
+        None => (None, dt),
+        Some(request) => {
+            let (adaptive, dt) = request
+                .resolve(t_end, dt, sweep_period)
+                .map_err(to_py_err)?;
+            (Some(adaptive), dt)
+        }
     };
     let n = system.n_dof();
     Ok(Job {
-        method: method(&method_dict)?,
+        method: method.method,
         settings: RunSettings {
-            t_end: item(spec, intern!(py, "t_end"), "solver")?,
-            dt: item(spec, intern!(py, "dt"), "solver")?,
+            t_end,
+            dt,
             every: item(spec, intern!(py, "every"), "output")?,
             record_dofs: opt(spec, intern!(py, "record_dofs"), "output")?
                 .unwrap_or_else(|| (0..n).collect()),
-            newton,
-            adaptive: adaptive(spec)?,
+            newton: method.newton,
+            adaptive,
         },
         x0: vector(spec, intern!(py, "x0"))?,
         v0: vector(spec, intern!(py, "v0"))?,

@@ -1,7 +1,9 @@
-//! Thin PyO3 binding of `vibroimpact-core`: converts the plain-data model spec built by the
-//! Python package into core types, runs with the GIL released, and returns numpy arrays.
+//! Thin PyO3 binding of `vibroimpact-core`: converts the model spec built by the Python package
+//! (plain data for the model, a typed `MethodSpec` for the method) into core types, runs with
+//! the GIL released, and returns numpy arrays.
 
 mod convert;
+mod method;
 mod orbit;
 mod running;
 mod sweep;
@@ -62,7 +64,7 @@ fn substitution_time<'py>(
     spec: &Bound<'py, PyDict>,
     solves: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let job = convert::job_from_spec(spec)?;
+    let job = convert::job_from_spec(spec, None)?;
     let vibroimpact_core::simulate::Method::NewmarkFamily(scheme) = job.method else {
         return Err(ModelError::new_err(
             "solver.method: expected a Newmark-family method for the substitution floor",
@@ -511,6 +513,10 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep::sweep_check, m)?)?;
     m.add_function(wrap_pyfunction!(contact_force, m)?)?;
     m.add_function(wrap_pyfunction!(law_catalog, m)?)?;
+    m.add_function(wrap_pyfunction!(method::method_catalog, m)?)?;
+    m.add_function(wrap_pyfunction!(method::method_spec, m)?)?;
+    m.add_function(wrap_pyfunction!(method::check_settings, m)?)?;
+    m.add_class::<method::PyMethodSpec>()?;
     m.add_function(wrap_pyfunction!(contact_law_evaluate, m)?)?;
     m.add_function(wrap_pyfunction!(geometry_stiffness, m)?)?;
     m.add("ModelError", m.py().get_type::<ModelError>())?;

@@ -50,7 +50,7 @@ pub(crate) fn flow_map<'py>(
         settings,
         x0,
         v0,
-    } = convert::job_from_spec(spec)?;
+    } = convert::job_from_spec(spec, None)?;
     let n_gaps = system.gaps.len();
     let mut extremes = Extremes {
         low: x0.iter().copied().collect(),

@@ -111,7 +111,7 @@ pub(crate) fn start(
     chunk_rows: Option<usize>,
     events: bool,
 ) -> PyResult<Running> {
-    let job = convert::job_from_spec(spec)?;
+    let job = convert::job_from_spec(spec, None)?;
     // an adaptive run's first step is `dt`: estimated at ten times the steps of that size
     let steps = job.settings.t_end / job.settings.dt
         * if job.settings.adaptive.is_some() {

@@ -45,14 +45,15 @@ fn point_job(py: Python<'_>, spec: &Bound<'_, PyAny>, label: &str) -> PyResult<S
         }
     };
     let spec = spec.cast::<PyDict>().map_err(|e| prefix(e.into()))?;
-    let job = job_from_spec(spec).map_err(prefix)?;
+    let sampling = sampling(spec).map_err(prefix)?;
+    let job = job_from_spec(spec, Some(sampling.period)).map_err(prefix)?;
     Ok(SweepJob {
         system: std::sync::Arc::unwrap_or_clone(job.system),
         method: job.method,
         settings: job.settings,
         x0: job.x0,
         v0: job.v0,
-        sampling: sampling(spec).map_err(prefix)?,
+        sampling,
     })
 }
 

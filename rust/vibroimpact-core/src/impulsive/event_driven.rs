@@ -66,15 +66,6 @@ pub struct EventDriven {
     pub max_events_per_step: usize,
 }
 
-impl Default for EventDriven {
-    fn default() -> Self {
-        Self {
-            chatter_fraction: 1e-3,
-            max_events_per_step: 1000,
-        }
-    }
-}
-
 impl EventDriven {
     pub fn validate(&self) -> Result<(), SimError> {
         if !(self.chatter_fraction >= 0.0 && self.chatter_fraction < 1.0) {

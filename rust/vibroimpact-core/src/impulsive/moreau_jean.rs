@@ -38,12 +38,6 @@ pub struct MoreauJean {
     pub theta: f64,
 }
 
-impl Default for MoreauJean {
-    fn default() -> Self {
-        Self { theta: 0.5 }
-    }
-}
-
 impl MoreauJean {
     pub fn validate(&self) -> Result<(), SimError> {
         if !(self.theta >= 0.5 && self.theta <= 1.0) {

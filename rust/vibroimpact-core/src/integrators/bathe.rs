@@ -33,12 +33,6 @@ pub struct Bathe {
     pub gamma: f64,
 }
 
-impl Default for Bathe {
-    fn default() -> Self {
-        Self { gamma: 0.5 }
-    }
-}
-
 impl Bathe {
     pub fn validate(&self) -> Result<(), SimError> {
         if !(self.gamma.is_finite() && self.gamma > 0.0 && self.gamma < 1.0) {

@@ -26,17 +26,6 @@ pub struct NewtonSettings {
     pub max_step_cuts: usize,
 }
 
-impl Default for NewtonSettings {
-    fn default() -> Self {
-        Self {
-            rtol: 1e-10,
-            atol: 1e-15,
-            max_iterations: 30,
-            max_step_cuts: 12,
-        }
-    }
-}
-
 /// How the gap rates follow the gap increments inside one step: `u̇ = rate_lin + S Δu`.
 #[derive(Debug, Clone, Copy)]
 pub(crate) enum RateMap<'a> {
