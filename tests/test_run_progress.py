@@ -167,7 +167,8 @@ def test_the_core_publishes_its_progress_during_the_run(
         monkeypatch: pytest.MonkeyPatch, model: str, options: dict[str, Any]) -> None:
     """Every method reports the simulated time it reached while it runs (0.2–0.8 s here,
     polled every 50 ms): the bar of ``progress=True``, on a clock that lets it draw at every
-    poll, is updated with times that grow from inside the run to its end."""
+    poll, is updated with times that grow from inside the run to its end. (How many polls
+    fall inside the run depends on the machine's load: one is required.)"""
     bars: list[ProgressBar] = []
 
     def bar(t_end: float) -> ProgressBar:
@@ -181,7 +182,8 @@ def test_the_core_publishes_its_progress_during_the_run(
     assert r.complete and len(bars) == 1
     drawn = [float(m) for m in re.findall(r"t = ([-+0-9.e]+) of", bars[0].stream.getvalue())]
     inside = [t for t in drawn if 0 < t < options["t_end"]]
-    assert len(inside) >= 2 and np.all(np.diff(drawn) >= 0), drawn
+    # at least one time from inside the run (a loaded machine may poll only once in it)
+    assert len(inside) >= 1 and np.all(np.diff(drawn) >= 0), drawn
     assert drawn[-1] == pytest.approx(options["t_end"], rel=1e-12)
 
 
