@@ -1,4 +1,5 @@
-"""CalculiX round trips (issue 23): small models written here as ``.inp`` decks, exported by
+"""CalculiX round trips (issue 23): small models written as ``.inp`` decks (the bricks by
+:func:`vibroimpact.benchmarks.calculix.brick_mesh`, the shells here), exported by
 ``ccx`` with ``*FREQUENCY, SOLVER=MATRIXSTORAGE`` (the recipe of docs/beam.md), imported, and
 their frequencies compared with CalculiX's own ``*FREQUENCY`` step on the same deck.
 
@@ -15,11 +16,11 @@ from __future__ import annotations
 import json
 import re
 import shutil
-import subprocess
 from pathlib import Path
 
 import numpy as np
 import pytest
+from vibroimpact.benchmarks.calculix import EXPORT_STEP, MATERIAL, brick_mesh, run_ccx
 from vibroimpact.cli import main as cli_main
 from vibroimpact.fe import modes
 from vibroimpact.fe.matrices import read_calculix
@@ -30,43 +31,7 @@ pytestmark = pytest.mark.skipif(
     ".ci/run does)",
 )
 
-MATERIAL = "*MATERIAL, NAME=STEEL\n*ELASTIC\n210e9, 0.3\n*DENSITY\n7800\n"
-EXPORT = "*FREQUENCY, SOLVER=MATRIXSTORAGE\n"
 FREQUENCY = "*FREQUENCY\n10\n"
-
-
-def brick_mesh(element: str, nx: int = 2, ny: int = 1, nz: int = 2) -> str:
-    """A structured mesh of twenty-node bricks on 0.1 × 0.02 × 0.04 m (node order of
-    CalculiX/ABAQUS: 8 corners, then the midside nodes of the bottom, top and vertical
-    edges), clamped at x = 0."""
-    size = (0.1, 0.02, 0.04)
-    grid = (2 * nx + 1, 2 * ny + 1, 2 * nz + 1)
-    label: dict[tuple[int, int, int], int] = {}
-    lines = ["*NODE"]
-    for k in range(grid[2]):
-        for j in range(grid[1]):
-            for i in range(grid[0]):
-                if i % 2 + j % 2 + k % 2 > 1:  # face and body centres are not nodes
-                    continue
-                label[(i, j, k)] = len(label) + 1
-                x = [size[a] * c / (grid[a] - 1) for a, c in enumerate((i, j, k))]
-                lines.append(f"{label[(i, j, k)]}, {x[0]!r}, {x[1]!r}, {x[2]!r}")
-    corners = [(0, 0, 0), (2, 0, 0), (2, 2, 0), (0, 2, 0), (0, 0, 2), (2, 0, 2), (2, 2, 2),
-               (0, 2, 2)]
-    edges = [(1, 0, 0), (2, 1, 0), (1, 2, 0), (0, 1, 0), (1, 0, 2), (2, 1, 2), (1, 2, 2),
-             (0, 1, 2), (0, 0, 1), (2, 0, 1), (2, 2, 1), (0, 2, 1)]
-    lines.append(f"*ELEMENT, TYPE={element}, ELSET=E")
-    number = 0
-    for ez in range(nz):
-        for ey in range(ny):
-            for ex in range(nx):
-                number += 1
-                nodes = [label[(2 * ex + a, 2 * ey + b, 2 * ez + c)] for a, b, c in corners + edges]
-                lines.append(f"{number}, " + ", ".join(map(str, nodes[:15])) + ",")
-                lines.append(", ".join(map(str, nodes[15:])))
-    fixed = [n for (i, _, _), n in label.items() if i == 0]
-    lines += ["*NSET, NSET=FIXED", *map(str, fixed)]
-    return "\n".join(lines) + "\n" + MATERIAL + "*SOLID SECTION, ELSET=E, MATERIAL=STEEL\n"
 
 
 def shell_mesh(nx: int = 2, ny: int = 1) -> str:
@@ -93,11 +58,8 @@ def shell_mesh(nx: int = 2, ny: int = 1) -> str:
 
 def ccx(folder: Path, job: str, model: str, step: str) -> Path:
     """Run ``ccx job`` on ``model`` + a clamped ``step`` in ``folder``; the job's path."""
-    deck = model + "*BOUNDARY\nFIXED, 1, 3\n*STEP\n" + step + "*END STEP\n"
-    (folder / f"{job}.inp").write_text(deck, encoding="ascii")
-    done = subprocess.run(["ccx", job], cwd=folder, capture_output=True, text=True, timeout=60)
-    assert done.returncode == 0 and "Job finished" in done.stdout, done.stdout[-2000:]
-    return folder / job
+    return run_ccx(folder, job, model + "*BOUNDARY\nFIXED, 1, 3\n*STEP\n" + step
+                   + "*END STEP\n")
 
 
 def calculix_frequencies(dat: Path) -> np.ndarray:
@@ -115,8 +77,8 @@ def calculix_frequencies(dat: Path) -> np.ndarray:
 
 
 MODELS = {
-    "C3D20": lambda: brick_mesh("C3D20"),
-    "C3D20R": lambda: brick_mesh("C3D20R"),
+    "C3D20": lambda: brick_mesh("C3D20").model,
+    "C3D20R": lambda: brick_mesh("C3D20R").model,
     "S8R": shell_mesh,
 }
 
@@ -127,7 +89,7 @@ def exported(request: pytest.FixtureRequest, tmp_path_factory: pytest.TempPathFa
     """(element, the exported job, CalculiX's own frequencies) per model."""
     folder = tmp_path_factory.mktemp(request.param)
     model = MODELS[request.param]()
-    job = ccx(folder, "export", model, EXPORT)
+    job = ccx(folder, "export", model, EXPORT_STEP)
     dat = ccx(folder, "frequency", model, FREQUENCY).with_suffix(".dat")
     return request.param, job, calculix_frequencies(dat)
 

@@ -9,6 +9,12 @@ tests):
 * :func:`solid_model_benchmark` (issue 23) — a 49,980-DOF block of hexahedra
   (:func:`hexahedral_block`) with a gap at its tip; target: a step within 2× of the bare
   forward and backward substitution with its own factor (the floor, timed in the same run).
+  :func:`solid_reduction_benchmark` — its Craig–Bampton reduction to the gap DOF plus 50
+  modes; target: within 1e-3 of the full model's gap response at a small fraction of the cost.
+* :func:`calculix_benchmark` (issue 23) — the 1,140-DOF C3D20 cantilever exported by CalculiX
+  (:func:`vibroimpact.benchmarks.calculix.brick_mesh`) with a one-sided gap at its tip,
+  against CalculiX's own ``*DYNAMIC, DIRECT`` on the same model without contact, run side by
+  side; target: a step ≥ 100× faster.
 """
 
 from __future__ import annotations
@@ -20,8 +26,12 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["hexahedral_block", "hollow_shaft_benchmark", "imported_model_benchmark",
-           "solid_model_benchmark"]
+__all__ = ["calculix_benchmark", "hexahedral_block", "hollow_shaft_benchmark",
+           "imported_model_benchmark", "solid_model", "solid_model_benchmark",
+           "solid_reduction_benchmark"]
+
+CANTILEVER_ELEMENTS = (20, 1, 2)
+CANTILEVER_SIZE = (0.5, 0.02, 0.04)
 
 
 def hollow_shaft_benchmark(t_end: float = 1.0, dt: float = 1e-6) -> dict[str, Any]:
@@ -150,11 +160,25 @@ def hexahedral_block(
                        dof_map=DofMap(labels.tolist(), directions.tolist()))
 
 
+def solid_model(n_elements: tuple[int, int, int] = (85, 13, 13)) -> tuple[Any, Any]:
+    """(model, gap) of the solid benchmarks: :func:`hexahedral_block` with a one-sided Hertz
+    gap at the tip's centre node (``y``, 5 µm) and every node moving at 1 m/s towards it."""
+    import vibroimpact as vi
+
+    fe = hexahedral_block(n_elements)
+    ex, ey, ez = n_elements
+    tip = ex * (ey + 1) * (ez + 1) + (ey // 2) * (ez + 1) + ez // 2 + 1
+    gap = fe.gap(vi.contact.Hertz(stiffness=1.5e11), node=tip, direction="y",
+                 clearance=5e-6, side="positive")
+    v0 = np.zeros(fe.n_dof)
+    v0[fe.dofs("all", "y")] = 1.0
+    return vi.Model(fe.to_structure(), gaps=[gap], initial_velocity=v0), gap
+
+
 def solid_model_benchmark(steps: int = 20, dt: float = 1e-6,
                           n_elements: tuple[int, int, int] = (85, 13, 13)) -> dict[str, Any]:
-    """Per-step cost of :func:`hexahedral_block` (Newmark, average acceleration) with a
-    one-sided Hertz gap at the tip's centre node (``y``, 5 µm: it closes in the sixth step)
-    and every node moving at 1 m/s towards it, against the floor: the same run's effective
+    """Per-step cost of :func:`solid_model` (Newmark, average acceleration; the gap closes
+    in the sixth step), against the floor: the same run's effective
     stiffness, factorised as the run factorises it, in ``steps`` bare solves
     (``_core.substitution_time``). The steps are timed by the arrival of their rows (streamed
     one by one; the core is polled every 50 ms), so that the setup (ordering, factorisation,
@@ -167,16 +191,9 @@ def solid_model_benchmark(steps: int = 20, dt: float = 1e-6,
     from vibroimpact.errors import ContactResolutionWarning
 
     t0 = time.perf_counter()
-    fe = hexahedral_block(n_elements)
-    out: dict[str, Any] = {"n_dof": fe.n_dof, "assembly_s": time.perf_counter() - t0,
+    model, gap = solid_model(n_elements)
+    out: dict[str, Any] = {"n_dof": model.n_dof, "assembly_s": time.perf_counter() - t0,
                            "steps": steps}
-    ex, ey, ez = n_elements
-    tip = ex * (ey + 1) * (ez + 1) + (ey // 2) * (ez + 1) + ez // 2 + 1
-    gap = fe.gap(vi.contact.Hertz(stiffness=1.5e11), node=tip, direction="y",
-                 clearance=5e-6, side="positive")
-    v0 = np.zeros(fe.n_dof)
-    v0[fe.dofs("all", "y")] = 1.0
-    model = vi.Model(fe.to_structure(), gaps=[gap], initial_velocity=v0)
     arrivals: list[tuple[float, int]] = []  # (when, rows received by then)
     contact_rows = 0
 
@@ -206,3 +223,93 @@ def solid_model_benchmark(steps: int = 20, dt: float = 1e-6,
                floor_ms=floor["solve_s"] * 1e3)
     out["ratio"] = out["ms_per_step"] / max(out["floor_ms"], 1e-12)
     return out
+
+
+def calculix_benchmark(steps: int = 2000, ccx_steps: int = 30, dt: float = 1e-6
+                       ) -> dict[str, Any] | None:
+    """Per-step cost of the C3D20 steel cantilever of issue 23 (0.5 × 0.02 × 0.04 m, 20 × 1 × 2
+    bricks, 393 nodes, 1,140 DOFs, clamped at ``x = 0``; every free node starts at 1 m/s in
+    ``y``), exported by ``ccx`` and imported, with a one-sided Hertz gap in ``y`` at the tip's
+    centre node (5 µm: it closes in the sixth step), Newmark at ``dt`` (``steps`` steps; the
+    setup left out by also timing 1 step), against ``ccx``'s ``*DYNAMIC, DIRECT`` of the same
+    model without the gap at the same ``dt`` (printing the tip's displacement each step, as we
+    record the gap DOF), timed as the difference of a 1-step and a ``1 + ccx_steps``-step run
+    (the start, reading and first factorisation left out) on one OpenMP thread, as the core
+    runs. ``None`` without ``ccx`` on PATH."""
+    import shutil
+    import warnings
+
+    import vibroimpact as vi
+    from vibroimpact import _core
+    from vibroimpact.benchmarks.calculix import EXPORT_STEP, brick_mesh, run_ccx
+    from vibroimpact.errors import ContactResolutionWarning
+    from vibroimpact.fe.matrices import read_calculix
+
+    if shutil.which("ccx") is None:
+        return None
+    mesh = brick_mesh("C3D20", CANTILEVER_ELEMENTS, CANTILEVER_SIZE)
+    clamped = mesh.model + "*BOUNDARY\nFIXED, 1, 3\n"
+    with tempfile.TemporaryDirectory() as d:
+        folder = Path(d)
+        fe = read_calculix(run_ccx(folder, "export", clamped + "*STEP\n" + EXPORT_STEP
+                                   + "*END STEP\n"))
+        ccx_s, printed = [], []
+        for n in (1, 1 + ccx_steps):
+            deck = (clamped + "*INITIAL CONDITIONS, TYPE=VELOCITY\nMOVING, 2, 1.0\n"
+                    f"*STEP, INC={n + 1}\n*DYNAMIC, DIRECT\n{dt!r}, {n * dt!r}\n"
+                    "*NODE PRINT, NSET=TIP\nU\n*END STEP\n")
+            t0 = time.perf_counter()
+            job = run_ccx(folder, f"dynamic{n}", deck, threads=1)
+            ccx_s.append(time.perf_counter() - t0)
+            printed.append(job.with_suffix(".dat").read_text().count("displacements"))
+    if printed != [1, 1 + ccx_steps]:
+        raise RuntimeError(f"ccx *DYNAMIC, DIRECT: printed {printed} increments; expected "
+                           f"[1, {1 + ccx_steps}] (fixed increments of {dt:g} s)")
+    gap = fe.gap(vi.contact.Hertz(stiffness=1.5e11), node=mesh.tip, direction="y",
+                 clearance=5e-6, side="positive")
+    v0 = np.zeros(fe.n_dof)
+    v0[fe.dofs("all", "y")] = 1.0
+    model = vi.Model(fe.to_structure(), gaps=[gap], initial_velocity=v0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ContactResolutionWarning)
+        one = vi.simulate(model, t_end=dt, dt=dt, dofs=[gap.dof]).stats.wall_time_s
+        r = vi.simulate(model, t_end=(steps + 1) * dt, dt=dt, dofs=[gap.dof])
+    spec = model._run_spec()
+    spec.update(vi.Newmark()._run_spec(), t_end=dt, dt=dt, every=1, record_dofs=[gap.dof],
+                adaptive=None)
+    solver = _core.substitution_time(spec, 1)["solver"]
+    ms_per_step = max(r.stats.wall_time_s - one, 0.0) / steps * 1e3
+    ccx_ms = (ccx_s[1] - ccx_s[0]) / ccx_steps * 1e3
+    return {"n_dof": fe.n_dof, "steps": steps, "solver": solver, "ms_per_step": ms_per_step,
+            "contact_steps": int(np.count_nonzero(r.gap_force[:, 0])),
+            "ccx_steps": ccx_steps, "ccx_ms_per_step": ccx_ms, "ccx_setup_s": ccx_s[0],
+            "speedup": ccx_ms / max(ms_per_step, 1e-12)}
+
+
+def solid_reduction_benchmark(steps: int = 2000, n_modes: int = 50, dt: float = 1e-6,
+                              n_elements: tuple[int, int, int] = (85, 13, 13)
+                              ) -> dict[str, Any]:
+    """:func:`solid_model` reduced by Craig–Bampton to its gap DOF plus ``n_modes``
+    fixed-interface modes, against the full model over ``steps`` Newmark steps of ``dt``
+    (:func:`~vibroimpact.fe.reduction.check_reduction`: the gap displacement's and contact
+    force's largest errors relative to their largest values): the reduction's time plus the
+    reduced run's against the full run's (the core's times, setup included)."""
+    import warnings
+
+    from vibroimpact.errors import ContactResolutionWarning
+    from vibroimpact.fe.reduction import check_reduction, craig_bampton
+
+    model, gap = solid_model(n_elements)
+    t0 = time.perf_counter()
+    cb = craig_bampton(model, [gap.dof], n_modes)
+    reduction_s = time.perf_counter() - t0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ContactResolutionWarning)
+        check = check_reduction(model, cb, t_end=steps * dt, dt=dt)
+    reduced_s = reduction_s + check.wall_time_reduced_s
+    return {"n_dof": model.n_dof, "reduced_n_dof": cb.n_dof, "steps": steps,
+            "reduction_s": reduction_s, "reduced_run_s": check.wall_time_reduced_s,
+            "full_run_s": check.wall_time_full_s,
+            "displacement_error": check.displacement_error, "force_error": check.force_error,
+            "impacts": check.impacts_full, "impacts_reduced": check.impacts_reduced,
+            "cost_fraction": reduced_s / max(check.wall_time_full_s, 1e-12)}
