@@ -19,12 +19,15 @@ from vibroimpact.impact import single_impact
 G, H = 9.81, 1.0
 
 
-def _model(law: contact.ContactLaw, mass: float = 1.0) -> vi.Model:
-    """A mass dropped from rest at height H onto a floor at u = 0, under gravity."""
+def _model(law: contact.ContactLaw, mass: float = 1.0, table: bool = False) -> vi.Model:
+    """A mass dropped from rest at height H onto a floor at u = 0, under gravity (``table``:
+    given as a two-row table, held at its end values)."""
+    gravity = (vi.TableLoad(dof=0, time=[0.0, 1.0], force=[-G * mass, -G * mass]) if table
+               else vi.ConstantLoad(dof=0, amplitude=-G * mass))
     return vi.Model(
         vi.Structure.sdof(mass=mass),
         gaps=[vi.Gap(dof=0, clearance=0.0, side="negative", law=law)],
-        loads=[vi.ConstantLoad(dof=0, amplitude=-G * mass)],
+        loads=[gravity],
         initial_displacement=H,
     )
 
@@ -46,10 +49,14 @@ def accumulation_time(e: float) -> float:
     return t1 + 2 * e * G * t1 / (G * (1 - e))
 
 
-def test_event_driven_matches_the_closed_form_and_sticks_at_t_inf() -> None:
+@pytest.mark.parametrize("table", [False, True], ids=["constant-load", "table-load"])
+def test_event_driven_matches_the_closed_form_and_sticks_at_t_inf(table: bool) -> None:
+    """Constant loads ride in the exact propagator as their own state; a table load takes the
+    quadratic-interpolation path (exact for a load constant over each step)."""
     e, dt = 0.7, 1e-3
     method = vi.EventDriven()
-    r = vi.simulate(_model(contact.Rigid(restitution=e)), t_end=accumulation_time(e) + 0.2,
+    r = vi.simulate(_model(contact.Rigid(restitution=e), table=table),
+                    t_end=accumulation_time(e) + 0.2,
                     dt=dt, method=method)
     imp = r.impacts
     n = len(imp.t_start)

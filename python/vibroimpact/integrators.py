@@ -278,8 +278,9 @@ class EventDriven(Integrator):
     """Event-driven integration of rigid impacts (gaps with ``contact.Rigid`` only): every
     impact instant is located by root finding on the exact solution, Newton's restitution
     law is applied as a velocity jump through the generalized impulse, and between events
-    the linear structure is integrated exactly (matrix exponential; loads quadratic over each
-    step). ``dt`` is the step on which events are searched and output is recorded.
+    the linear structure is integrated exactly (matrix exponential; constant and harmonic
+    loads exactly, a table load as the quadratic over each step). ``dt`` is the step on
+    which events are searched and output is recorded.
 
     Rules (docs/rigid-impacts.md): simultaneous impacts are resolved together by the
     generalized Newton law (one LCP on the Delassus matrix ``G M⁻¹ Gᵀ``); chattering ends

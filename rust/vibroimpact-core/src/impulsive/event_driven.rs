@@ -4,10 +4,16 @@
 //! linear: `z' = A_S z + B_S F(t)` for `z = [x; v]`, with the contact forces of the stuck
 //! walls eliminated, `a = Π M⁻¹ (F − C v − K x)`, `Π = I − M⁻¹ G_Sᵀ W_S⁻¹ G_S`,
 //! `W_S = G_S M⁻¹ G_Sᵀ`, `λ_S = W_S⁻¹ G_S M⁻¹ (F − C v − K x)`. It is integrated exactly by
-//! the matrix exponential (`Φ = exp(A_S h)` and the Duhamel matrices, `super::super::integrators::expm`),
-//! once per wall set for the step `dt` and on demand for partial steps; the loads are
-//! interpolated by the quadratic through the step's ends and middle (exact for constant,
-//! linear and quadratic loads, third order otherwise).
+//! the matrix exponential (`crate::integrators::expm`), once per wall set for the step `dt`:
+//! * constant and harmonic loads ([`LoadOscillator`]) are the output `F = P w` of their own
+//!   linear oscillator `w' = Ω w` (`w = 1`; `w = (sin θ, cos θ)`, `θ = 2πft + φ`), so the
+//!   flight of `[x; v; w]` is autonomous, `z̃' = Ã z̃`, and `exp(Ã dt)` is its exact
+//!   propagator: a full step is one mat-vec. A trial instant inside a step (locating an
+//!   event) is `exp(Ã τ) z̃` by its Taylor series (`expm::expm_action`: a few mat-vecs,
+//!   to round-off), the exponential where that series is not safe (stiff modes);
+//! * with a table load, the loads are interpolated by the quadratic through the step's ends
+//!   and middle (exact for linear pieces that the step does not straddle, third order
+//!   otherwise) through the Duhamel matrices, computed anew for each trial instant.
 //!
 //! Events, located in each step on a quintic Hermite interpolant of every free wall's
 //! penetration (`δ, δ̇, δ̈` at both ends, 32 samples) and of every stuck wall's force
@@ -36,10 +42,8 @@
 //!
 //! Limitations: an excursion into a wall shorter than a sample spacing (`dt/32`) that the
 //! quintic interpolant does not show is missed (choose `dt` below the shortest flight of
-//! interest); the exponential costs `O((2n + 3k)³)` per wall set and per partial step (small
-//! and reduced models).
-
-use std::collections::HashMap;
+//! interest); the exponential costs `O((2n + 2k)³)` per wall set (with a table load, per
+//! trial instant too; small and reduced models).
 
 use nalgebra::{DMatrix, DVector};
 
@@ -49,8 +53,9 @@ use super::{fill_gaps, Rigidity};
 use crate::driver::{Run, StepPolicy};
 use crate::error::{invalid, SimError};
 use crate::gap::ImpactRecord;
-use crate::integrators::expm::duhamel;
+use crate::integrators::expm::{duhamel, expm, expm_action};
 use crate::sensitivity::{saltation_update, StateTransition};
+use crate::structure::LoadHistory;
 use crate::system::{State, System};
 
 /// The method's name in errors.
@@ -81,6 +86,80 @@ impl EventDriven {
     }
 }
 
+/// Constant and harmonic loads as the output of a linear oscillator: `F_l(t) = (P w(t))_l`,
+/// `w' = Ω w`, one state for a constant load (`w = 1`), two for a harmonic one
+/// (`w = (sin θ, cos θ)`, `θ = 2πft + φ`, `Ω = [[0, 2πf], [−2πf, 0]]`).
+struct LoadOscillator {
+    /// `P` (loads × states), the amplitudes.
+    output: DMatrix<f64>,
+    /// `Ω`.
+    generator: DMatrix<f64>,
+    /// The first state of each load, with its angular frequency (`None`: constant).
+    states: Vec<(usize, Option<(f64, f64)>)>,
+}
+
+impl LoadOscillator {
+    /// `None` if a load is a table (not the output of a finite linear oscillator).
+    fn new(sys: &System) -> Option<Self> {
+        let mut states = Vec::new();
+        let mut m = 0;
+        for load in &sys.loads {
+            match &load.history {
+                LoadHistory::Constant => {
+                    states.push((m, None));
+                    m += 1;
+                }
+                LoadHistory::Harmonic { frequency, phase } => {
+                    states.push((m, Some((2.0 * std::f64::consts::PI * frequency, *phase))));
+                    m += 2;
+                }
+                LoadHistory::Table { .. } => return None,
+            }
+        }
+        let mut output = DMatrix::zeros(sys.loads.len(), m);
+        let mut generator = DMatrix::zeros(m, m);
+        for (l, (&(first, harmonic), load)) in states.iter().zip(&sys.loads).enumerate() {
+            output[(l, first)] = load.amplitude;
+            if let Some((omega, _)) = harmonic {
+                generator[(first, first + 1)] = omega;
+                generator[(first + 1, first)] = -omega;
+            }
+        }
+        Some(Self {
+            output,
+            generator,
+            states,
+        })
+    }
+
+    /// `w(t)`, into `w`.
+    fn state(&self, t: f64, w: &mut [f64]) {
+        for &(first, harmonic) in &self.states {
+            match harmonic {
+                None => w[first] = 1.0,
+                Some((omega, phase)) => {
+                    let (sin, cos) = (omega * t + phase).sin_cos();
+                    w[first] = sin;
+                    w[first + 1] = cos;
+                }
+            }
+        }
+    }
+}
+
+/// How a wall set's flight is propagated (module docs).
+enum Flow {
+    /// `Ã = [[A_S, B_S P], [0, Ω]]` and its cached `exp(Ã dt)`.
+    Autonomous {
+        a: DMatrix<f64>,
+        full: Option<DMatrix<f64>>,
+    },
+    /// Table loads: the cached `exp(A_S dt)` and the Duhamel matrices of the quadratic.
+    Quadratic {
+        full: Option<(DMatrix<f64>, Vec<DMatrix<f64>>)>,
+    },
+}
+
 /// Matrices of one wall set.
 struct Mode {
     a: DMatrix<f64>,
@@ -92,11 +171,11 @@ struct Mode {
     m_inv_gt: DMatrix<f64>,
     /// `Π M⁻¹`.
     pi_m_inv: DMatrix<f64>,
-    full: Option<(DMatrix<f64>, Vec<DMatrix<f64>>)>,
+    flow: Flow,
 }
 
 impl Mode {
-    fn new(rig: &Rigidity, set: Vec<usize>) -> Self {
+    fn new(rig: &Rigidity, loads: Option<&LoadOscillator>, set: Vec<usize>) -> Self {
         let n = rig.n;
         let gs = rig.jacobian(&set);
         let m_inv_gt = &rig.m_inv * gs.transpose();
@@ -120,6 +199,19 @@ impl Mode {
         let mut b = DMatrix::zeros(2 * n, nl);
         b.view_mut((n, 0), (n, nl))
             .copy_from(&(&pi_m_inv * &rig.load_cols));
+        let flow = match loads {
+            Some(osc) => {
+                let m = osc.generator.nrows();
+                let mut aug = DMatrix::zeros(2 * n + m, 2 * n + m);
+                aug.view_mut((0, 0), (2 * n, 2 * n)).copy_from(&a);
+                aug.view_mut((0, 2 * n), (2 * n, m))
+                    .copy_from(&(&b * &osc.output));
+                aug.view_mut((2 * n, 2 * n), (m, m))
+                    .copy_from(&osc.generator);
+                Flow::Autonomous { a: aug, full: None }
+            }
+            None => Flow::Quadratic { full: None },
+        };
         Self {
             a,
             b,
@@ -128,12 +220,36 @@ impl Mode {
             w_pinv,
             m_inv_gt,
             pi_m_inv,
-            full: None,
+            flow,
         }
     }
 
     fn operator(&self, eta: f64) -> (DMatrix<f64>, Vec<DMatrix<f64>>) {
         duhamel(&self.a, eta, &self.b, 2)
+    }
+
+    /// Caches the propagator of the full step `h0`.
+    fn prepare(&mut self, h0: f64) {
+        match &mut self.flow {
+            Flow::Autonomous { a, full } if full.is_none() => *full = Some(expm(&(&*a * h0))),
+            Flow::Quadratic { full } if full.is_none() => {
+                *full = Some(duhamel(&self.a, h0, &self.b, 2));
+            }
+            _ => {}
+        }
+    }
+
+    /// `exp(A_S h0)`, once [`Mode::prepare`]d.
+    fn full_transition(&self) -> DMatrix<f64> {
+        let n2 = self.a.nrows();
+        match &self.flow {
+            Flow::Autonomous { full, .. } => full
+                .as_ref()
+                .expect("prepared")
+                .view((0, 0), (n2, n2))
+                .into_owned(),
+            Flow::Quadratic { full } => full.as_ref().expect("prepared").0.clone(),
+        }
     }
 
     /// Contact forces `λ_S` of the stuck walls and the acceleration.
@@ -208,9 +324,14 @@ struct Point {
 struct Driver<'a> {
     sys: &'a System,
     rig: Rigidity,
+    /// The loads as an oscillator, unless one is a table.
+    loads: Option<LoadOscillator>,
     method: EventDriven,
     h0: f64,
-    modes: HashMap<Vec<usize>, Mode>,
+    /// The wall sets met so far, each with its matrices.
+    modes: Vec<Mode>,
+    /// Index in `modes` of the current wall set, `stuck`.
+    current: usize,
     pos_tol: f64,
     vel_tol: f64,
     records: Vec<ImpactRecord>,
@@ -250,48 +371,70 @@ fn cubic(p: [f64; 4], s: f64) -> f64 {
 const SAMPLES: usize = 32;
 
 impl Driver<'_> {
-    fn ensure(&mut self, set: &[usize]) {
-        if !self.modes.contains_key(set) {
-            let m = Mode::new(&self.rig, set.to_vec());
-            self.modes.insert(set.to_vec(), m);
-        }
+    /// Makes the mode of `stuck` the current one, built on its first use.
+    fn select(&mut self) {
+        self.current = match self.modes.iter().position(|m| m.set == self.stuck) {
+            Some(i) => i,
+            None => {
+                let mut m = Mode::new(&self.rig, self.loads.as_ref(), self.stuck.clone());
+                m.prepare(self.h0);
+                self.modes.push(m);
+                self.modes.len() - 1
+            }
+        };
+    }
+
+    /// The matrices of the current wall set.
+    fn mode(&self) -> &Mode {
+        &self.modes[self.current]
     }
 
     /// Exact state after `eta` from `p` with the current wall set.
-    fn advance(&mut self, p: &Point, eta: f64) -> Point {
-        let set = self.stuck.clone();
-        self.ensure(&set);
+    fn advance(&self, p: &Point, eta: f64) -> Point {
         let h0 = self.h0;
         let full = (eta - h0).abs() <= 1e-12 * h0;
-        if full && self.modes[&set].full.is_none() {
-            let op = self.modes[&set].operator(h0);
-            self.modes.get_mut(&set).unwrap().full = Some(op);
-        }
-        let mode = &self.modes[&set];
-        let fresh;
-        let (phi, d) = if full {
-            let f = mode.full.as_ref().unwrap();
-            (&f.0, &f.1)
-        } else {
-            fresh = mode.operator(eta);
-            (&fresh.0, &fresh.1)
-        };
+        let mode = self.mode();
         let n = self.rig.n;
         let sys = self.sys;
-        let mut z = DVector::zeros(2 * n);
-        z.rows_mut(0, n).copy_from(&p.x);
-        z.rows_mut(n, n).copy_from(&p.v);
-        let mut z1 = phi * z;
-        let nl = sys.loads.len();
-        if nl > 0 {
-            let val = |s: f64| {
-                DVector::from_iterator(nl, sys.loads.iter().map(|l| l.value(p.t + s * eta)))
-            };
-            let (l0, lh, l1) = (val(0.0), val(0.5), val(1.0));
-            let c1 = &l0 * -3.0 + &lh * 4.0 - &l1;
-            let c2 = &l0 * 2.0 - &lh * 4.0 + &l1 * 2.0;
-            z1 += &d[0] * l0 + &d[1] * c1 + &d[2] * c2;
-        }
+        let z1 = match &mode.flow {
+            Flow::Autonomous { a, full: cached } => {
+                let osc = self.loads.as_ref().expect("autonomous flow");
+                let mut z = DVector::zeros(a.nrows());
+                z.rows_mut(0, n).copy_from(&p.x);
+                z.rows_mut(n, n).copy_from(&p.v);
+                osc.state(p.t, &mut z.as_mut_slice()[2 * n..]);
+                if full {
+                    cached.as_ref().expect("prepared") * z
+                } else {
+                    expm_action(a, &z, eta).unwrap_or_else(|| expm(&(a * eta)) * &z)
+                }
+            }
+            Flow::Quadratic { full: cached } => {
+                let fresh;
+                let (phi, d) = if full {
+                    let f = cached.as_ref().expect("prepared");
+                    (&f.0, &f.1)
+                } else {
+                    fresh = mode.operator(eta);
+                    (&fresh.0, &fresh.1)
+                };
+                let mut z = DVector::zeros(2 * n);
+                z.rows_mut(0, n).copy_from(&p.x);
+                z.rows_mut(n, n).copy_from(&p.v);
+                let mut z1 = phi * z;
+                let nl = sys.loads.len();
+                if nl > 0 {
+                    let val = |s: f64| {
+                        DVector::from_iterator(nl, sys.loads.iter().map(|l| l.value(p.t + s * eta)))
+                    };
+                    let (l0, lh, l1) = (val(0.0), val(0.5), val(1.0));
+                    let c1 = &l0 * -3.0 + &lh * 4.0 - &l1;
+                    let c2 = &l0 * 2.0 - &lh * 4.0 + &l1 * 2.0;
+                    z1 += &d[0] * l0 + &d[1] * c1 + &d[2] * c2;
+                }
+                z1
+            }
+        };
         let mut x = z1.rows(0, n).into_owned();
         let mut v = z1.rows(n, n).into_owned();
         mode.project(&self.rig, &mut x, &mut v);
@@ -299,27 +442,23 @@ impl Driver<'_> {
     }
 
     /// `exp(A_S η)` of the current wall set (cached for the full step).
-    fn transition(&mut self, eta: f64) -> DMatrix<f64> {
-        let set = self.stuck.clone();
-        self.ensure(&set);
-        let mode = &self.modes[&set];
-        match &mode.full {
-            Some((phi, _)) if (eta - self.h0).abs() <= 1e-12 * self.h0 => phi.clone(),
-            _ => mode.operator(eta).0,
+    fn transition(&self, eta: f64) -> DMatrix<f64> {
+        let mode = self.mode();
+        if (eta - self.h0).abs() <= 1e-12 * self.h0 {
+            mode.full_transition()
+        } else {
+            expm(&(&mode.a * eta))
         }
     }
 
     /// `λ` of the stuck walls and the acceleration, with the current wall set.
-    fn accel(&mut self, p: &Point) -> (DVector<f64>, DVector<f64>) {
-        let set = self.stuck.clone();
-        self.ensure(&set);
-        self.modes[&set].accel(self.sys, &self.rig, p.t, &p.x, &p.v)
+    fn accel(&self, p: &Point) -> (DVector<f64>, DVector<f64>) {
+        self.mode().accel(self.sys, &self.rig, p.t, &p.x, &p.v)
     }
 
-    fn lambda_rate(&mut self, p: &Point, a: &DVector<f64>) -> DVector<f64> {
-        let set = self.stuck.clone();
-        self.ensure(&set);
-        self.modes[&set].lambda_rate(self.sys, &self.rig, p.t, &p.v, a, self.h0)
+    fn lambda_rate(&self, p: &Point, a: &DVector<f64>) -> DVector<f64> {
+        self.mode()
+            .lambda_rate(self.sys, &self.rig, p.t, &p.v, a, self.h0)
     }
 
     /// Event function of a candidate at `p`: value and time derivative, increasing through 0.
@@ -596,9 +735,8 @@ impl Driver<'_> {
             }
         }
         self.stuck = new_stuck;
-        let set = self.stuck.clone();
-        self.ensure(&set);
-        self.modes[&set].project(&self.rig, &mut p.x, &mut p.v);
+        self.select();
+        self.modes[self.current].project(&self.rig, &mut p.x, &mut p.v);
         (k0 - k1, impacts)
     }
 
@@ -703,18 +841,21 @@ impl<'s> EventDrivenSteps<'s> {
                 .max(g.dot(&a0).abs() * t_end.min(1e3 * h0));
         }
         v_scale = v_scale.max(x_scale / h0);
-        let d = Driver {
+        let mut d = Driver {
             sys,
             rig,
+            loads: LoadOscillator::new(sys),
             method,
             h0,
-            modes: HashMap::new(),
+            modes: Vec::new(),
+            current: 0,
             pos_tol: 1e-10 * x_scale,
             vel_tol: 1e-10 * v_scale,
             records: Vec::new(),
             open: vec![None; nw],
             stuck: Vec::new(),
         };
+        d.select();
         let p = Point {
             t: 0.0,
             x: x0,
