@@ -146,6 +146,11 @@ def test_forcing_period_of_commensurate_loads_and_the_errors() -> None:
         vi.periodic_orbit(base, transient=0, method=vi.Newmark())
     with pytest.raises(vi.SolverError, match=r"did not converge in 1 iterations; residual"):
         vi.periodic_orbit(base, transient=0, max_iterations=1)
+    # laws stiff at first touch: their multipliers would be ~1e-4 off, so they are refused
+    for law in (vi.contact.KelvinVoigt(stiffness=1e4, damping=1.0),
+                vi.contact.Hertz(stiffness=1e4, exponent=1.0)):
+        with pytest.raises(vi.ModelError, match=r"^gaps\[0\]\.law: .* is stiff at first touch"):
+            vi.periodic_orbit(oscillator(law), transient=0)
 
 
 MODEL_FILE = f"""

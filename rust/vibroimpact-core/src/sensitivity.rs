@@ -103,7 +103,35 @@ pub(crate) fn check_supported(sys: &System, method: Method) -> Result<(), SimErr
              curve depends on the contact's history); expected an analytic law"
         ));
     }
+    if let Some((i, g)) = sys
+        .gaps
+        .iter()
+        .enumerate()
+        .find(|(_, g)| stiff_at_first_touch(&g.law))
+    {
+        return invalid(format!(
+            "gaps[{i}].law: '{}' is stiff at first touch (its force's slope jumps at δ = 0), \
+             and the step that lands on the opening is not yet differentiated for such a law \
+             (its multipliers would be off by ~1e-4); expected an exponent > 1 or a rigid stop",
+            g.law.name()
+        ));
+    }
     Ok(())
+}
+
+/// A law whose stiffness `∂F/∂δ` does not vanish as `δ → 0⁺` (Kelvin–Voigt, a power law of
+/// exponent ≤ 1): the field's Jacobian jumps at the wall, which the landing step's
+/// differentiation does not take yet (checked against finite differences: the error falls
+/// only as `h^1.5`).
+fn stiff_at_first_touch(law: &crate::contact::Law) -> bool {
+    use crate::contact::Law;
+    match law {
+        Law::KelvinVoigt(_) => true,
+        Law::Hertz(l) => l.exponent <= 1.0,
+        Law::Hysteretic(l) => l.exponent <= 1.0,
+        Law::HuntCrossley(l) => l.exponent <= 1.0,
+        Law::Tabulated(_) | Law::Rigid(_) => false,
+    }
 }
 
 #[cfg(test)]
