@@ -7,13 +7,14 @@ The section is the start of a forcing period: ``P^N`` maps the state ``z = (x, v
 state-transition matrix ``Φ = ∂P^N/∂z`` (the variational equations of DOP853's stages with
 the saltation matrices of its switches; the exact ``exp(A h)`` of the event-driven method's
 flights with the saltation matrices of its impacts). :func:`periodic_orbit` solves
-``P^N(z) = z`` by Newton from a state reached after a transient. Continuation (a later step)
-reuses :meth:`Shooting.residual`; its parameter column is a difference of residuals of the
-models at two parameter values.
+``P^N(z) = z`` by Newton from a state reached after a transient. :meth:`Shooting.at` is the
+same problem at another value of a model parameter (what :mod:`vibroimpact.continuation`
+follows).
 """
 
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass, replace
 from fractions import Fraction
@@ -28,9 +29,10 @@ from vibroimpact.errors import ModelError, SolverError
 from vibroimpact.integrators import Adaptive, Dop853, EventDriven, Integrator
 from vibroimpact.model import ConstantLoad, HarmonicLoad, Model, TableLoad
 from vibroimpact.result import ImpactTable, Result
-from vibroimpact.simulate import check_run, simulate
+from vibroimpact.simulate import _run_core, check_run
+from vibroimpact.sweeps.grid import apply, canonical_path
 
-__all__ = ["PeriodicOrbit", "Shooting", "forcing_period", "periodic_orbit"]
+__all__ = ["PeriodicOrbit", "Shooting", "forcing_period", "periodic_orbit", "solve_orbit"]
 
 #: Steps (event-driven) or first step (DOP853) per forcing period by default.
 STEPS_PER_PERIOD = 1000
@@ -55,6 +57,11 @@ def forcing_period(model: Model) -> float:
         elif not isinstance(load, (HarmonicLoad, ConstantLoad)):
             raise ModelError(f"loads[{i}]: {type(load).__name__} is not periodic; expected "
                              "harmonic or constant loads for a periodic orbit")
+    return _common_period(frequencies)
+
+
+def _common_period(frequencies: list[float]) -> float:
+    """The smallest ``T`` with ``f T`` whole for every frequency (Hz) of ``frequencies``."""
     if not frequencies:
         raise ModelError("loads: no harmonic load with a frequency > 0; expected one (its "
                          "period is the section of the periodic orbit)")
@@ -99,6 +106,8 @@ class Shooting:
         self.method = default_method(model) if method is None else method
         self.dt = self.forcing_period / STEPS_PER_PERIOD if dt is None else float(dt)
         check_run(model, self.duration, self.dt, self.method)
+        #: The parameter set by :meth:`at` (path, value); None: the model's own numbers.
+        self.parameter: tuple[str, float] | None = None
         self._spec = model._run_spec()
         self._spec.update(
             self.method._run_spec(),
@@ -107,6 +116,61 @@ class Shooting:
             every=1,
             record_dofs=list(range(model.n_dof)),
         )
+
+    def at(self, path: str, value: float) -> Shooting:
+        """This problem for the model with the number at ``path`` (the paths of ``sweep
+        --param``, set by :func:`vibroimpact.sweeps.apply`) equal to ``value``. A load's
+        frequency moves the forcing period, hence the section's period and the steps, which
+        stay the same fraction of it. The core checks the value at the first :meth:`flow`
+        (:class:`ModelError` naming the field)."""
+        spec = apply(self.model.to_spec(), path, value)
+        period = _common_period([float(ld["frequency"]) for ld in spec["loads"]
+                                 if ld["kind"] == "harmonic" and ld["frequency"] > 0])
+        shooting = copy.copy(self)
+        shooting.parameter = (canonical_path(path), float(value))
+        shooting.forcing_period = period
+        shooting.duration = self.periods * period
+        shooting.dt = self.dt * period / self.forcing_period
+        shooting._spec = dict(self._spec, t_end=shooting.duration, dt=shooting.dt)
+        if self.model.structure.is_sparse:  # as Model._run_spec: only a dense one compiles
+            shooting._spec.update(spec)
+        else:
+            shooting._spec["system"] = _core.compile_system(spec)
+        return shooting
+
+    def with_periods(self, period: int) -> Shooting:
+        """This problem (at the same parameter value) over ``period`` forcing periods."""
+        shooting = copy.copy(self)
+        shooting.periods = period
+        shooting.duration = period * self.forcing_period
+        shooting._spec = dict(self._spec, t_end=shooting.duration)
+        return shooting
+
+    def settle(self, z: NDArray[np.float64], periods: int) -> NDArray[np.float64]:
+        """The state ``periods`` forcing periods after ``z`` (a plain run, no derivatives)."""
+        if periods == 0:
+            return np.asarray(z, dtype=float)
+        n = self.model.n_dof
+        t_end = periods * self.forcing_period
+        raw, _ = _run_core(dict(self._spec, x0=np.ascontiguousarray(z[:n]),
+                                v0=np.ascontiguousarray(z[n:]), t_end=t_end,
+                                every=max(1, round(t_end / self.dt))))
+        if raw["error"] is not None:
+            raise SolverError(f"periodic orbit: the transient of {periods} forcing periods "
+                              f"failed: {raw['error']}")
+        return np.concatenate([raw["displacement"][-1], raw["velocity"][-1]])
+
+    def state_at(self, z: NDArray[np.float64], t: float) -> NDArray[np.float64]:
+        """The state at ``0 < t <= `` :attr:`duration` from ``z`` at the section (the last step
+        ends at ``t``)."""
+        n = self.model.n_dof
+        raw, _ = _run_core(dict(self._spec, x0=np.ascontiguousarray(z[:n]),
+                                v0=np.ascontiguousarray(z[n:]), t_end=float(t),
+                                dt=min(self.dt, float(t)), every=10**9))
+        if raw["error"] is not None:
+            raise SolverError(f"periodic orbit: the run to t = {t:.9g} s failed: "
+                              f"{raw['error']}")
+        return np.concatenate([raw["displacement"][-1], raw["velocity"][-1]])
 
     @property
     def n_state(self) -> int:
@@ -283,11 +347,14 @@ def periodic_orbit(model: Model, period: int = 1, transient: int = 50, *,
     shooting = Shooting(model, period, method, dt)
     z = np.concatenate([np.asarray(model.initial_displacement, dtype=float),
                         np.asarray(model.initial_velocity, dtype=float)])
-    if transient > 0:
-        t_end = transient * shooting.forcing_period
-        run = simulate(model, t_end, shooting.dt, shooting.method,
-                       every=max(1, int(t_end / shooting.dt)))
-        z = np.concatenate([run.displacement[-1], run.velocity[-1]])
+    return solve_orbit(shooting, shooting.settle(z, transient), tol, max_iterations)
+
+
+def solve_orbit(shooting: Shooting, z: NDArray[np.float64], tol: float = 1e-9,
+                max_iterations: int = 30) -> PeriodicOrbit:
+    """The periodic orbit of ``shooting`` by Newton on ``P^N(z) − z`` from the guess ``z``
+    (:func:`periodic_orbit` says when it converges and what it raises)."""
+    model = shooting.model
     n = model.n_dof
     end, phi, raw = shooting.flow(z)
     residual = float(np.linalg.norm(end - z))

@@ -32,14 +32,15 @@ __all__ = ["main"]
 
 
 def _build_parser() -> argparse.ArgumentParser:
-    from vibroimpact.cli import bench, impact, laws, modal, orbit, plot, reproduce, run, sweep
+    from vibroimpact.cli import (bench, continuation, impact, laws, modal, orbit, plot, reproduce,
+                                 run, sweep)
 
     parser = argparse.ArgumentParser(
         prog="vibroimpact",
         description="Dynamic response of structures with clearance (vibro-impact).",
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module in (run, impact, laws, reproduce, modal, plot, sweep, orbit, bench):
+    for module in (run, impact, laws, reproduce, modal, plot, sweep, orbit, continuation, bench):
         module.add_parser(sub)
     return parser
 

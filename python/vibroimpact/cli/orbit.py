@@ -15,7 +15,7 @@ from vibroimpact.io import results_file
 from vibroimpact.io.model_file import load_model
 from vibroimpact.orbits import PeriodicOrbit, periodic_orbit
 
-__all__ = ["add_parser", "main"]
+__all__ = ["add_parser", "main", "netcdf_output"]
 
 _DESCRIPTION = """\
 Find the periodic orbit of a model file: simulate --transient forcing periods from its initial
@@ -59,7 +59,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     return parser
 
 
-def _output(output: str | None) -> Path | None:
+def netcdf_output(output: str | None) -> Path | None:
+    """The checked path of ``-o`` (NetCDF-4, in an existing folder), or None."""
     if output is None:
         return None
     path = Path(output)
@@ -87,7 +88,7 @@ def _print(orbit: PeriodicOrbit, name: str) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``vibroimpact orbit``."""
-    out = _output(args.output)
+    out = netcdf_output(args.output)
     mf = load_model(args.model)
     orbit = periodic_orbit(mf.model, period=args.period, transient=args.transient,
                            method=mf.method)

@@ -1,0 +1,587 @@
+"""Pseudo-arclength continuation of periodic orbits in a model parameter, with their stability
+and special points (docs/periodic-orbits.md, Continuation).
+
+The unknowns are ``y = (z, p)``: the state on the section and the parameter (any number a
+sweep can set: :func:`vibroimpact.sweeps.apply`). Each point solves ``P^N(z; p) − z = 0`` plus
+the arclength condition ``t·(y − y_pred) = 0`` by Newton with the Jacobian
+``[Φ − I, ∂P^N/∂p]``: ``Φ`` from the core's state-transition matrix, the parameter column by a
+central difference of the simulated map (not exact; see :func:`parameter_column`). The
+unknowns are scaled (the state by its largest component at the start, the parameter by the
+range) so that the arclength weighs both. The tangent comes from the bordered system with the
+previous tangent as its last row, which keeps its orientation through a fold.
+
+Special points are sign changes between two points of a test function, located by the
+Illinois (regula falsi) iteration on the arclength from the first point:
+
+* ``fold``: ``det(Φ − I)`` (a multiplier through +1) while the bordered determinant keeps its
+  sign; ``branch-point``: the bordered determinant ``det [[Φ − I, ∂P/∂p], tᵀ]`` changes sign;
+* ``period-doubling``: ``det(Φ + I)`` (a multiplier through −1);
+* ``neimark-sacker``: ``Π_{i<j} (μ_i μ_j − 1)`` with a complex pair on the unit circle there;
+* ``grazing``, per wall: the smallest distance to the wall over the orbit while nothing
+  touches it, minus the largest penetration (compliant laws) or the smallest impact speed
+  (rigid stops) while something does.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import xarray as xr
+from numpy.typing import NDArray
+
+from vibroimpact.errors import ModelError, SolverError
+from vibroimpact.integrators import Integrator
+from vibroimpact.model import Model
+from vibroimpact.orbits import Shooting
+from vibroimpact.sweeps.grid import canonical_path, units_of
+
+__all__ = ["SPECIAL_POINT_TYPES", "Branch", "BranchPoint", "SpecialPoint", "continue_orbit",
+           "parameter_column"]
+
+#: The ``type`` of a special point (public names: JSON, the ``.nc`` file).
+SPECIAL_POINT_TYPES = ("fold", "period-doubling", "neimark-sacker", "grazing", "branch-point")
+
+#: The relative step of the parameter column's central difference: ``ε^(1/3)``, which balances
+#: its truncation error ``O(h²)`` against rounding ``O(ε/h)``.
+PARAMETER_STEP = 6e-6
+#: Newton iterations of a corrector before the step is called failed (and shortened).
+MAX_CORRECTOR_ITERATIONS = 10
+#: A residual above this fraction of the last one takes the parameter column again.
+SLOW_CONTRACTION = 0.01
+#: Step control: grow by this factor after a point that took at most ``FAST`` iterations,
+#: shrink by ``SHRINK`` after one that took ``SLOW`` or more, or after a failure.
+GROW, SHRINK, FAST, SLOW = 1.5, 0.5, 3, 6
+#: Steps tried (each half the last) onto the period-2 branch at a period-doubling.
+SWITCH_ATTEMPTS = 12
+#: Iterations locating a special point, and the arclength (scaled) it is located to.
+MAX_LOCATE_ITERATIONS = 40
+LOCATE_TOLERANCE = 1e-13
+#: At a located fold, period-doubling or Neimark–Sacker point a multiplier must be this close to
+#: the critical one (else the test function jumped: a grazing, not that bifurcation).
+CRITICAL_MULTIPLIER_TOLERANCE = 1e-3
+
+
+class _StepFailed(Exception):
+    """A corrector that did not converge (or left the model's valid values)."""
+
+
+def _check_count(value: Any, name: str, low: int) -> int:
+    if not (isinstance(value, int) and not isinstance(value, bool) and value >= low):
+        raise ModelError(f"{name}: {value!r} is not valid; expected an integer >= {low}")
+    return value
+
+
+@dataclass(frozen=True)
+class BranchPoint:
+    """A periodic orbit on a branch: the parameter ``value``, the orbit's ``periods`` (forcing
+    periods), the ``state`` on the section, the ``monodromy`` and its ``multipliers`` (largest
+    modulus first), each DOF's ``displacement_max``/``displacement_min`` over the orbit, its
+    ``impacts_per_period`` (contact onsets over the orbit's period), ``wall_margins`` (per wall: the
+    grazing test function, see the module doc) and its ``arclength`` (scaled units)."""
+
+    value: float
+    periods: int
+    state: NDArray[np.float64]
+    monodromy: NDArray[np.float64]
+    multipliers: NDArray[np.complex128]
+    displacement_max: NDArray[np.float64]
+    displacement_min: NDArray[np.float64]
+    impacts_per_period: int
+    wall_margins: NDArray[np.float64]
+    arclength: float
+
+    @property
+    def stable(self) -> bool:
+        """Every multiplier inside the unit circle."""
+        return bool(np.max(np.abs(self.multipliers)) < 1.0)
+
+    def summary(self) -> dict[str, Any]:
+        """The point as ``vibroimpact continue --json`` prints it."""
+        return {"value": self.value, "stable": self.stable,
+                "multipliers": _pairs(self.multipliers),
+                "displacement_max": self.displacement_max.tolist(),
+                "displacement_min": self.displacement_min.tolist(),
+                "impacts_per_period": self.impacts_per_period,
+                "forcing_periods": self.periods}
+
+
+@dataclass(frozen=True)
+class SpecialPoint:
+    """A located special point: its ``type`` (one of :data:`SPECIAL_POINT_TYPES`) and the
+    orbit there."""
+
+    type: str
+    point: BranchPoint
+
+    def summary(self) -> dict[str, Any]:
+        return {"type": self.type, "value": self.point.value,
+                "multipliers": _pairs(self.point.multipliers),
+                "arclength": self.point.arclength}
+
+
+@dataclass(frozen=True)
+class Branch:
+    """The points of a branch in order of arclength and its located special points. With
+    ``switch``, the points after the first period-doubling are on its period-2 branch."""
+
+    parameter: str
+    points: tuple[BranchPoint, ...]
+    special_points: tuple[SpecialPoint, ...]
+
+    def summary(self) -> dict[str, Any]:
+        """The JSON of ``vibroimpact continue --json``: ``parameter`` (the path), ``points``
+        and ``special_points``."""
+        return {"parameter": self.parameter,
+                "points": [p.summary() for p in self.points],
+                "special_points": [s.summary() for s in self.special_points]}
+
+    def to_dataset(self) -> xr.Dataset:
+        """The branch along its arclength (dimension ``point``, coordinate ``arclength``): the
+        parameter (variable ``parameter``, its path in the attribute ``path``), ``stable``,
+        ``forcing_periods``, ``impacts_per_period``, ``displacement_max``/``_min`` (point, dof),
+        ``state`` (point, component: the section's displacements then velocities),
+        ``multiplier_real``/``_imag`` (point, multiplier); the
+        special points along dimension ``special``: ``special_type``, ``special_value``,
+        ``special_arclength``, ``special_multiplier_real``/``_imag``."""
+        pts, sps = self.points, self.special_points
+        n_mult = pts[0].multipliers.size
+        multipliers = np.array([p.multipliers for p in pts])
+        special = (np.array([s.point.multipliers for s in sps]) if sps
+                   else np.zeros((0, n_mult), dtype=complex))
+        ds = xr.Dataset(
+            {
+                "parameter": ("point", [p.value for p in pts],
+                              {"path": self.parameter, "units": units_of(self.parameter)}),
+                "stable": ("point", np.array([p.stable for p in pts], dtype=np.int8)),
+                "forcing_periods": ("point", [p.periods for p in pts]),
+                "impacts_per_period": ("point", [p.impacts_per_period for p in pts]),
+                "displacement_max": (("point", "dof"), [p.displacement_max for p in pts]),
+                "displacement_min": (("point", "dof"), [p.displacement_min for p in pts]),
+                "state": (("point", "component"), [p.state for p in pts]),
+                "multiplier_real": (("point", "multiplier"), multipliers.real),
+                "multiplier_imag": (("point", "multiplier"), multipliers.imag),
+                "special_type": ("special", np.array([s.type for s in sps], dtype=str)),
+                "special_value": ("special", [s.point.value for s in sps]),
+                "special_arclength": ("special", [s.point.arclength for s in sps]),
+                "special_multiplier_real": (("special", "multiplier"), special.real),
+                "special_multiplier_imag": (("special", "multiplier"), special.imag),
+            },
+            coords={"arclength": ("point", [p.arclength for p in pts])},
+            attrs={"parameter": self.parameter},
+        )
+        return ds
+
+
+def _pairs(multipliers: NDArray[np.complex128]) -> list[list[float]]:
+    return [[float(m.real), float(m.imag)] for m in multipliers]
+
+
+def _multipliers(monodromy: NDArray[np.float64]) -> NDArray[np.complex128]:
+    values = np.linalg.eigvals(monodromy).astype(complex)
+    return values[np.argsort(-np.abs(values), kind="stable")]
+
+
+def parameter_column(shooting: Shooting, z: NDArray[np.float64], path: str, value: float,
+                     scale: float, relative_step: float = PARAMETER_STEP
+                     ) -> NDArray[np.float64]:
+    """``∂P^N/∂p`` at ``(z, value)`` by the central difference
+    ``(P^N(z; p + h) − P^N(z; p − h)) / 2h`` of the simulated map, ``h = relative_step ·
+    max(|p|, scale)``: an approximation (error ``O(h²)`` plus rounding ``O(ε/h)``, about 1e-10
+    relative where the map is smooth), not the exact derivative, which the core does not carry
+    for a parameter. When ``p`` is a load's frequency each side runs its own forcing period."""
+    h = relative_step * max(abs(value), scale)
+    up, down = (shooting.at(path, value + sign * h) for sign in (1, -1))
+    return (up.state_at(z, up.duration) - down.state_at(z, down.duration)) / (2 * h)
+
+
+@dataclass
+class _Solution:
+    """A corrected point with what the next step needs: the scaled unknowns ``u``, the
+    parameter column and the tangent (scaled)."""
+
+    point: BranchPoint
+    u: NDArray[np.float64]
+    column: NDArray[np.float64]
+    tangent: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
+    tests: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+
+
+class _Continuation:
+    """The continuation of one branch of ``shooting``'s orbits in ``path``."""
+
+    def __init__(self, shooting: Shooting, path: str, start: float, end: float,
+                 z_scale: float, tol: float) -> None:
+        self.shooting = shooting
+        self.path = path
+        self.start, self.end = start, end
+        self.scale = abs(end - start)
+        n = shooting.n_state
+        self.weights = np.append(np.full(n, 1.0 / z_scale), 1.0 / self.scale)
+        self.tol = tol
+        self.walls = [(g, sign) for g, gap in enumerate(shooting.model.gaps)
+                      for sign in {"positive": (1,), "negative": (-1,), "both": (1, -1)}[gap.side]]
+
+    # --- the map at a parameter value ----------------------------------------------------
+
+    def at(self, value: float) -> Shooting:
+        return self.shooting.at(self.path, value)
+
+    def column(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
+        return parameter_column(self.shooting, y[:-1], self.path, float(y[-1]), self.scale)
+
+    def correct(self, u0: NDArray[np.float64], row: NDArray[np.float64], target: float,
+                column: NDArray[np.float64], tol: float | None = None
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any],
+                           NDArray[np.float64], int]:
+        """Newton on ``P^N(z; p) − z = 0`` and ``row · u = target`` (scaled ``u``) from
+        ``u0``, with the parameter column ``column`` kept while the residual falls fast
+        (a chord in that column), taken again at the iterate where it does not. Returns
+        ``u``, ``Φ``, the core's output there, the last column and the iterations."""
+        tol = self.tol if tol is None else tol
+        w, n = self.weights, self.shooting.n_state
+        u = u0.copy()
+        previous = math.inf
+        for iteration in range(MAX_CORRECTOR_ITERATIONS + 1):
+            y = u / w
+            try:
+                end, phi, raw = self.at(float(y[-1])).flow(y[:-1])
+                residual = end - y[:-1]
+                norm = float(np.linalg.norm(residual))
+                if norm <= tol * max(float(np.linalg.norm(y[:-1])), 1e-300) and iteration > 0:
+                    return u, phi, raw, column, iteration
+                if iteration == MAX_CORRECTOR_ITERATIONS:
+                    break
+                if norm > SLOW_CONTRACTION * previous:  # the kept column is too far off
+                    column = self.column(y)
+            except (ModelError, SolverError) as e:
+                raise _StepFailed(str(e)) from None
+            previous = norm
+            jacobian = np.vstack([np.column_stack([phi - np.eye(n), column]) / w, row])
+            try:
+                du = np.linalg.solve(jacobian, -np.append(residual, row @ u - target))
+            except np.linalg.LinAlgError:
+                break
+            if not np.all(np.isfinite(du)):
+                break
+            u = u + du
+        raise _StepFailed(f"Newton did not converge in {MAX_CORRECTOR_ITERATIONS} iterations")
+
+    def tangent(self, phi: NDArray[np.float64], column: NDArray[np.float64],
+                previous: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The unit tangent (scaled) oriented as ``previous``: the bordered system's
+        solution for ``[0, …, 0, 1]``."""
+        n = self.shooting.n_state
+        bordered = np.vstack([np.column_stack([phi - np.eye(n), column]) / self.weights,
+                              previous])
+        t = np.linalg.solve(bordered, np.append(np.zeros(n), 1.0))
+        return t / np.linalg.norm(t)
+
+    # --- a point and its test functions ---------------------------------------------------
+
+    def point(self, u: NDArray[np.float64], phi: NDArray[np.float64], raw: dict[str, Any],
+              arclength: float, refine: bool = False) -> BranchPoint:
+        y = u / self.weights
+        shooting = self.at(float(y[-1]))
+        return BranchPoint(
+            value=float(y[-1]), periods=shooting.periods, state=y[:-1].copy(), monodromy=phi,
+            multipliers=_multipliers(phi),
+            displacement_max=np.asarray(raw["displacement_max"], dtype=float),
+            displacement_min=np.asarray(raw["displacement_min"], dtype=float),
+            # onsets: a contact under way at the section is in the table from t = 0 too
+            impacts_per_period=int(np.count_nonzero(raw["impacts"]["t_start"] > 0)),
+            wall_margins=self.wall_margins(shooting, y[:-1], raw, refine),
+            arclength=arclength)
+
+    def wall_margins(self, shooting: Shooting, z: NDArray[np.float64], raw: dict[str, Any],
+                     refine: bool) -> NDArray[np.float64]:
+        """Per wall, the grazing test function (module doc). The distance is the largest
+        recorded gap coordinate's; ``refine``: at the instant its rate vanishes, found by
+        the Illinois iteration on runs that end there."""
+        impacts = raw["impacts"]
+        x = np.asarray(raw["displacement"], dtype=float)
+        t = np.asarray(raw["time"], dtype=float)
+        margins = []
+        for g, sign in self.walls:
+            gap = shooting.model.gaps[g]
+            here = (impacts["gap"] == g) & (impacts["side"] == (1 if sign > 0 else 0))
+            if here.any():
+                if gap.law.impulsive:
+                    margins.append(-float(np.min(np.abs(impacts["v_in"][here]))))
+                else:
+                    margins.append(-float(np.nanmax(impacts["delta_max"][here])))
+                continue
+            coefficients = np.asarray(gap.coefficients, dtype=float)
+            u = sign * (x[:, list(gap.dofs)] @ coefficients)
+            k = int(np.argmax(u))
+            peak = float(u[k])
+            if refine:
+                peak = self._refined_peak(shooting, z, t, k, sign, gap.dofs, coefficients)
+            margins.append(float(gap.clearance) - peak)
+        return np.array(margins)
+
+    @staticmethod
+    def _refined_peak(shooting: Shooting, z: NDArray[np.float64], t: NDArray[np.float64],
+                      k: int, sign: int, dofs: tuple[int, ...],
+                      coefficients: NDArray[np.float64]) -> float:
+        """The gap coordinate's largest value (times ``sign``) near the recorded step ``k``."""
+        n, period = shooting.model.n_dof, shooting.duration
+
+        def coordinate(s: float) -> tuple[float, float]:
+            state = shooting.state_at(z, s - period if s > period else
+                                      (s + period if s <= 0 else s))
+            dofs_ = list(dofs)
+            return (sign * float(state[:n][dofs_] @ coefficients),
+                    sign * float(state[n:][dofs_] @ coefficients))
+
+        last = t.size - 1
+        left = t[k - 1] if k > 0 else t[last - 1] - period
+        right = t[k + 1] if k < last else period + t[1]
+        a, (_, fa) = left, coordinate(left)
+        b, (_, fb) = right, coordinate(right)
+        if not fa > 0 > fb:
+            return coordinate(float(t[k]))[0]
+        root = _illinois(lambda s: coordinate(s)[1], a, fa, b, fb,
+                         1e-15 * period, MAX_LOCATE_ITERATIONS)
+        return coordinate(root)[0]
+
+    def tests(self, sol: _Solution) -> dict[str, NDArray[np.float64]]:
+        """The test functions at a solution whose tangent is set."""
+        point, n = sol.point, self.shooting.n_state
+        mu = point.multipliers
+        pairs = [mu[i] * mu[j] - 1 for i in range(mu.size) for j in range(i + 1, mu.size)]
+        bordered = np.vstack([np.column_stack([point.monodromy - np.eye(n), sol.column])
+                              / self.weights, sol.tangent])
+        return {
+            "fold": np.array([np.linalg.det(point.monodromy - np.eye(n))]),
+            "period-doubling": np.array([np.linalg.det(point.monodromy + np.eye(n))]),
+            "neimark-sacker": np.array([float(np.prod(pairs).real) if pairs else 1.0]),
+            "branch-point": np.array([np.linalg.det(bordered)]),
+            "grazing": point.wall_margins,
+        }
+
+    # --- a step and a special point --------------------------------------------------------
+
+    def step(self, sol: _Solution, ds: float, refine: bool = False,
+             tol: float | None = None, value: float | None = None) -> tuple[_Solution, int]:
+        """The corrected point at arclength ``ds`` along ``sol``'s tangent (or, given
+        ``value``, the one at that parameter value predicted from there), with its
+        parameter column, tangent and test functions."""
+        predicted = sol.u + ds * sol.tangent
+        row = sol.tangent
+        if value is not None:
+            row = np.zeros(sol.u.size)
+            row[-1] = 1.0
+            predicted[-1] = value * self.weights[-1]
+        u, phi, raw, column, iterations = self.correct(predicted, row, row @ predicted,
+                                                       sol.column, tol)
+        try:
+            point = self.point(u, phi, raw, sol.point.arclength + ds, refine)
+            if column is sol.column:
+                column = self.column(u / self.weights)
+        except (ModelError, SolverError) as e:
+            raise _StepFailed(str(e)) from None
+        new = _Solution(point=point, u=u, column=column)
+        new.tangent = self.tangent(phi, column, sol.tangent)
+        new.tests = self.tests(new)
+        return new, iterations
+
+    def locate(self, sol: _Solution, new: _Solution, kind: str, index: int,
+               ds: float) -> _Solution | None:
+        """The point between ``sol`` and ``new`` (``ds`` apart) where test ``kind``'s
+        component ``index`` vanishes, or None where the iteration fails there."""
+        refine = kind == "grazing"
+        cache: dict[float, _Solution] = {}
+
+        def test(s: float) -> float:
+            try:
+                cache[s] = self.step(sol, s, refine=refine, tol=0.01 * self.tol)[0]
+            except _StepFailed:
+                raise _LocateFailed from None
+            return float(cache[s].tests[kind][index])
+
+        try:
+            fa = test(1e-300) if refine else float(sol.tests[kind][index])
+            fb = test(ds) if refine else float(new.tests[kind][index])
+            if fa * fb > 0:
+                return None
+            s = _illinois(test, 0.0, fa, ds, fb, LOCATE_TOLERANCE, MAX_LOCATE_ITERATIONS)
+            if s not in cache:
+                test(s)
+        except _LocateFailed:
+            return None
+        if np.linalg.norm(cache[s].u - sol.u) > 2 * ds:  # the corrector left the segment
+            return None
+        return cache[s]
+
+
+class _LocateFailed(Exception):
+    pass
+
+
+def _illinois(f: Callable[[float], float], a: float, fa: float, b: float, fb: float,
+              tol: float, max_iterations: int) -> float:
+    """A root of ``f`` in ``[a, b]`` with ``fa``, ``fb`` of opposite signs: the Illinois
+    variant of regula falsi (bracketing, superlinear for a smooth ``f``)."""
+    side = 0
+    s = b
+    for _ in range(max_iterations):
+        s = (a * fb - b * fa) / (fb - fa)
+        fs = f(s)
+        if fs == 0 or abs(b - a) <= tol:
+            return s
+        if (fs > 0) == (fa > 0):
+            a, fa = s, fs
+            if side == -1:
+                fb /= 2
+            side = -1
+        else:
+            b, fb = s, fs
+            if side == 1:
+                fa /= 2
+            side = 1
+    return s
+
+
+def _critical(kind: str, point: BranchPoint) -> bool:
+    """Whether the located ``kind`` point has its critical multiplier (module doc)."""
+    mu = point.multipliers
+    if kind in ("fold", "branch-point"):
+        return bool(np.min(np.abs(mu - 1)) < CRITICAL_MULTIPLIER_TOLERANCE)
+    if kind == "period-doubling":
+        return bool(np.min(np.abs(mu + 1)) < CRITICAL_MULTIPLIER_TOLERANCE)
+    if kind == "neimark-sacker":
+        pair = mu[np.abs(mu.imag) > 1e-9]
+        return bool(pair.size and np.min(np.abs(np.abs(pair) - 1))
+                    < CRITICAL_MULTIPLIER_TOLERANCE)
+    return True
+
+
+def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
+                   period: int = 1, transient: int = 50, method: Integrator | None = None,
+                   dt: float | None = None, max_points: int = 200, step: float = 0.02,
+                   max_step: float = 0.1, min_step: float = 1e-7, tol: float = 1e-10,
+                   switch: bool = False) -> Branch:
+    """The branch of periodic orbits of ``period`` forcing periods through the one found at
+    ``parameter = start`` (as :func:`vibroimpact.periodic_orbit` finds it after ``transient``
+    forcing periods), continued by pseudo-arclength until the parameter reaches ``end``
+    (or ``start`` again, after a fold) or ``max_points`` points. ``parameter``: a path of
+    ``sweep --param`` (``loads.0.frequency``, ``gaps.0.clearance``, ...). ``step``,
+    ``max_step``, ``min_step``: arclength steps in scaled units (the parameter by
+    ``|end − start|``, the state by its largest component at the start); ``tol``: Newton's
+    relative residual. ``switch``: at the first period-doubling, go on along its period-2
+    branch. ``method``, ``dt``: as :class:`vibroimpact.orbits.Shooting`.
+
+    Raises :class:`ModelError` for a bad parameter path or value and :class:`SolverError` if
+    the first orbit is not found or a step fails at ``min_step``.
+
+    **Example:** ``vi.continue_orbit(model, "loads.0.frequency", 0.15, 0.2).special_points``
+    """
+    path = canonical_path(parameter)
+    for name, value in (("start", start), ("end", end)):
+        if not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                and math.isfinite(value)):
+            raise ModelError(f"--param {path}: {name} = {value!r} is not valid; expected a "
+                             "finite number")
+    if start == end:
+        raise ModelError(f"--param {path}: start = end = {start!r}; expected two different "
+                         "values")
+    _check_count(max_points, "--max-points", 2)
+    _check_count(transient, "--transient", 0)
+    base = Shooting(model, period, method, dt)
+    first = base.at(path, start)
+    base.at(path, end).flow(np.zeros(base.n_state))  # a bad END is refused before any work
+    z = np.concatenate([np.asarray(model.initial_displacement, dtype=float),
+                        np.asarray(model.initial_velocity, dtype=float)])
+    z = first.settle(z, transient)
+    scale = max(float(np.max(np.abs(z))), 1e-12)
+    run = _Continuation(base, path, float(start), float(end), scale, tol)
+    u = np.append(z, start) * run.weights
+    row = np.zeros(u.size)
+    row[-1] = 1.0
+    column = run.column(u / run.weights)
+    try:
+        u, phi, raw, _, _ = run.correct(u, row, row @ u, column)
+    except _StepFailed as e:
+        raise SolverError(f"continuation: no periodic orbit found at {path} = {start:g}: "
+                          f"{e}") from None
+    sol = _Solution(point=run.point(u, phi, raw, 0.0), u=u, column=run.column(u / run.weights))
+    sol.tangent = run.tangent(phi, sol.column, np.sign(end - start) * row)
+    sol.tests = run.tests(sol)
+    points, specials = [sol.point], []
+    ds, switched = float(step), False
+    low, high = min(start, end), max(start, end)
+    while len(points) < max_points:
+        try:
+            new, iterations = run.step(sol, ds)
+        except _StepFailed as e:
+            ds *= SHRINK
+            if ds < min_step:
+                raise SolverError(f"continuation: the step fell below {min_step:g} at "
+                                  f"{path} = {sol.point.value:.9g} after {len(points)} "
+                                  f"points ({e})") from None
+            continue
+        value = new.point.value
+        last = not low < value < high
+        if not low <= value <= high:  # the last point on the range's end
+            bound = high if value > high else low
+            fraction = (bound - sol.point.value) / (value - sol.point.value)
+            try:
+                new, _ = run.step(sol, ds * fraction, value=bound)
+            except _StepFailed:
+                pass
+        for kind in SPECIAL_POINT_TYPES:
+            if kind == "fold" and np.any(sol.tests["branch-point"] * new.tests["branch-point"]
+                                         < 0):
+                continue
+            for i in np.flatnonzero(sol.tests[kind] * new.tests[kind] < 0):
+                located = run.locate(sol, new, kind, int(i), new.point.arclength
+                                     - sol.point.arclength)
+                if located is not None and _critical(kind, located.point):
+                    specials.append(SpecialPoint(kind, located.point))
+        if (switch and not switched and specials
+                and specials[-1].type == "period-doubling"):
+            switched = True
+            points.append(specials[-1].point)
+            run, new = _switch(run, specials[-1], ds)
+        points.append(new.point)
+        sol = new
+        if last:
+            break
+        if iterations <= FAST:
+            ds = min(ds * GROW, max_step)
+        elif iterations >= SLOW:
+            ds *= SHRINK
+    specials.sort(key=lambda s: s.point.arclength)
+    return Branch(parameter=path, points=tuple(points), special_points=tuple(specials))
+
+
+def _switch(run: _Continuation, pd: SpecialPoint, ds: float) -> tuple[_Continuation, _Solution]:
+    """The first point of the period-2 branch born at the period-doubling ``pd``: from its
+    orbit displaced by ``ds`` (scaled) along the eigenvector of the multiplier −1, with that
+    direction as the first tangent (the new branch leaves the old one at a right angle in the
+    parameter)."""
+    point = pd.point
+    values, vectors = np.linalg.eig(point.monodromy)
+    v = np.real(vectors[:, int(np.argmin(np.abs(values + 1)))])
+    doubled = _Continuation(run.shooting.with_periods(2 * run.shooting.periods), run.path,
+                            run.start, run.end, 1.0 / run.weights[0], run.tol)
+    u = np.append(point.state, point.value) * doubled.weights
+    direction = np.append(v * doubled.weights[:-1], 0.0)
+    direction /= np.linalg.norm(direction)
+    y = u / doubled.weights
+    at = doubled.at(float(y[-1]))
+    end, phi, raw = at.flow(y[:-1])
+    sol = _Solution(point=doubled.point(u, phi, raw, point.arclength), u=u,
+                    column=doubled.column(y), tangent=direction)
+    for _ in range(SWITCH_ATTEMPTS):
+        try:
+            return doubled, doubled.step(sol, ds)[0]
+        except _StepFailed as e:
+            failure = e
+            ds *= SHRINK
+    raise SolverError(f"continuation: no period-2 orbit found next to the period-doubling at "
+                      f"{run.path} = {point.value:.9g} ({failure})")
