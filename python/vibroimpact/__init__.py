@@ -14,6 +14,8 @@ Build a :class:`Model` (a :class:`Structure`, :class:`Gap` elements with laws fr
 
 from vibroimpact import contact as contact
 from vibroimpact._core import build_profile as build_profile
+from vibroimpact.continuation import Branch as Branch
+from vibroimpact.continuation import continue_orbit as continue_orbit
 from vibroimpact.errors import ContactResolutionWarning as ContactResolutionWarning
 from vibroimpact.errors import Interrupted as Interrupted
 from vibroimpact.errors import ModelError as ModelError
@@ -38,8 +40,6 @@ from vibroimpact.model import HarmonicLoad as HarmonicLoad
 from vibroimpact.model import Model as Model
 from vibroimpact.model import Structure as Structure
 from vibroimpact.model import TableLoad as TableLoad
-from vibroimpact.continuation import Branch as Branch
-from vibroimpact.continuation import continue_orbit as continue_orbit
 from vibroimpact.orbits import PeriodicOrbit as PeriodicOrbit
 from vibroimpact.orbits import periodic_orbit as periodic_orbit
 from vibroimpact.result import Result as Result

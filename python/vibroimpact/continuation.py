@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from vibroimpact.errors import ModelError, SolverError
 from vibroimpact.integrators import Integrator
 from vibroimpact.model import Model
-from vibroimpact.orbits import Shooting
+from vibroimpact.orbits import Shooting, solve_orbit
 from vibroimpact.sweeps.grid import canonical_path, units_of
 
 __all__ = ["SPECIAL_POINT_TYPES", "Branch", "BranchPoint", "SpecialPoint", "continue_orbit",
@@ -378,8 +378,9 @@ class _Continuation:
             predicted[-1] = value * self.weights[-1]
         u, phi, raw, column, iterations = self.correct(predicted, row, row @ predicted,
                                                        sol.column, tol)
+        moved = ds if value is None else float(np.linalg.norm(u - sol.u))
         try:
-            point = self.point(u, phi, raw, sol.point.arclength + ds, refine)
+            point = self.point(u, phi, raw, sol.point.arclength + moved, refine)
             if column is sol.column:
                 column = self.column(u / self.weights)
         except (ModelError, SolverError) as e:
@@ -496,18 +497,17 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
     base.at(path, end).flow(np.zeros(base.n_state))  # a bad END is refused before any work
     z = np.concatenate([np.asarray(model.initial_displacement, dtype=float),
                         np.asarray(model.initial_velocity, dtype=float)])
-    z = first.settle(z, transient)
-    scale = max(float(np.max(np.abs(z))), 1e-12)
+    try:
+        z = solve_orbit(first, first.settle(z, transient), tol).state
+    except SolverError as e:
+        raise SolverError(f"continuation: no periodic orbit found at {path} = {start:g}: "
+                          f"{e}") from None
+    scale = max(float(np.max(np.abs(z))), 1e-300)
     run = _Continuation(base, path, float(start), float(end), scale, tol)
     u = np.append(z, start) * run.weights
     row = np.zeros(u.size)
     row[-1] = 1.0
-    column = run.column(u / run.weights)
-    try:
-        u, phi, raw, _, _ = run.correct(u, row, row @ u, column)
-    except _StepFailed as e:
-        raise SolverError(f"continuation: no periodic orbit found at {path} = {start:g}: "
-                          f"{e}") from None
+    _, phi, raw = first.flow(z)
     sol = _Solution(point=run.point(u, phi, raw, 0.0), u=u, column=run.column(u / run.weights))
     sol.tangent = run.tangent(phi, sol.column, np.sign(end - start) * row)
     sol.tests = run.tests(sol)
@@ -530,7 +530,7 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
             bound = high if value > high else low
             fraction = (bound - sol.point.value) / (value - sol.point.value)
             try:
-                new, _ = run.step(sol, ds * fraction, value=bound)
+                new, _ = run.step(sol, ds * min(max(fraction, 0.0), 1.0), value=bound)
             except _StepFailed:
                 pass
         for kind in SPECIAL_POINT_TYPES:
@@ -574,7 +574,7 @@ def _switch(run: _Continuation, pd: SpecialPoint, ds: float) -> tuple[_Continuat
     direction /= np.linalg.norm(direction)
     y = u / doubled.weights
     at = doubled.at(float(y[-1]))
-    end, phi, raw = at.flow(y[:-1])
+    _, phi, raw = at.flow(y[:-1])
     sol = _Solution(point=doubled.point(u, phi, raw, point.arclength), u=u,
                     column=doubled.column(y), tangent=direction)
     for _ in range(SWITCH_ATTEMPTS):

@@ -220,6 +220,11 @@ class PeriodicOrbit:
     displacement_min: NDArray[np.float64]
 
     @property
+    def state(self) -> NDArray[np.float64]:
+        """``z = (x, v)`` on the section."""
+        return np.concatenate([self.displacement, self.velocity])
+
+    @property
     def period(self) -> float:
         """The orbit's period, s (``period`` forcing periods)."""
         return self.shooting.duration

@@ -32,8 +32,18 @@ __all__ = ["main"]
 
 
 def _build_parser() -> argparse.ArgumentParser:
-    from vibroimpact.cli import (bench, continuation, impact, laws, modal, orbit, plot, reproduce,
-                                 run, sweep)
+    from vibroimpact.cli import (
+        bench,
+        continuation,
+        impact,
+        laws,
+        modal,
+        orbit,
+        plot,
+        reproduce,
+        run,
+        sweep,
+    )
 
     parser = argparse.ArgumentParser(
         prog="vibroimpact",
