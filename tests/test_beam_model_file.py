@@ -168,7 +168,7 @@ BAD = [
      ["gaps[0].dof: missing; expected exactly one of dof or node or at for a beam"]),
     ("gap_direction_planar", lambda d: d["gaps"][0].update(direction="y"),
      ["gaps[0].direction: 'y' is not valid; expected one of x, ry (a planar beam; use "
-      "dofs_per_node = 6 for 3-D)"]),
+      "dofs_per_node = 4 for a rotor, 6 for 3-D)"]),
     ("gap_on_fixed_dof",
      lambda d: d["structure"].update(supports=[{"node": "end", "kind": "pinned"}]),
      ["gaps[0].direction: 'x' is not valid at node 20; expected a DOF that no support fixes"]),
@@ -184,7 +184,7 @@ BAD = [
     ("support_direction",
      lambda d: d["structure"].update(supports=[{"node": 0, "directions": ["q"]}]),
      ["structure.supports[0].directions: 'q' is not valid; expected one of x, ry (a planar "
-      "beam; use dofs_per_node = 6 for 3-D)"]),
+      "beam; use dofs_per_node = 4 for a rotor, 6 for 3-D)"]),
     ("modal_without_ratios", lambda d: d["structure"].update(damping={"kind": "modal"}),
      ["structure.damping.ratios: missing; expected a non-empty list of numbers"]),
     ("user_without_kappa", lambda d: d["structure"].update(

@@ -40,6 +40,7 @@ from vibroimpact.model import HarmonicLoad as HarmonicLoad
 from vibroimpact.model import Model as Model
 from vibroimpact.model import Structure as Structure
 from vibroimpact.model import TableLoad as TableLoad
+from vibroimpact.model import UnbalanceLoad as UnbalanceLoad
 from vibroimpact.orbits import PeriodicOrbit as PeriodicOrbit
 from vibroimpact.orbits import periodic_orbit as periodic_orbit
 from vibroimpact.result import Result as Result

@@ -38,6 +38,7 @@ __all__ = [
     "Model",
     "Structure",
     "TableLoad",
+    "UnbalanceLoad",
     "spd_solver",
 ]
 
@@ -58,9 +59,10 @@ def _finite_number(value: Any, field_name: str, expected: str) -> float:
     return float(value)
 
 
-def _matrix(value: Any, field_name: str, n: int | None = None) -> Matrix:
-    """A validated square, finite, symmetric matrix: a CSR array (canonical: sorted indices,
-    no duplicates) if ``value`` is a SciPy sparse matrix, else a dense array."""
+def _matrix(value: Any, field_name: str, n: int | None = None, *, skew: bool = False) -> Matrix:
+    """A validated square, finite, symmetric (``skew``: skew-symmetric) matrix: a CSR array
+    (canonical: sorted indices, no duplicates) if ``value`` is a SciPy sparse matrix, else a
+    dense array."""
     a: Matrix
     try:
         if sp.issparse(value):
@@ -80,6 +82,12 @@ def _matrix(value: Any, field_name: str, n: int | None = None) -> Matrix:
     if not np.all(np.isfinite(values)):
         raise ModelError(f"{field_name}: contains NaN or infinity; expected finite values")
     scale = max(float(np.abs(values).max(initial=0.0)), np.finfo(float).tiny)
+    if skew:
+        off = float(abs(a + a.T).max())
+        if off > 1e-9 * scale:
+            raise ModelError(f"{field_name}: not skew-symmetric (max |G + G^T| = {off:.3e}); "
+                             "expected G = -G^T")
+        return a
     asym = float(abs(a - a.T).max())
     if asym > 1e-9 * scale:
         raise ModelError(
@@ -152,12 +160,18 @@ class Structure:
 
     ``dof_units``: the unit of each DOF's displacement, one of :data:`DOF_UNITS` per DOF
     (default ``"m"`` for all; a rotation is ``"rad"``, its rows of ``M`` and ``K`` then in
-    kg·m² and N·m/rad). Results label each DOF with it (``dof_unit`` coordinate)."""
+    kg·m² and N·m/rad). Results label each DOF with it (``dof_unit`` coordinate).
+
+    A rotor (docs/rotors.md): ``spin_speed`` Ω (rad/s, default 0) and ``gyroscopic`` ``G``
+    (kg·m², skew-symmetric; None: no gyroscopic forces) make the equation of motion
+    ``M x'' + (C + Ω G) x' + K x = F``; unbalance loads (:class:`UnbalanceLoad`) turn at Ω."""
 
     mass: Matrix
     stiffness: Matrix
     damping: Matrix
     dof_units: tuple[str, ...]
+    gyroscopic: Matrix | None
+    spin_speed: float
 
     def __init__(
         self,
@@ -165,27 +179,38 @@ class Structure:
         stiffness: ArrayLike | sp.sparray | sp.spmatrix | None = None,
         damping: ArrayLike | sp.sparray | sp.spmatrix | None = None,
         dof_units: Sequence[str] | None = None,
+        *,
+        gyroscopic: ArrayLike | sp.sparray | sp.spmatrix | None = None,
+        spin_speed: float = 0.0,
     ) -> None:
         m = _matrix(mass, "structure.mass")
         n = m.shape[0]
-        sparse = any(sp.issparse(a) for a in (mass, stiffness, damping))
+        sparse = any(sp.issparse(a) for a in (mass, stiffness, damping, gyroscopic))
         zero = sp.csr_array((n, n)) if sparse else np.zeros((n, n))
         k = zero.copy() if stiffness is None else _matrix(stiffness, "structure.stiffness", n)
         c = zero.copy() if damping is None else _matrix(damping, "structure.damping", n)
+        g = None if gyroscopic is None else _matrix(gyroscopic, "structure.gyroscopic", n,
+                                                    skew=True)
+        if g is not None and largest(g) == 0:
+            g = None
         if sparse:
             m, k, c = (sp.csr_array(a) for a in (m, k, c))
+            g = None if g is None else sp.csr_array(g)
         if spd_solver(m) is None:
             raise ModelError(
                 "structure.mass: not positive definite; expected every DOF to carry mass"
             )
         _check_rates(m, k, c)
         if not sparse:  # (SciPy canonicalises sparse arrays in place: left writable)
-            for a in (m, k, c):
+            for a in (m, k, c) if g is None else (m, k, c, g):
                 a.setflags(write=False)
         object.__setattr__(self, "mass", m)
         object.__setattr__(self, "stiffness", k)
         object.__setattr__(self, "damping", c)
         object.__setattr__(self, "dof_units", check_dof_units(dof_units, n))
+        object.__setattr__(self, "gyroscopic", g)
+        object.__setattr__(self, "spin_speed", _finite_number(
+            spin_speed, "structure.spin_speed", "a spin speed in rad/s"))
 
     @classmethod
     def sdof(cls, mass: float, stiffness: float = 0.0, damping: float = 0.0) -> Structure:
@@ -197,6 +222,30 @@ class Structure:
         c = _finite_number(damping, "structure.damping", "a damping >= 0 in N·s/m")
         require(c >= 0, "structure.damping", damping, "a damping >= 0 in N·s/m")
         return cls([[m]], [[k]], [[c]])
+
+    @classmethod
+    def jeffcott(cls, mass: float, stiffness: float | Sequence[float],
+                 damping: float | Sequence[float] = 0.0, spin_speed: float = 0.0) -> Structure:
+        """A Jeffcott rotor (a disc of ``mass`` kg on a massless shaft): DOF 0 = x, 1 = y,
+        ``stiffness`` (N/m) and ``damping`` (N·s/m) to ground in each direction (one number
+        for both, or ``[x, y]``), spinning at ``spin_speed`` rad/s (no gyroscopic forces: the
+        disc does not tilt)."""
+        m = _finite_number(mass, "structure.mass", "a mass > 0 in kg")
+        require(m > 0, "structure.mass", mass, "a mass > 0 in kg")
+        per = []
+        for name, value, unit in (("stiffness", stiffness, "N/m"), ("damping", damping,
+                                                                   "N·s/m")):
+            pair = [value, value] if not isinstance(value, (list, tuple, np.ndarray)) else value
+            expected = f"a {name} >= 0 in {unit}, or two ([x, y])"
+            require(len(pair) == 2, f"structure.{name}", value, expected)
+            per.append([_finite_number(v, f"structure.{name}", expected) for v in pair])
+            require(min(per[-1]) >= 0, f"structure.{name}", value, expected)
+        return cls(np.diag([m, m]), np.diag(per[0]), np.diag(per[1]), spin_speed=spin_speed)
+
+    def at_speed(self, spin_speed: float) -> Structure:
+        """This structure spinning at ``spin_speed`` (rad/s) instead."""
+        return Structure(self.mass, self.stiffness, self.damping, self.dof_units,
+                         gyroscopic=self.gyroscopic, spin_speed=spin_speed)
 
     @property
     def n_dof(self) -> int:
@@ -380,6 +429,42 @@ class HarmonicLoad(Load):
 
 
 @dataclass(frozen=True)
+class UnbalanceLoad:
+    """A rotating unbalance on the DOF pair ``dof = [ix, iy]`` (x and y of one node) of a
+    structure spinning at Ω (:attr:`Structure.spin_speed`): ``magnitude`` m·e (kg·m) at
+    ``phase`` φ (rad) gives ``F = m e Ω² (cos(Ωt + φ), sin(Ωt + φ))`` (N)."""
+
+    dof: Sequence[int]
+    magnitude: float
+    phase: float = 0.0
+
+    def __post_init__(self) -> None:
+        dofs = _dofs(self.dof, "load.dof")
+        require(len(dofs) == 2 and dofs[0] != dofs[1], "load.dof", self.dof,
+                "two distinct DOFs [ix, iy] (x and y of one node)")
+        object.__setattr__(self, "dof", dofs)
+        m = _finite_number(self.magnitude, "load.magnitude", "an unbalance m·e >= 0 in kg·m")
+        require(m >= 0, "load.magnitude", self.magnitude, "an unbalance m·e >= 0 in kg·m")
+        _finite_number(self.phase, "load.phase", "an angle in rad")
+
+    @property
+    def dofs(self) -> tuple[int, ...]:
+        return tuple(self.dof)
+
+    def harmonics(self, spin_speed: float) -> tuple[HarmonicLoad, HarmonicLoad]:
+        """The two harmonic loads it is at the spin speed Ω (x: ``cos θ = sin(θ + π/2)``; a
+        negative Ω turns the other way: ``θ = |Ω| t`` with the y force and phase negated)."""
+        w, phase = abs(float(spin_speed)), float(self.phase)
+        sign = 1.0 if spin_speed >= 0 else -1.0
+        force = float(self.magnitude) * w * w
+        ix, iy = self.dof
+        return (HarmonicLoad(dof=ix, amplitude=force, frequency=w / (2 * math.pi),
+                             phase=sign * phase + math.pi / 2),
+                HarmonicLoad(dof=iy, amplitude=sign * force, frequency=w / (2 * math.pi),
+                             phase=sign * phase))
+
+
+@dataclass(frozen=True)
 class TableLoad(Load):
     """Tabulated force ``scale · F(t)``: ``time`` (s, increasing) and ``force`` (N), linearly
     interpolated and held at the end values outside the table."""
@@ -448,7 +533,7 @@ class Model:
 
     structure: Structure
     gaps: Sequence[Gap] = ()
-    loads: Sequence[Load] = ()
+    loads: Sequence[Load | UnbalanceLoad] = ()
     initial_displacement: ArrayLike | None = None
     initial_velocity: ArrayLike | None = None
 
@@ -464,7 +549,8 @@ class Model:
             bad = [d for d in g.dofs if d >= n]
             require(not bad, f"gaps[{i}].dof", bad[0] if bad else None, f"0 <= dof < {n}")
         for i, ld in enumerate(self.loads):
-            require(isinstance(ld, Load), f"loads[{i}]", ld, "a vibroimpact load")
+            require(isinstance(ld, (Load, UnbalanceLoad)), f"loads[{i}]", ld,
+                    "a vibroimpact load")
             bad = [d for d in ld.dofs if d >= n]
             require(not bad, f"loads[{i}].dof", bad[0] if bad else None, f"0 <= dof < {n}")
         x0 = _initial(self.initial_displacement, n, "initial.displacement", "m")
@@ -515,6 +601,16 @@ class Model:
     @property
     def n_dof(self) -> int:
         return self.structure.n_dof
+
+    @property
+    def applied_loads(self) -> tuple[Load, ...]:
+        """The loads the core applies: each :class:`UnbalanceLoad` as its two harmonic loads
+        at the structure's spin speed."""
+        out: list[Load] = []
+        for ld in self.loads:
+            out += ld.harmonics(self.structure.spin_speed) if isinstance(
+                ld, UnbalanceLoad) else [ld]
+        return tuple(out)
 
     def gap_flexibility(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Per gap, with ``b`` its coefficients on the DOFs: ``b M⁻¹ bᵀ`` (the inverse of its
@@ -586,7 +682,9 @@ class Model:
             "damping": s.damping,
             "stiffness": s.stiffness,
             "gaps": [g.to_spec() for g in self.gaps],
-            "loads": [ld.to_spec() for ld in self.loads],
+            "loads": [ld.to_spec() for ld in self.applied_loads],
+            "gyroscopic": s.gyroscopic,
+            "spin_speed": s.spin_speed,
             "x0": np.asarray(self.initial_displacement, dtype=float),
             "v0": np.asarray(self.initial_velocity, dtype=float),
         }

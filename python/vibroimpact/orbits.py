@@ -48,7 +48,7 @@ def forcing_period(model: Model) -> float:
     periodic) or if two frequencies are not commensurate (their ratio is not a fraction with a
     denominator up to 64, to 1e-12)."""
     frequencies = []
-    for i, load in enumerate(model.loads):
+    for i, load in enumerate(model.applied_loads):
         if isinstance(load, TableLoad):
             raise ModelError(f"loads[{i}]: a table load is not periodic; expected harmonic or "
                              "constant loads for a periodic orbit")

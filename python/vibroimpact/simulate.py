@@ -73,7 +73,7 @@ def contact_periods(model: Model) -> list[float | None]:
     # in doubles without warnings: an overflow is an inf (refused below), never an exception
     with np.errstate(all="ignore"):
         energy = 0.5 * np.float64(v0 @ (st.mass @ v0)) + 0.5 * np.float64(x0 @ (st.stiffness @ x0))
-        for load in model.loads:
+        for load in model.applied_loads:
             energy += np.float64(load.peak) * len(load.dofs) * reach
         for g, gap in enumerate(model.gaps):
             try:
@@ -122,7 +122,7 @@ def check_run(model: Model, t_end: float, dt: float, method: Integrator) -> None
     if not model.loads:
         return
     mass = model.structure.mass.diagonal().tolist()
-    for i, load in enumerate(model.loads):
+    for i, load in enumerate(model.applied_loads):
         impulse = load.peak * t_end  # Python floats: an overflow is an inf, without a warning
         energy = 0.5 * impulse * impulse * sum(1.0 / mass[d] for d in load.dofs)
         if not math.isfinite(energy):

@@ -19,6 +19,8 @@ Example — the paper's hollow shaft (§3.2), its free–free modes and a slider
 from vibroimpact.fe import matrices as matrices
 from vibroimpact.fe import reduction as reduction
 from vibroimpact.fe.beam import Beam as Beam
+from vibroimpact.fe.beam import Bearing as Bearing
+from vibroimpact.fe.beam import Disc as Disc
 from vibroimpact.fe.beam import Material as Material
 from vibroimpact.fe.beam import PointMass as PointMass
 from vibroimpact.fe.beam import Section as Section

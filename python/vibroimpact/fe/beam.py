@@ -7,6 +7,18 @@ The beam lies on the z axis from ``z = 0`` (node 0, ``"start"``) to ``z = length
   about y, rad, ``ry = dx/dz`` for Euler–Bernoulli); bending in the x–z plane.
 * 3-D (``dofs_per_node = 6``): ``x, y, z, rx, ry, rz``; bending in the x–z and y–z planes
   (``rx = −dy/dz``), axial ``z`` and torsion ``rz``.
+* rotor (``dofs_per_node = 4``): ``x, y, rx, ry``, the two bending planes of a shaft
+  spinning about z (docs/rotors.md), with discs (:class:`Disc`), bearings
+  (:class:`Bearing`) and the gyroscopic matrix ``G`` at ``spin_speed``.
+
+Gyroscopic matrix of a spinning shaft element (Nelson & McVaugh, *J. Eng. Ind.* 98:593,
+1976; Friswell et al., *Dynamics of Rotating Machines*, 2010, §5.4): with the rotation
+shape functions ``N`` of the bending element (``ry = N [x1, ry1, x2, ry2]``, and
+``rx = −N T [y1, rx1, y2, rx2]``, ``T = diag(1, −1, 1, −1)``), the gyroscopic moments
+``ρ I_p Ω (ṙy, −ṙx)`` on ``(rx, ry)`` per length give ``G[x, y] = ρ I_p ∫NᵀN dz · T`` and
+``G[y, x] = −T · ρ I_p ∫NᵀN dz`` (``I_p = I_x + I_y``; the shaft's rotary-inertia matrix
+with ``I_p`` for ``I``, so ``G`` exists with ``rotary_inertia`` only). A disc adds
+``G[rx, ry] = I_p = −G[ry, rx]`` at its node, the gyroscopic couple of a spinning disc.
 
 Element matrices (Przemieniecki, *Theory of Matrix Structural Analysis*, 1968, §5.6 and
 §11.7; the interdependent-interpolation element), with ``Φ = 12 E I / (κ G A L²)``
@@ -57,6 +69,8 @@ from vibroimpact.model import Gap, Load, Model, Structure
 
 __all__ = [
     "Beam",
+    "Bearing",
+    "Disc",
     "Material",
     "PointMass",
     "Section",
@@ -73,6 +87,14 @@ SECTION_KINDS: tuple[str, ...] = ("circle", "tube", "rectangle", "user")
 SUPPORT_KINDS: tuple[str, ...] = ("fixed", "pinned", "free")
 NODE_NAMES: tuple[str, ...] = ("start", "middle", "end")
 PLANAR_DIRECTIONS: tuple[str, ...] = ("x", "ry")
+ROTOR_DIRECTIONS: tuple[str, ...] = ("x", "y", "rx", "ry")
+#: Per ``dofs_per_node``: the node's directions, and the element's local DOFs of the x–z
+#: bending plane ``(x, ry)`` and of the y–z plane ``(y, rx)`` (``None``: planar).
+_LAYOUTS: dict[int, tuple[tuple[str, ...], list[int] | None, list[int] | None]] = {
+    2: (PLANAR_DIRECTIONS, None, None),
+    4: (ROTOR_DIRECTIONS, [0, 3, 4, 7], [1, 2, 5, 6]),
+    6: (DIRECTIONS, [0, 4, 6, 10], [1, 3, 7, 9]),
+}
 NodeRef = int | str
 
 
@@ -306,23 +328,54 @@ def bending_matrices(
             [m14, m24, -m12, m22],
         ]
     )
-    ri = rotary_inertia_per_length / ((1 + phi) ** 2 * L)
+    mr = rotary_inertia_per_length * rotation_gram(phi, L)
+    if not lumped:
+        return k, mt + mr
+    half = mass_per_length * L / 2
+    rot = half * mt[1, 1] / mt[0, 0] + rotary_inertia_per_length * L / 2
+    return k, np.diag([half, rot, half, rot])
+
+
+def rotation_gram(phi: float, length: float) -> NDArray[np.float64]:
+    """``∫ Nᵀ N dz`` (m, 4×4 on ``w1, θ1, w2, θ2``) of the rotation shape functions ``N`` of
+    a bending element with shear parameter ``phi`` (Przemieniecki 1968 eq. 11.43: the rotary
+    inertia is ``ρI`` times it)."""
+    L = length
     r12 = (1 / 10 - phi / 2) * L
     r22 = (2 / 15 + phi / 6 + phi**2 / 3) * L**2
     r24 = (-1 / 30 - phi / 6 + phi**2 / 6) * L**2
-    mr = ri * np.array(
+    return np.array(
         [
             [6 / 5, r12, -6 / 5, r12],
             [r12, r22, -r12, r24],
             [-6 / 5, -r12, 6 / 5, -r12],
             [r12, r24, -r12, r22],
         ]
-    )
-    if not lumped:
-        return k, mt + mr
-    half = mass_per_length * L / 2
-    rot = half * mt[1, 1] / mt[0, 0] + rotary_inertia_per_length * L / 2
-    return k, np.diag([half, rot, half, rot])
+    ) / ((1 + phi) ** 2 * L)
+
+
+def shaft_gyroscopic(
+    section: Section, material: Material, length: float, *, theory: str = "timoshenko",
+    dofs_per_node: int = 4,
+) -> NDArray[np.float64]:
+    """The gyroscopic matrix ``G`` (kg·m², skew-symmetric, node-major like
+    :func:`element_matrices`) of one shaft element spinning about z (module docstring)."""
+    _, x_plane, y_plane = _LAYOUTS[dofs_per_node]
+    if x_plane is None or y_plane is None:
+        raise ModelError(f"structure.dofs_per_node: {dofs_per_node} is not valid for a rotor; "
+                         "expected 4 (x, y, rx, ry) or 6")
+    i = section.second_moment_x
+    phi = 0.0
+    if theory == "timoshenko":
+        kappa = section.shear_coefficient_for(material.poisson)
+        phi = 12 * material.youngs_modulus * i / (kappa * material.shear_modulus * section.area
+                                                  * length**2)
+    s = material.density * section.polar_moment * rotation_gram(phi, length)
+    t = np.diag([1.0, -1.0, 1.0, -1.0])
+    g = np.zeros((2 * dofs_per_node, 2 * dofs_per_node))
+    g[np.ix_(x_plane, y_plane)] = s @ t
+    g[np.ix_(y_plane, x_plane)] = -t @ s
+    return g
 
 
 def bar_matrices(
@@ -347,7 +400,7 @@ def element_matrices(
     dofs_per_node: int = 2,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Stiffness and mass of one element in node-major DOF order (planar: ``x1, ry1, x2,
-    ry2``; 3-D: ``x, y, z, rx, ry, rz`` of node 1 then node 2)."""
+    ry2``; rotor: ``x, y, rx, ry``; 3-D: ``x, y, z, rx, ry, rz`` of node 1 then node 2)."""
     e, g, rho = material.youngs_modulus, material.shear_modulus, material.density
     a = section.area
     kappa = section.shear_coefficient_for(material.poisson) if theory == "timoshenko" else None
@@ -358,9 +411,10 @@ def element_matrices(
             e * i, shear, rho * a, rho * i if rotary_inertia else 0.0, length, lumped=lumped
         )
 
-    if dofs_per_node == 2:
+    _, x_plane, y_plane = _LAYOUTS[dofs_per_node]
+    if x_plane is None or y_plane is None:
         return plane(section.second_moment_x)
-    n = 12
+    n = 2 * dofs_per_node
     k, m = np.zeros((n, n)), np.zeros((n, n))
 
     def put(local: Sequence[int], kk: NDArray[np.float64], mm: NDArray[np.float64]) -> None:
@@ -369,10 +423,12 @@ def element_matrices(
         m[np.ix_(idx, idx)] += mm
 
     kx, mx = plane(section.second_moment_x)  # deflection x, rotation ry = +dx/dz
-    put([0, 4, 6, 10], kx, mx)
+    put(x_plane, kx, mx)
     ky, my = plane(section.second_moment_y)  # deflection y, rotation rx = -dy/dz
     t = np.diag([1.0, -1.0, 1.0, -1.0])
-    put([1, 3, 7, 9], t @ ky @ t, t @ my @ t)
+    put(y_plane, t @ ky @ t, t @ my @ t)
+    if dofs_per_node == 4:
+        return k, m
     ka, ma = bar_matrices(e * a, rho * a, length, lumped=lumped)
     put([2, 8], ka, ma)
     if section.torsion_constant is None:
@@ -426,6 +482,32 @@ class PointMass:
     rotary_inertia: float = 0.0
 
 
+@dataclass(frozen=True)
+class Disc:
+    """A rigid disc of a rotor at ``node``/``at``: ``mass`` (kg) on x and y,
+    ``diametral_inertia`` I_d (kg·m²) on rx and ry, ``polar_inertia`` I_p (kg·m², its
+    gyroscopic couple ``Ω I_p``)."""
+
+    mass: float
+    node: NodeRef | None = None
+    at: float | None = None
+    polar_inertia: float = 0.0
+    diametral_inertia: float = 0.0
+
+
+@dataclass(frozen=True)
+class Bearing:
+    """A bearing of a rotor at ``node``/``at``: springs ``kxx``, ``kyy`` (N/m) and dampers
+    ``cxx``, ``cyy`` (N·s/m) to ground on x and y."""
+
+    node: NodeRef | None = None
+    at: float | None = None
+    kxx: float = 0.0
+    kyy: float = 0.0
+    cxx: float = 0.0
+    cyy: float = 0.0
+
+
 # --------------------------------------------------------------------------------------------
 # The beam
 # --------------------------------------------------------------------------------------------
@@ -439,9 +521,12 @@ class Beam:
     ``theory``: ``"timoshenko"`` (shear deformation, default) or ``"euler-bernoulli"``;
     ``lumped_mass``: HRZ-lumped instead of consistent mass; ``rotary_inertia``: include ρI
     (default: True for Timoshenko, False for Euler–Bernoulli); ``dofs_per_node``: 2 (planar)
-    or 6 (3-D); ``supports``, ``springs``, ``masses``: :class:`Support`, :class:`Spring`,
-    :class:`PointMass`; ``damping``: :class:`~vibroimpact.fe.Rayleigh` or
-    :class:`~vibroimpact.fe.ModalDamping` (None: undamped).
+    4 (rotor: x, y, rx, ry) or 6 (3-D); ``supports``, ``springs``, ``masses``:
+    :class:`Support`, :class:`Spring`, :class:`PointMass`; ``damping``:
+    :class:`~vibroimpact.fe.Rayleigh` or :class:`~vibroimpact.fe.ModalDamping` (None:
+    undamped). A rotor (4 or 6 DOFs per node): ``discs`` (:class:`Disc`), ``bearings``
+    (:class:`Bearing`, their dampers added to ``damping``'s ``C``) and ``spin_speed`` Ω
+    (rad/s); its structure has the gyroscopic matrix ``G`` (module docstring).
 
     Constrained DOFs are removed; :attr:`dof_map` gives ``(node, direction)`` per remaining
     DOF, :attr:`structure` the dense :class:`~vibroimpact.Structure`, :attr:`fe` the sparse
@@ -460,6 +545,9 @@ class Beam:
     springs: Sequence[Spring] = ()
     masses: Sequence[PointMass] = ()
     damping: Damping | None = None
+    discs: Sequence[Disc] = ()
+    bearings: Sequence[Bearing] = ()
+    spin_speed: float = 0.0
     fe: FEStructure = field(init=False, repr=False, compare=False)
     free_dofs: NDArray[np.int64] = field(init=False, repr=False, compare=False)
 
@@ -476,10 +564,21 @@ class Beam:
                 f"{p}.theory: {self.theory!r} is not valid; expected one of "
                 + ", ".join(f'"{t}"' for t in THEORIES)
             )
-        if self.dofs_per_node not in (2, 6):
+        if self.dofs_per_node not in _LAYOUTS:
             raise ModelError(
-                f"{p}.dofs_per_node: {self.dofs_per_node!r} is not valid; expected 2 (planar) "
-                "or 6 (3-D)"
+                f"{p}.dofs_per_node: {self.dofs_per_node!r} is not valid; expected 2 (planar), "
+                "4 (rotor: x, y, rx, ry) or 6 (3-D)"
+            )
+        if (self.discs or self.bearings) and self.dofs_per_node == 2:
+            raise ModelError(
+                f"{p}.dofs_per_node: 2 is not valid with discs or bearings; expected 4 (rotor: "
+                "x, y, rx, ry) or 6"
+            )
+        if self.dofs_per_node == 4 and self.section.second_moment_x != self.section.second_moment_y:
+            raise ModelError(
+                f"{p}.section: second moments {self.section.second_moment_x!r} and "
+                f"{self.section.second_moment_y!r} m^4 differ; expected an axisymmetric shaft "
+                "section for dofs_per_node = 4"
             )
         if not isinstance(self.section, Section):
             raise ModelError(f"{p}.section: {self.section!r} is not valid; expected a Section")
@@ -489,7 +588,7 @@ class Beam:
             raise ModelError(
                 f"{p}.damping: {self.damping!r} is not valid; expected Rayleigh or ModalDamping"
             )
-        for name in ("supports", "springs", "masses"):
+        for name in ("supports", "springs", "masses", "discs", "bearings"):
             object.__setattr__(self, name, tuple(getattr(self, name)))
         if self.rotary_inertia is None:
             object.__setattr__(self, "rotary_inertia", self.theory == "timoshenko")
@@ -501,7 +600,7 @@ class Beam:
     @property
     def node_directions(self) -> tuple[str, ...]:
         """The DOF directions of every node (before supports)."""
-        return PLANAR_DIRECTIONS if self.dofs_per_node == 2 else DIRECTIONS
+        return _LAYOUTS[self.dofs_per_node][0]
 
     @property
     def n_nodes(self) -> int:
@@ -518,9 +617,9 @@ class Beam:
 
     @property
     def total_mass(self) -> float:
-        """ρAL plus the point masses, kg."""
+        """ρAL plus the point masses and discs, kg."""
         m = self.material.density * self.section.area * self.length
-        return float(m + sum(pm.mass for pm in self.masses))
+        return float(m + sum(pm.mass for pm in self.masses) + sum(d.mass for d in self.discs))
 
     @property
     def dof_map(self) -> DofMap:
@@ -615,7 +714,8 @@ class Beam:
             d = ""
         if d not in self.node_directions:
             extra = (
-                " (a planar beam; use dofs_per_node = 6 for 3-D)" if self.dofs_per_node == 2 else ""
+                " (a planar beam; use dofs_per_node = 4 for a rotor, 6 for 3-D)"
+                if self.dofs_per_node == 2 else ""
             )
             raise ModelError(
                 f"{field_name}: {direction!r} is not valid; expected one of "
@@ -769,8 +869,10 @@ class Beam:
         r_all, c_all = np.concatenate(rows), np.concatenate(cols)
         k = sp.coo_array((np.concatenate(kv), (r_all, c_all)), shape=(n_full, n_full)).tocsr()
         m = sp.coo_array((np.concatenate(mv), (r_all, c_all)), shape=(n_full, n_full)).tocsr()
+        g = self._gyroscopic(r_all, c_all) if self.dofs_per_node > 2 else None
         k_add = np.zeros(n_full)
         m_add = np.zeros(n_full)
+        c_add = np.zeros(n_full)
         fixed: set[int] = set()
         translations = [d for d in self.node_directions if not d.startswith("r")]
         rotations = [d for d in self.node_directions if d.startswith("r")]
@@ -812,6 +914,30 @@ class Beam:
                 m_add[self.full_dof(node, d)] += mass
             for d in rotations:
                 m_add[self.full_dof(node, d)] += inertia
+        for i, disc in enumerate(self.discs):
+            p = f"structure.discs[{i}]"
+            if not isinstance(disc, Disc):
+                raise ModelError(f"{p}: {disc!r} is not valid; expected a Disc")
+            node = self.node_index(disc.node, at=disc.at, field_name=f"{p}.node")
+            mass = _nonnegative(disc.mass, f"{p}.mass", "kg")
+            diametral = _nonnegative(disc.diametral_inertia, f"{p}.diametral_inertia", "kg·m^2")
+            polar = _nonnegative(disc.polar_inertia, f"{p}.polar_inertia", "kg·m^2")
+            for d, value in (("x", mass), ("y", mass), ("rx", diametral), ("ry", diametral)):
+                m_add[self.full_dof(node, d)] += value
+            assert g is not None  # a rotor's layout
+            rx, ry = self.full_dof(node, "rx"), self.full_dof(node, "ry")
+            g[rx, ry] += polar
+            g[ry, rx] -= polar
+        for i, b in enumerate(self.bearings):
+            p = f"structure.bearings[{i}]"
+            if not isinstance(b, Bearing):
+                raise ModelError(f"{p}: {b!r} is not valid; expected a Bearing")
+            node = self.node_index(b.node, at=b.at, field_name=f"{p}.node")
+            for d, key, target, unit in (("x", "kxx", k_add, "N/m"), ("y", "kyy", k_add, "N/m"),
+                                         ("x", "cxx", c_add, "N·s/m"),
+                                         ("y", "cyy", c_add, "N·s/m")):
+                target[self.full_dof(node, d)] += _nonnegative(getattr(b, key), f"{p}.{key}",
+                                                               unit)
         k = k + sp.diags_array(k_add, format="csr")
         m = m + sp.diags_array(m_add, format="csr")
         free = np.array([i for i in range(n_full) if i not in fixed], dtype=np.int64)
@@ -825,8 +951,27 @@ class Beam:
             [int(i) // ndpn for i in free], [self.node_directions[int(i) % ndpn] for i in free]
         )
         c = None if self.damping is None else self.damping.matrix(m, k)
+        if c_add.any():
+            dampers = sp.diags_array(c_add[free], format="csr")
+            c = dampers if c is None else sp.csr_array(c + dampers)
+        if g is not None:
+            g = sp.csr_array(g[free][:, free])
+            g = 0.5 * (g - g.T)
+        spin = _number(self.spin_speed, "structure.spin_speed", "a spin speed in rad/s")
         object.__setattr__(self, "free_dofs", free)
-        object.__setattr__(self, "fe", FEStructure(m, k, c, dof_map))
+        object.__setattr__(self, "fe", FEStructure(m, k, c, dof_map, gyroscopic=g,
+                                                   spin_speed=spin))
+
+    def _gyroscopic(self, rows: NDArray[np.int64], cols: NDArray[np.int64]) -> sp.lil_array:
+        """The shaft's assembled gyroscopic matrix (zero without rotary inertia), before
+        supports; the discs add theirs."""
+        n_full = self.n_nodes * self.dofs_per_node
+        if not self.rotary_inertia:
+            return sp.lil_array((n_full, n_full))
+        ge = shaft_gyroscopic(self.section, self.material, self.element_length,
+                              theory=self.theory, dofs_per_node=self.dofs_per_node)
+        values = np.tile(ge.ravel(), self.elements)
+        return sp.coo_array((values, (rows, cols)), shape=(n_full, n_full)).tolil()
 
 
 def _nonnegative(value: Any, name: str, unit: str) -> float:
@@ -897,6 +1042,17 @@ def beam_from_table(s: Mapping[str, Any]) -> Beam:
         for t in s.get("masses", [])
     ]
     damping = damping_from_table(s["damping"]) if s.get("damping") else None
+    discs = [
+        Disc(mass=t["mass"], node=t.get("node"), at=t.get("at"),
+             polar_inertia=t.get("polar_inertia", 0.0),
+             diametral_inertia=t.get("diametral_inertia", 0.0))
+        for t in s.get("discs", [])
+    ]
+    bearings = [
+        Bearing(node=t.get("node"), at=t.get("at"),
+                **{k: t.get(k, 0.0) for k in ("kxx", "kyy", "cxx", "cyy")})
+        for t in s.get("bearings", [])
+    ]
     return Beam(
         length=s["length"],
         elements=s["elements"],
@@ -910,4 +1066,7 @@ def beam_from_table(s: Mapping[str, Any]) -> Beam:
         springs=springs,
         masses=masses,
         damping=damping,
+        discs=discs,
+        bearings=bearings,
+        spin_speed=s.get("spin_speed", 0.0),
     )

@@ -407,7 +407,9 @@ def _condensation(
             CondensationWarning,
             stacklevel=3,
         )
-    reduced = FEStructure(m_r, k_r, c_r, dof_map, declared)
+    g_r = None if fe.gyroscopic is None else sp.csr_array(tt @ fe.gyroscopic @ t)
+    reduced = FEStructure(m_r, k_r, c_r, dof_map, declared, gyroscopic=g_r,
+                          spin_speed=fe.spin_speed)
     return StaticCondensation(fe, reduced, retained, condensed, t, residual, projection,
                               null_space)
 

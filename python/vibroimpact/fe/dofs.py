@@ -286,13 +286,16 @@ class FEStructure:
     optional :class:`DofMap`. Build the (sparse) :class:`~vibroimpact.Structure` the core runs
     with :meth:`to_structure`, or reduce it first (:func:`vibroimpact.fe.craig_bampton`).
     ``declared_units``: each DOF's unit ("m" or "rad") for a structure without a DOF map
-    (a map's directions give them)."""
+    (a map's directions give them). A rotor: ``gyroscopic`` ``G`` (kg·m², skew-symmetric) and
+    ``spin_speed`` Ω (rad/s), as on :class:`~vibroimpact.Structure`."""
 
     mass: sp.csr_array
     stiffness: sp.csr_array
     damping: sp.csr_array | None = None
     dof_map: DofMap | None = None
     declared_units: tuple[str, ...] | None = None
+    gyroscopic: sp.csr_array | None = None
+    spin_speed: float = 0.0
 
     def __init__(
         self,
@@ -301,11 +304,20 @@ class FEStructure:
         damping: Any = None,
         dof_map: DofMap | None = None,
         declared_units: Sequence[str] | None = None,
+        *,
+        gyroscopic: Any = None,
+        spin_speed: float = 0.0,
     ) -> None:
         m = as_sparse(mass, "structure.mass")
         n = m.shape[0]
         k = as_sparse(stiffness, "structure.stiffness", n)
         c = None if damping is None else as_sparse(damping, "structure.damping", n)
+        g = None if gyroscopic is None else sp.csr_array(gyroscopic, dtype=float)
+        if g is not None and g.shape != (n, n):
+            raise ModelError(f"structure.gyroscopic: shape {g.shape} does not match; expected "
+                             f"({n}, {n})")
+        object.__setattr__(self, "gyroscopic", g)
+        object.__setattr__(self, "spin_speed", spin_speed)
         if dof_map is not None and len(dof_map) != n:
             raise ModelError(
                 f"dof_map: {len(dof_map)} DOFs is not valid; expected {n} (one per matrix row)"
@@ -351,7 +363,8 @@ class FEStructure:
         from vibroimpact.fe.damping import Damping
 
         c = damping.matrix(self.mass, self.stiffness) if isinstance(damping, Damping) else damping
-        return FEStructure(self.mass, self.stiffness, c, self.dof_map, self.declared_units)
+        return FEStructure(self.mass, self.stiffness, c, self.dof_map, self.declared_units,
+                           gyroscopic=self.gyroscopic, spin_speed=self.spin_speed)
 
     @property
     def massless_dofs(self) -> list[int]:
@@ -395,7 +408,8 @@ class FEStructure:
                 "integration); expected a positive definite mass (condense its null space "
                 "with FEStructure.condense_massless())"
             )
-        return Structure(self.mass, self.stiffness, self.damping, self.dof_units)
+        return Structure(self.mass, self.stiffness, self.damping, self.dof_units,
+                         gyroscopic=self.gyroscopic, spin_speed=self.spin_speed)
 
     # ---- addressing by node and direction ----
 

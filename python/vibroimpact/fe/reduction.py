@@ -62,6 +62,11 @@ def _parts(structure: Any) -> tuple[Any, Any, Any, DofMap | None, tuple[str, ...
 
     if isinstance(structure, Beam):
         structure = structure.fe
+    if isinstance(structure, Model):
+        structure = structure.structure
+    if getattr(structure, "gyroscopic", None) is not None:
+        raise ModelError("structure.gyroscopic: a rotor's gyroscopic matrix is not reduced (the "
+                         "fixed-interface modes ignore it); expected a structure without one")
     if isinstance(structure, FEStructure):
         massless = structure.massless_dofs
         if massless:
@@ -72,8 +77,6 @@ def _parts(structure: Any) -> tuple[Any, Any, Any, DofMap | None, tuple[str, ...
             )
         return (structure.mass, structure.stiffness, structure.damping, structure.dof_map,
                 structure.dof_units)
-    if isinstance(structure, Model):
-        structure = structure.structure
     if isinstance(structure, Structure):
         c = structure.damping if abs(structure.damping).max() > 0 else None
         return structure.mass, structure.stiffness, c, None, structure.dof_units

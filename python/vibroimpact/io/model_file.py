@@ -50,6 +50,7 @@ from vibroimpact.model import (
     Model,
     Structure,
     TableLoad,
+    UnbalanceLoad,
 )
 from vibroimpact.simulate import check_run, contact_periods
 
@@ -283,9 +284,11 @@ _GEOMETRY_KINDS = contact.GEOMETRY_KINDS
 _SDOF = ("kind", ("sdof",))
 _MATRICES = ("kind", ("matrices",))
 _BEAM = ("kind", ("beam",))
+_JEFFCOTT = ("kind", ("jeffcott",))
+_SPINNING = ("kind", ("jeffcott", "matrices", "beam"))
 # keys of [[gaps]] and [[loads]] that depend on the structure (see _Checker.context)
 _ON_BEAM = ("structure.kind", ("beam",))
-_ON_SDOF = ("structure.kind", ("sdof",))
+_WITHOUT_NODES = ("structure.kind", ("sdof", "jeffcott"))
 _WITH_NODES = ("structure.kind", ("beam", "matrices"))
 _NODE_NAMES = ("start", "middle", "end")
 _DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
@@ -305,8 +308,21 @@ SCHEMA: tuple[Field, ...] = (
     Field("solver", "table", "integrator and time span", default=REQUIRED),
     Field("output", "table", "what the run keeps", default={}, default_text="everything"),
     # [structure]
-    Field("structure.kind", "string", "single DOF, matrices or a beam (vibroimpact.fe.beam)",
-          default=REQUIRED, choices=("sdof", "matrices", "beam")),
+    Field("structure.kind", "string", "single DOF, matrices, a beam (vibroimpact.fe.beam) or a "
+          "Jeffcott rotor (DOFs 0 = x, 1 = y; docs/rotors.md)",
+          default=REQUIRED, choices=("sdof", "matrices", "beam", "jeffcott")),
+    Field("structure.mass", "number", "disc mass", unit="kg", default=REQUIRED, minimum=0,
+          minimum_inclusive=False, when=_JEFFCOTT),
+    Field("structure.stiffness", "number-or-list", "shaft stiffness to ground in each direction "
+          "(one number, or [x, y])", unit="N/m", default=0.0, minimum=0, when=_JEFFCOTT),
+    Field("structure.damping", "number-or-list", "damping to ground in each direction (one "
+          "number, or [x, y])", unit="N·s/m", default=0.0, minimum=0, when=_JEFFCOTT),
+    Field("structure.spin_speed", "number", "spin speed Ω of a rotor (its gyroscopic forces "
+          "Ω G x' and unbalance loads turn with it)", unit="rad/s", default=0.0,
+          when=_SPINNING),
+    Field("structure.gyroscopic", "matrix", "gyroscopic matrix G of a rotor (M x'' + (C + Ω G) "
+          "x' + K x = F)", unit="kg·m^2", default_text="none",
+          rule="same shape as mass, skew-symmetric", when=_MATRICES),
     Field("structure.mass", "number", "mass", unit="kg", default=REQUIRED, minimum=0,
           minimum_inclusive=False, when=_SDOF),
     Field("structure.stiffness", "number", "spring to ground", unit="N/m", default=0.0,
@@ -344,8 +360,9 @@ SCHEMA: tuple[Field, ...] = (
           minimum=1, maximum=1000, when=_BEAM),
     Field("structure.theory", "string", "beam theory", default="timoshenko",
           choices=("euler-bernoulli", "timoshenko"), when=_BEAM),
-    Field("structure.dofs_per_node", "integer", "2: planar bending in x-z (DOFs x, ry); 6: 3-D "
-          "(x, y, z, rx, ry, rz)", default=2, choices=(2, 6), when=_BEAM),
+    Field("structure.dofs_per_node", "integer", "2: planar bending in x-z (DOFs x, ry); 4: a "
+          "rotor's two bending planes (x, y, rx, ry); 6: 3-D (x, y, z, rx, ry, rz)", default=2,
+          choices=(2, 4, 6), when=_BEAM),
     Field("structure.lumped_mass", "boolean", "HRZ-lumped instead of consistent mass",
           default=False, when=_BEAM),
     Field("structure.rotary_inertia", "boolean", "include the rotary inertia ρI",
@@ -359,6 +376,10 @@ SCHEMA: tuple[Field, ...] = (
           when=_BEAM),
     Field("structure.masses", "tables", "point masses", default=[], default_text="none",
           when=_BEAM),
+    Field("structure.discs", "tables", "rotor discs (dofs_per_node = 4 or 6)", default=[],
+          default_text="none", when=_BEAM),
+    Field("structure.bearings", "tables", "rotor bearings: springs and dampers to ground in x "
+          "and y (dofs_per_node = 4 or 6)", default=[], default_text="none", when=_BEAM),
     Field("structure.damping", "table", "damping C built from M and K (matrices: of the model "
           "that runs, massless DOFs and modes condensed)", default_text="none",
           when=("kind", ("beam", "matrices"))),
@@ -421,6 +442,24 @@ SCHEMA: tuple[Field, ...] = (
           default=REQUIRED, minimum=0),
     Field("structure.masses[].rotary_inertia", "number", "inertia on each rotation",
           unit="kg·m^2", default=0.0, minimum=0),
+    # [[structure.discs]], [[structure.bearings]] (rotors)
+    Field("structure.discs[].node", "node", "the node", rule="or at"),
+    Field("structure.discs[].at", "number", "the node at this fraction of the length",
+          minimum=0, maximum=1, rule="or node"),
+    Field("structure.discs[].mass", "number", "mass on x and y", unit="kg", default=REQUIRED,
+          minimum=0),
+    Field("structure.discs[].polar_inertia", "number", "polar moment of inertia I_p (its "
+          "gyroscopic couple Ω I_p)", unit="kg·m^2", default=0.0, minimum=0),
+    Field("structure.discs[].diametral_inertia", "number", "diametral moment of inertia I_d "
+          "(on rx and ry)", unit="kg·m^2", default=0.0, minimum=0),
+    Field("structure.bearings[].node", "node", "the node", rule="or at"),
+    Field("structure.bearings[].at", "number", "the node at this fraction of the length",
+          minimum=0, maximum=1, rule="or node"),
+    *(Field(f"structure.bearings[].{key}", "number", f"{what} in {d}", unit=unit, default=0.0,
+            minimum=0)
+      for key, what, d, unit in (("kxx", "stiffness", "x", "N/m"), ("kyy", "stiffness", "y", "N/m"),
+                                 ("cxx", "damping", "x", "N·s/m"),
+                                 ("cyy", "damping", "y", "N·s/m"))),
     # [structure.damping] (beams, matrices)
     Field("structure.damping.kind", "string", "rayleigh: C = alpha M + beta K; modal: a ratio "
           "per mode", default=REQUIRED, choices=("rayleigh", "modal")),
@@ -435,7 +474,7 @@ SCHEMA: tuple[Field, ...] = (
           required_when=("kind", ("modal",))),
     # [[gaps]]
     Field("gaps[].dof", "dofs", "DOF(s) of the gap coordinate u = Σ coefficients[i]·x[dof[i]]",
-          required_when=_ON_SDOF, rule="0 <= dof < number of DOFs; beam, matrices: or node"),
+          required_when=_WITHOUT_NODES, rule="0 <= dof < number of DOFs; beam, matrices: or node"),
     Field("gaps[].node", "node", "the node of the gap (beam: index or name; matrices: node "
           "label of the DOF map)", rule="or dof (beam: or at)", when=_WITH_NODES),
     Field("gaps[].at", "number", "the beam node at this fraction of the length", minimum=0,
@@ -515,10 +554,11 @@ SCHEMA: tuple[Field, ...] = (
           "several", unit="m/s", default_text="zeros", rule="one per DOF"),
     # [[loads]]
     Field("loads[].kind", "string", "constant F = amplitude; harmonic F = amplitude·sin(2π·"
-          "frequency·t + phase); table F = scale·F(t) from a CSV file", default=REQUIRED,
-          choices=("constant", "harmonic", "table")),
+          "frequency·t + phase); table F = scale·F(t) from a CSV file; unbalance F = magnitude·"
+          "Ω²·(cos(Ωt + phase), sin(Ωt + phase)) on [x, y] at structure.spin_speed Ω",
+          default=REQUIRED, choices=("constant", "harmonic", "table", "unbalance")),
     Field("loads[].dof", "dofs", "DOF(s) the force acts on (the same force on each)",
-          required_when=_ON_SDOF, rule="0 <= dof < number of DOFs; beam, matrices: or nodes"),
+          required_when=_WITHOUT_NODES, rule="0 <= dof < number of DOFs; beam, matrices: or nodes"),
     Field("loads[].nodes", "nodes", "the nodes the force acts on (the same force on each; "
           "matrices: node labels of the DOF map, \"all\": every node with that direction)",
           rule="or dof", when=_WITH_NODES),
@@ -529,7 +569,12 @@ SCHEMA: tuple[Field, ...] = (
     Field("loads[].frequency", "number", "frequency f", unit="Hz", default=REQUIRED, minimum=0,
           when=("kind", ("harmonic",))),
     Field("loads[].phase", "number", "phase φ", unit="rad", default=0.0,
-          when=("kind", ("harmonic",))),
+          when=("kind", ("harmonic", "unbalance"))),
+    Field("loads[].magnitude", "number", "unbalance m·e (mass times eccentricity)", unit="kg·m",
+          default=REQUIRED, minimum=0, when=("kind", ("unbalance",))),
+    Field("loads[].node", "node", "the node whose x and y the unbalance acts on (beam: index "
+          "or name; matrices: node label of the DOF map)", rule="or dof = [ix, iy]",
+          when=("kind", ("unbalance",))),
     Field("loads[].file", "csv", "CSV: time [s], force [N] per line (optional header line); "
           "path relative to the model file", default=REQUIRED,
           rule="times strictly increasing, at least 2 rows", when=("kind", ("table",))),
@@ -582,6 +627,8 @@ RULES: tuple[ExactlyOne, ...] = (
     ExactlyOne("structure.supports[]", ("node", "at")),
     ExactlyOne("structure.springs[]", ("node", "at")),
     ExactlyOne("structure.masses[]", ("node", "at")),
+    ExactlyOne("structure.discs[]", ("node", "at")),
+    ExactlyOne("structure.bearings[]", ("node", "at")),
 )
 
 
@@ -1148,14 +1195,18 @@ def _build_structure(ck: _Checker, s: Mapping[str, Any]) -> Structure | None:
             return None
         ck.context["beam"] = beam
         return structure
-    if s["kind"] == "sdof":
-        try:
+    try:
+        if s["kind"] == "sdof":
             return Structure.sdof(
                 mass=s["mass"], stiffness=s.get("stiffness", 0.0), damping=s.get("damping", 0.0)
             )
-        except _CAUGHT as e:
-            ck.add("structure", _reprefix(e, {}, "structure"))
-            return None
+        if s["kind"] == "jeffcott":
+            pair = {k: list(v) if isinstance(v := s[k], tuple) and len(v) > 1 else
+                    v[0] if isinstance(v, tuple) else v for k in ("stiffness", "damping")}
+            return Structure.jeffcott(mass=s["mass"], **pair, spin_speed=s["spin_speed"])
+    except _CAUGHT as e:
+        ck.add("structure", _reprefix(e, {}, "structure"))
+        return None
     return _build_matrices(ck, s)
 
 
@@ -1165,7 +1216,8 @@ def _build_matrices(ck: _Checker, s: Mapping[str, Any]) -> Structure | None:
     whole null space: :mod:`vibroimpact.fe.condensation`), then build ``[structure.damping]``
     on the model that runs. Keeps the full :class:`~vibroimpact.fe.FEStructure` in
     ``ck.context["fe"]`` (DOF map, massless DOFs) and the condensation, if any."""
-    keys = [k for k in ("mass", "stiffness", "damping") if k in s and isinstance(s[k], _Matrix)]
+    keys = [k for k in ("mass", "stiffness", "damping", "gyroscopic")
+            if k in s and isinstance(s[k], _Matrix)]
     got = read_matrix_files(
         {k: s[k].source for k in keys},
         format=s["format"],
@@ -1179,7 +1231,8 @@ def _build_matrices(ck: _Checker, s: Mapping[str, Any]) -> Structure | None:
     m = got.matrices
     try:
         fe = FEStructure(m["mass"], m.get("stiffness", 0 * m["mass"]), m.get("damping"),
-                         got.dof_map, s.get("dof_units"))
+                         got.dof_map, s.get("dof_units"), gyroscopic=m.get("gyroscopic"),
+                         spin_speed=s["spin_speed"])
     except _CAUGHT as e:
         ck.add("structure", _reprefix(e, {}, "structure"))
         return None
@@ -1203,6 +1256,8 @@ def _n_dof(structure: Mapping[str, Any]) -> int | None:
     """The number of DOFs, if the structure tells it despite its mistakes."""
     if structure.get("kind") == "sdof":
         return 1
+    if structure.get("kind") == "jeffcott":
+        return 2
     mass = structure.get("mass")
     if isinstance(mass, _Matrix) and not isinstance(mass.source, Path):
         return int(mass.source.shape[0])
@@ -1360,11 +1415,13 @@ def _build_law(ck: _Checker, lp: str, law: Mapping[str, Any]) -> contact.Contact
 
 def _build_load(
     ck: _Checker, i: int, ld: Mapping[str, Any], n: int | None
-) -> list[Load] | None:
+) -> list[Load | UnbalanceLoad] | None:
     """The load ``loads[i]`` (several on a condensed model: one per generalized weight)."""
     lp = f"loads[{i}]"
     if not ck.ok(lp):
         return None
+    if ld["kind"] == "unbalance":
+        return _build_unbalance(ck, lp, ld, n)
     by_node = ck.context.get("structure.kind") in _WITH_NODES[1]
     dofs: tuple[int, ...] = (_node_dofs(ck, lp, ld, many=True) if by_node else ld.get("dof")) or ()
     _check_dofs(ck, f"{lp}.dof", dofs, n)
@@ -1388,6 +1445,46 @@ def _build_load(
         return [load] if cond is None else cond.reduce_load(load)
     except _CAUGHT as e:
         ck.add(lp, _reprefix(e, {"load.table": f"{lp}.file", "load": lp}, lp))
+        return None
+
+
+def _build_unbalance(
+    ck: _Checker, lp: str, ld: Mapping[str, Any], n: int | None
+) -> list[Load | UnbalanceLoad] | None:
+    """An unbalance load: on ``dof = [ix, iy]``, or on the x and y of ``node`` (beam,
+    matrices with a DOF map)."""
+    given = [k for k in ("dof", "node") if k in ld]
+    if len(given) != 1:
+        ck.invalid(f"{lp}.node" if given else f"{lp}.dof", ck.raw.get(f"{lp}.node"),
+                   "exactly one of dof = [ix, iy] or node")
+        return None
+    if "dof" in ld:
+        dofs = tuple(ld["dof"])
+    else:
+        kind = ck.context.get("structure.kind")
+        owner = ck.context.get("beam") if kind == "beam" else ck.context.get("fe")
+        if kind not in _WITH_NODES[1] or getattr(owner, "dof_map", None) is None:
+            ck.invalid(f"{lp}.node", ck.raw.get(f"{lp}.node"), "dof = [ix, iy], or a beam or "
+                       "matrices with a DOF map to address a node")
+            return None
+        try:
+            node = ld["node"]
+            dofs = tuple(owner.dof(node, direction=d) if kind == "beam" else owner.dof(node, d)
+                         for d in ("x", "y"))
+        except _CAUGHT as e:
+            ck.add(f"{lp}.node", _reprefix(e, {"node": f"{lp}.node", "direction":
+                                               f"{lp}.node"}, lp))
+            return None
+    _check_dofs(ck, f"{lp}.dof", dofs, n)
+    if "condensation" in ck.context:
+        ck.invalid(f"{lp}.kind", "unbalance", "a structure without massless DOFs (an unbalance "
+                   "load is not condensed)")
+    if not ck.ok(lp):
+        return None
+    try:
+        return [UnbalanceLoad(dof=dofs, magnitude=ld["magnitude"], phase=ld["phase"])]
+    except _CAUGHT as e:
+        ck.add(lp, _reprefix(e, {"load": lp}, lp))
         return None
 
 
@@ -1534,7 +1631,7 @@ def _build_method(ck: _Checker, solver: Mapping[str, Any]) -> Integrator | None:
 def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
     ck = _Checker(path.parent)
     kind = doc.get("structure", {}).get("kind") if isinstance(doc.get("structure"), dict) else None
-    if kind in ("sdof", "matrices", "beam"):
+    if kind in ("sdof", "matrices", "beam", "jeffcott"):
         ck.context["structure.kind"] = kind
     top = ck.table("", "", doc)
     structure = _build_structure(ck, top["structure"]) if "structure" in top else None
@@ -1793,6 +1890,8 @@ _SECTION_TITLES = {
     "structure.supports[]": "`[[structure.supports]]` (beam, any number)",
     "structure.springs[]": "`[[structure.springs]]` (beam, any number)",
     "structure.masses[]": "`[[structure.masses]]` (beam, any number)",
+    "structure.discs[]": "`[[structure.discs]]` (beam rotor, any number)",
+    "structure.bearings[]": "`[[structure.bearings]]` (beam rotor, any number)",
     "structure.damping": "`[structure.damping]` (beam, matrices)",
     "gaps[]": "`[[gaps]]` (any number)",
     "gaps[].law": "`[gaps.law]`",

@@ -414,10 +414,12 @@ impl Account {
         }
         if sys.has_damping {
             // Δxᵀ C (v₀ + v₁)/2
-            let d = sys
-                .structure
-                .damping
-                .increment_form(&s0.x, &s1.x, &s0.v, &s1.v);
+            let st = &sys.structure;
+            let mut d = st.damping.increment_form(&s0.x, &s1.x, &s0.v, &s1.v);
+            if let Some(g) = &st.gyroscopic {
+                // the gyroscopic forces Ω G x' (in `damping`) do no work
+                d -= st.spin_speed * g.increment_form(&s0.x, &s1.x, &s0.v, &s1.v);
+            }
             self.damping_dissipated += 0.5 * d;
         }
         for (w0, w1) in s0.walls.iter().zip(&s1.walls) {

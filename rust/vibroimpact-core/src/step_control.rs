@@ -576,7 +576,8 @@ impl Scratch {
 /// Extrapolation turns the rule's amplification of a mode with `ω h ≫ 1` from `|R| = 1` into
 /// `(4 R(h/2)² − R(h))/3 → 5/3`, and for `ω h` small into `1 + (ω h)⁶/576` per step, so the
 /// structure's stiffest mode (and its largest damping rate) must be resolved: `0.2 / ω_max`,
-/// from the eigenvalues of `L⁻¹ K L⁻ᵀ` and `L⁻¹ C L⁻ᵀ` (`M = L Lᵀ`). Models with more than
+/// from the eigenvalues of `L⁻¹ K L⁻ᵀ` and `L⁻¹ C L⁻ᵀ` (`M = L Lᵀ`; `C + Ω G` for a rotor: its
+/// symmetric part, and the largest |λ| of its skew part). Models with more than
 /// [`MAX_EIGEN_DOFS`] DOFs are not extrapolated.
 fn extrapolation_limit(sys: &System) -> f64 {
     if sys.n_dof() > MAX_EIGEN_DOFS {
@@ -596,7 +597,19 @@ fn extrapolation_limit(sys: &System) -> f64 {
         let y = l.solve_lower_triangular(a)?;
         let z = l.solve_lower_triangular(&y.transpose())?;
         let sym = (&z + z.transpose()) * 0.5;
-        Some(sym.symmetric_eigenvalues().max().max(0.0))
+        // the skew part (gyroscopic forces Ω G of a rotor): its rate is the largest |λ|,
+        // from the eigenvalues of −S² = SᵀS
+        let skew = (&z - z.transpose()) * 0.5;
+        let whirl = if skew.iter().all(|&v| v == 0.0) {
+            0.0
+        } else {
+            (skew.transpose() * &skew)
+                .symmetric_eigenvalues()
+                .max()
+                .max(0.0)
+                .sqrt()
+        };
+        Some(sym.symmetric_eigenvalues().max().max(whirl))
     };
     match (largest(&st.stiffness), largest(&st.damping)) {
         (Some(k), Some(c)) => {

@@ -16,11 +16,23 @@ pub const MAX_DENSE_DOFS: usize = 5_000;
 /// Mass, damping and stiffness matrices of the linear part (SI units), held as sparse rows
 /// so that an imported FE model is never densified; dense copies are made on demand (and
 /// kept) for the methods that need them ([`LinearStructure::dense`]).
+///
+/// A rotor spinning at `Ω` ([`LinearStructure::spinning`]) adds its gyroscopic forces
+/// `Ω G x'` (`G` skew-symmetric): `damping` is then the whole velocity matrix `C + Ω G`,
+/// which is not symmetric, so that every method's matrix-vector products and dense LU
+/// factors are right as they stand; the Cholesky factors refuse it
+/// ([`LinearStructure::damping_is_symmetric`]).
 #[derive(Debug, Clone)]
 pub struct LinearStructure {
     pub mass: Csr,
+    /// The velocity matrix of the equation of motion: `C`, or `C + Ω G` for a spinning rotor.
     pub damping: Csr,
     pub stiffness: Csr,
+    /// The gyroscopic matrix `G` (kg·m², skew-symmetric) of a rotor, if any: its forces do no
+    /// work, so the energy account takes `Ω G` out of `damping` again.
+    pub gyroscopic: Option<Csr>,
+    /// The spin speed `Ω` (rad/s) of a rotor; 0 for a structure that does not spin.
+    pub spin_speed: f64,
     /// `M = L Lᵀ` (banded or general sparse, whichever solves faster): the
     /// positive-definiteness check, and the initial acceleration's solve.
     mass_factor: SpdFactor,
@@ -118,9 +130,66 @@ impl LinearStructure {
             mass,
             damping,
             stiffness,
+            gyroscopic: None,
+            spin_speed: 0.0,
             mass_factor,
             dense: OnceLock::new(),
         })
+    }
+
+    /// The structure spinning at `spin_speed` Ω (rad/s) with the gyroscopic matrix
+    /// `gyroscopic` G (skew-symmetric, `max |G + Gᵀ| ≤ 1e-9 max |G|`): `damping` becomes
+    /// `C + Ω G`. Without `G` only the speed is kept (for the loads and gaps that read it).
+    pub fn spinning(mut self, gyroscopic: Option<Csr>, spin_speed: f64) -> Result<Self, SimError> {
+        if !spin_speed.is_finite() {
+            return invalid(format!(
+                "structure.spin_speed: {spin_speed} is not finite; expected a speed in rad/s"
+            ));
+        }
+        self.spin_speed = spin_speed;
+        let Some(g) = gyroscopic else {
+            return Ok(self);
+        };
+        let n = self.n_dof();
+        if g.n() != n {
+            return invalid(format!(
+                "structure.gyroscopic: shape {0}x{0} does not match; expected {n}x{n}",
+                g.n()
+            ));
+        }
+        if let Some(v) = g.values().iter().find(|v| !v.is_finite()) {
+            return invalid(format!(
+                "structure.gyroscopic: contains {v}; expected finite values"
+            ));
+        }
+        let scale = g.values().iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+        let sym = Csr::combination(&[(1.0, &g), (1.0, &g.transpose())]);
+        let not_skew = sym.values().iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+        if not_skew > 1e-9 * scale.max(f64::MIN_POSITIVE) {
+            return invalid(format!(
+                "structure.gyroscopic: not skew-symmetric (max |G + G^T| = {not_skew:.3e}); \
+                 expected G = -G^T"
+            ));
+        }
+        if scale == 0.0 {
+            return Ok(self);
+        }
+        if spin_speed != 0.0 {
+            self.damping = Csr::combination(&[(1.0, &self.damping), (spin_speed, &g)]);
+            if let Some(dense) = self.dense.take() {
+                let mut d = Arc::unwrap_or_clone(dense);
+                d.damping = self.damping.to_dense();
+                self.dense.set(Arc::new(d)).expect("taken");
+            }
+        }
+        self.gyroscopic = Some(g);
+        Ok(self)
+    }
+
+    /// Whether `damping` is symmetric: no gyroscopic forces (no `G`, or `Ω = 0`). The
+    /// Cholesky factors of the effective stiffness need it; the LU factors do not.
+    pub fn damping_is_symmetric(&self) -> bool {
+        self.gyroscopic.is_none() || self.spin_speed == 0.0
     }
 
     pub fn n_dof(&self) -> usize {

@@ -216,6 +216,15 @@ fn system(spec: &Bound<'_, PyDict>) -> PyResult<System> {
         (m, c, k) => LinearStructure::from_sparse(m.into_csr(), c.into_csr(), k.into_csr()),
     }
     .map_err(to_py_err)?;
+    // a rotor: the gyroscopic matrix G (optional) and the spin speed Ω (default 0)
+    let gyroscopic = match spec.get_item("gyroscopic")? {
+        Some(g) if !g.is_none() => Some(matrix(spec, "gyroscopic")?.into_csr()),
+        _ => None,
+    };
+    let spin_speed: f64 = opt(spec, "spin_speed", "structure")?.unwrap_or(0.0);
+    let structure = structure
+        .spinning(gyroscopic, spin_speed)
+        .map_err(to_py_err)?;
     let gaps_list: Bound<'_, PyList> = item(spec, "gaps", "model")?;
     let gaps = gaps_list
         .iter()

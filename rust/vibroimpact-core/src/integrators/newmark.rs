@@ -281,7 +281,15 @@ impl StepOperator {
                 };
                 (predictor, Box::new(solve), info)
             }
-            // A large model never densifies: its K̃ is not positive definite.
+            // A large model never densifies: its K̃ is not symmetric (gyroscopic forces, which
+            // the Cholesky factors cannot take), or not positive definite.
+            None if n > MAX_DENSE_DOFS && !st.damping_is_symmetric() => {
+                return invalid(format!(
+                    "structure.gyroscopic: {n} DOFs spinning make K̃ unsymmetric, which the \
+                     sparse Cholesky factor cannot take, and the dense LU takes at most \
+                     {MAX_DENSE_DOFS}; reduce the model (vibroimpact.fe.reduction)"
+                ))
+            }
             None if n > MAX_DENSE_DOFS => return Err(singular),
             None => {
                 let dense = st.dense("newmark (dense predictor)")?;
@@ -465,8 +473,10 @@ fn build_operator(
 ) -> Result<StepOperator, SimError> {
     let plan = plan.get_or_init(|| {
         let st = &sys.structure;
+        // the Cholesky factors need a symmetric K̃: gyroscopic forces take the dense LU
         choice
             .factor_choice(sys.n_dof())
+            .filter(|_| st.damping_is_symmetric())
             .map(|c| FactorPlan::new(&[&st.mass, &st.damping, &st.stiffness], c))
     });
     StepOperator::new(sys, scheme, h, plan.as_ref(), choice, dense_lanes)
