@@ -6,10 +6,11 @@ The section is the start of a forcing period: ``P^N`` maps the state ``z = (x, v
 ``P^N(z) − z`` and its Jacobian ``Φ − I`` from one run of the core that carries the
 state-transition matrix ``Φ = ∂P^N/∂z`` (the variational equations of DOP853's stages with
 the saltation matrices of its switches; the exact ``exp(A h)`` of the event-driven method's
-flights with the saltation matrices of its impacts). :func:`periodic_orbit` solves
-``P^N(z) = z`` by Newton from a state reached after a transient. :meth:`Shooting.at` is the
-same problem at another value of a model parameter (what :mod:`vibroimpact.continuation`
-follows).
+flights with the saltation matrices of its impacts; the exact derivative of each converged
+step of the Newmark family at fixed steps, whose multipliers are the discrete map's).
+:func:`periodic_orbit` solves ``P^N(z) = z`` by Newton from a state reached after a
+transient. :meth:`Shooting.at` is the same problem at another value of a model parameter
+(what :mod:`vibroimpact.continuation` follows).
 """
 
 from __future__ import annotations
@@ -91,8 +92,9 @@ def default_method(model: Model) -> Integrator:
 class Shooting:
     """The stroboscopic map ``P^N`` of ``model`` over ``period`` forcing periods and its
     state-transition matrix, integrated by ``method`` (default :func:`default_method`; one that
-    carries the matrix: DOP853 or the event-driven method) with steps of ``dt`` (s; default
-    the forcing period / 1000; DOP853: its first step)."""
+    carries the matrix: DOP853 with adaptive steps, the event-driven method, or Newmark-β,
+    HHT-α and generalized-α with fixed steps) with steps of ``dt`` (s; default the forcing
+    period / 1000; DOP853: its first step)."""
 
     def __init__(self, model: Model, period: int = 1, method: Integrator | None = None,
                  dt: float | None = None) -> None:

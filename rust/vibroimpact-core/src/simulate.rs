@@ -13,7 +13,9 @@ use crate::driver::Run;
 use crate::error::{invalid, SimError};
 use crate::impulsive::{EventDrivenSteps, MoreauJeanSteps};
 use crate::integrators::dop853::{Dop853Steps, Steps};
-use crate::integrators::{BatheStepper, NewmarkStepper, NewtonSettings, PreciseStepper, Stepper};
+use crate::integrators::{
+    BatheStepper, NewmarkStepper, NewmarkTransition, NewtonSettings, PreciseStepper, Stepper,
+};
 use crate::step_control::{AdaptiveSteps, FixedSteps, StepControl};
 use crate::system::System;
 
@@ -48,8 +50,9 @@ pub fn simulate_observed(
 }
 
 /// [`simulate_observed`], carrying the state-transition matrix `∂(x, v)(t_end)/∂(x₀, v₀)`
-/// along (`RunOutput::state_transition`; `crate::sensitivity`): DOP853 and the event-driven
-/// method only, refused before the run for the others.
+/// along (`RunOutput::state_transition`; `crate::sensitivity`): DOP853, the event-driven
+/// method and the Newmark family at fixed steps, refused before the run for the others
+/// (`sensitivity::check_supported`).
 pub fn simulate_with_sensitivity(
     sys: &System,
     method: Method,
@@ -58,7 +61,7 @@ pub fn simulate_with_sensitivity(
     v0: DVector<f64>,
     observer: Option<&mut dyn StepObserver>,
 ) -> Result<RunOutput, SimError> {
-    crate::sensitivity::check_supported(sys, method)?;
+    crate::sensitivity::check_supported(sys, method, settings.adaptive.is_some())?;
     run_watched(sys, method, settings, x0, v0, observer, None, true)
 }
 
@@ -223,7 +226,13 @@ fn run_watched<'o>(
                                 n_steps,
                                 newton.max_step_cuts,
                             );
-                            run.drive(sys, &mut policy, every)
+                            match method {
+                                Method::NewmarkFamily(scheme) if sensitivity => {
+                                    let transition = NewmarkTransition::new(sys, scheme, &run.cur)?;
+                                    run.drive(sys, &mut policy.with_derivative(transition), every)
+                                }
+                                _ => run.drive(sys, &mut policy, every),
+                            }
                         }
                         Some(c) => {
                             let mut policy = AdaptiveSteps::new(c, stepper.as_mut(), &run, sys);

@@ -18,10 +18,11 @@ use nalgebra::DMatrix;
 use crate::driver::{Run, StepPolicy};
 use crate::error::{invalid, SimError};
 use crate::gap::{Wall, WallState};
-use crate::integrators::NewmarkFamily;
+use crate::integrators::{NewmarkFamily, NewmarkTransition};
 use crate::integrators::{StepFailure, Stepper, ANY_LEVEL};
 use crate::interpolation::HermiteSegment;
 use crate::output::Stats;
+use crate::sensitivity::StateTransition;
 use crate::settings::Adaptive;
 use crate::system::{State, System};
 
@@ -32,9 +33,36 @@ const PEAK_MARGIN: f64 = 1e-2;
 /// Cached step sizes per halving of the step.
 const LEVELS_PER_OCTAVE: f64 = 4.0;
 
+/// What [`FixedSteps`] carries along its accepted (sub-)steps besides the state: nothing
+/// (`()`, compiled away), or a state-transition matrix ([`NewmarkTransition`]).
+pub(crate) trait StepDerivative {
+    /// Composes it with the accepted step of length `h` from `s0` to `s1`.
+    fn step(&mut self, sys: &System, s0: &State, s1: &State, h: f64) -> Result<(), SimError>;
+    fn transition(&self) -> Option<&StateTransition>;
+}
+
+impl StepDerivative for () {
+    #[inline(always)]
+    fn step(&mut self, _: &System, _: &State, _: &State, _: f64) -> Result<(), SimError> {
+        Ok(())
+    }
+    fn transition(&self) -> Option<&StateTransition> {
+        None
+    }
+}
+
+impl StepDerivative for NewmarkTransition {
+    fn step(&mut self, sys: &System, s0: &State, s1: &State, h: f64) -> Result<(), SimError> {
+        NewmarkTransition::step(self, sys, s0, s1, h)
+    }
+    fn transition(&self) -> Option<&StateTransition> {
+        Some(NewmarkTransition::transition(self))
+    }
+}
+
 /// Steps of a fixed size `h0` on the grid `k h0`, each halved (recursively, up to `max_cuts`
-/// times) when Newton fails.
-pub(crate) struct FixedSteps<'s> {
+/// times) when Newton fails; `derivative` composed along them.
+pub(crate) struct FixedSteps<'s, D: StepDerivative = ()> {
     stepper: &'s mut dyn Stepper,
     h0: f64,
     n_steps: usize,
@@ -43,6 +71,7 @@ pub(crate) struct FixedSteps<'s> {
     step: usize,
     /// Levels of the sub-steps still to take in the current grid step.
     pending: Vec<usize>,
+    derivative: D,
 }
 
 impl<'s> FixedSteps<'s> {
@@ -54,11 +83,29 @@ impl<'s> FixedSteps<'s> {
             max_cuts,
             step: 0,
             pending: Vec::with_capacity(2 * max_cuts + 2),
+            derivative: (),
+        }
+    }
+
+    /// Carries `derivative` along every accepted (sub-)step.
+    pub fn with_derivative<D: StepDerivative>(self, derivative: D) -> FixedSteps<'s, D> {
+        FixedSteps {
+            stepper: self.stepper,
+            h0: self.h0,
+            n_steps: self.n_steps,
+            max_cuts: self.max_cuts,
+            step: self.step,
+            pending: self.pending,
+            derivative,
         }
     }
 }
 
-impl StepPolicy for FixedSteps<'_> {
+impl<D: StepDerivative> StepPolicy for FixedSteps<'_, D> {
+    fn sensitivity(&self) -> Option<&StateTransition> {
+        self.derivative.transition()
+    }
+
     fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError> {
         if self.step == self.n_steps {
             return Ok(false);
@@ -72,6 +119,7 @@ impl StepPolicy for FixedSteps<'_> {
                 .attempt(sys, &run.cur, level, h, &mut run.trial)
             {
                 Ok(iterations) => {
+                    self.derivative.step(sys, &run.cur, &run.trial, h)?;
                     run.accept(sys, self.stepper, h, iterations)?;
                 }
                 Err(failure) => {

@@ -143,8 +143,7 @@ fn event_driven_rigid_stop_matches_finite_differences() {
 #[test]
 fn methods_without_a_state_transition_are_refused() {
     let sys = oscillator(Law::Hertz(Hertz::new(1e4, 1.5).unwrap()));
-    let method =
-        Method::NewmarkFamily(vibroimpact_core::integrators::NewmarkFamily::average_acceleration());
+    let method = Method::Bathe(vibroimpact_core::integrators::Bathe { gamma: 0.5 });
     let err = simulate_with_sensitivity(
         &sys,
         method,

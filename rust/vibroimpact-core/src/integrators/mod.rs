@@ -6,11 +6,13 @@ pub(crate) mod dop853;
 mod dop853_tableau;
 pub mod expm;
 mod newmark;
+mod newmark_variational;
 mod newton;
 mod precise;
 
 pub use bathe::{Bathe, BatheStepper};
 pub use newmark::{substitution_time, NewmarkFamily, NewmarkStepper};
+pub(crate) use newmark_variational::{NewmarkTransition, MAX_TRANSITION_DOFS};
 pub use newton::NewtonSettings;
 pub use precise::{precise_matrices, PreciseIntegration, PreciseMatrices, PreciseStepper};
 
