@@ -36,12 +36,14 @@ from numpy.typing import NDArray
 from vibroimpact.errors import ModelError, SolverError
 from vibroimpact.integrators import Integrator
 from vibroimpact.model import Model
-from vibroimpact.orbits import Shooting, solve_orbit
+from vibroimpact.orbits import Shooting, contact_onsets, multipliers_of, solve_orbit
 from vibroimpact.sweeps.grid import canonical_path, units_of
 
-__all__ = ["SPECIAL_POINT_TYPES", "Branch", "BranchPoint", "SpecialPoint", "continue_orbit",
-           "parameter_column"]
+__all__ = ["BRANCH_KIND", "SPECIAL_POINT_TYPES", "Branch", "BranchPoint", "SpecialPoint",
+           "continue_orbit", "parameter_column"]
 
+#: The ``kind`` attribute of a branch's Dataset (its ``.nc`` file).
+BRANCH_KIND = "vibroimpact-branch"
 #: The ``type`` of a special point (public names: JSON, the ``.nc`` file).
 SPECIAL_POINT_TYPES = ("fold", "period-doubling", "neimark-sacker", "grazing", "branch-point")
 
@@ -81,7 +83,8 @@ class BranchPoint:
     periods), the ``state`` on the section, the ``monodromy`` and its ``multipliers`` (largest
     modulus first), each DOF's ``displacement_max``/``displacement_min`` over the orbit, its
     ``impacts_per_period`` (contact onsets over the orbit's period), ``wall_margins`` (per wall: the
-    grazing test function, see the module doc) and its ``arclength`` (scaled units)."""
+    grazing test function, see the module doc), its ``arclength`` (scaled units) and
+    ``impact_speed_max`` (per gap)."""
 
     value: float
     periods: int
@@ -93,6 +96,8 @@ class BranchPoint:
     impacts_per_period: int
     wall_margins: NDArray[np.float64]
     arclength: float
+    #: Per gap: the largest approach speed of its impacts over the orbit, m/s (0 without).
+    impact_speed_max: NDArray[np.float64]
 
     @property
     def stable(self) -> bool:
@@ -131,6 +136,8 @@ class Branch:
     parameter: str
     points: tuple[BranchPoint, ...]
     special_points: tuple[SpecialPoint, ...]
+    #: The displacement unit of each DOF (``m`` or ``rad``; the model's).
+    dof_units: tuple[str, ...] = ()
 
     def summary(self) -> dict[str, Any]:
         """The JSON of ``vibroimpact continue --json``: ``parameter`` (the path), ``points``
@@ -144,7 +151,8 @@ class Branch:
         parameter (variable ``parameter``, its path in the attribute ``path``), ``stable``,
         ``forcing_periods``, ``impacts_per_period``, ``displacement_max``/``_min`` (point, dof),
         ``state`` (point, component: the section's displacements then velocities),
-        ``multiplier_real``/``_imag`` (point, multiplier); the
+        ``multiplier_real``/``_imag`` (point, multiplier), ``impact_speed_max`` (point, gap),
+        the coordinate ``dof_unit`` (dof) and the attribute ``kind = "vibroimpact-branch"``; the
         special points along dimension ``special``: ``special_type``, ``special_value``,
         ``special_arclength``, ``special_multiplier_real``/``_imag``."""
         pts, sps = self.points, self.special_points
@@ -162,6 +170,8 @@ class Branch:
                 "displacement_max": (("point", "dof"), [p.displacement_max for p in pts]),
                 "displacement_min": (("point", "dof"), [p.displacement_min for p in pts]),
                 "state": (("point", "component"), [p.state for p in pts]),
+                "impact_speed_max": (("point", "gap"), [p.impact_speed_max for p in pts],
+                                     {"units": "m/s"}),
                 "multiplier_real": (("point", "multiplier"), multipliers.real),
                 "multiplier_imag": (("point", "multiplier"), multipliers.imag),
                 "special_type": ("special", np.array([s.type for s in sps], dtype=str)),
@@ -170,19 +180,15 @@ class Branch:
                 "special_multiplier_real": (("special", "multiplier"), special.real),
                 "special_multiplier_imag": (("special", "multiplier"), special.imag),
             },
-            coords={"arclength": ("point", [p.arclength for p in pts])},
-            attrs={"parameter": self.parameter},
+            coords={"arclength": ("point", [p.arclength for p in pts]),
+                    **({"dof_unit": ("dof", list(self.dof_units))} if self.dof_units else {})},
+            attrs={"parameter": self.parameter, "kind": BRANCH_KIND},
         )
         return ds
 
 
 def _pairs(multipliers: NDArray[np.complex128]) -> list[list[float]]:
     return [[float(m.real), float(m.imag)] for m in multipliers]
-
-
-def _multipliers(monodromy: NDArray[np.float64]) -> NDArray[np.complex128]:
-    values = np.linalg.eigvals(monodromy).astype(complex)
-    return values[np.argsort(-np.abs(values), kind="stable")]
 
 
 def parameter_column(shooting: Shooting, z: NDArray[np.float64], path: str, value: float,
@@ -288,25 +294,35 @@ class _Continuation:
         shooting = self.at(float(y[-1]))
         return BranchPoint(
             value=float(y[-1]), periods=shooting.periods, state=y[:-1].copy(), monodromy=phi,
-            multipliers=_multipliers(phi),
+            multipliers=multipliers_of(phi),
             displacement_max=np.asarray(raw["displacement_max"], dtype=float),
             displacement_min=np.asarray(raw["displacement_min"], dtype=float),
-            # onsets: a contact under way at the section is in the table from t = 0 too
-            impacts_per_period=int(np.count_nonzero(raw["impacts"]["t_start"] > 0)),
+            impacts_per_period=contact_onsets(raw["impacts"]["t_start"]),
             wall_margins=self.wall_margins(shooting, y[:-1], raw, refine),
-            arclength=arclength)
+            arclength=arclength,
+            impact_speed_max=self.impact_speeds(raw))
+
+    def impact_speeds(self, raw: dict[str, Any]) -> NDArray[np.float64]:
+        """Per gap: the largest approach speed of its impacts in the core's output ``raw``."""
+        impacts = raw["impacts"]
+        speeds = np.abs(np.asarray(impacts["v_in"], dtype=float))
+        speeds[~np.isfinite(speeds)] = 0.0
+        return np.array([float(np.max(speeds[impacts["gap"] == g], initial=0.0))
+                         for g in range(len(self.shooting.model.gaps))])
 
     def wall_margins(self, shooting: Shooting, z: NDArray[np.float64], raw: dict[str, Any],
                      refine: bool) -> NDArray[np.float64]:
-        """Per wall, the grazing test function (module doc). The distance is the largest
-        recorded gap coordinate's; ``refine``: at the instant its rate vanishes, found by
-        the Illinois iteration on runs that end there."""
+        """Per wall, the grazing test function (module doc). The distance: for a gap on one
+        DOF, from that DOF's extremes over the orbit (located inside the steps: exact for the
+        event-driven flights, DOP853's interpolant); for a gap coordinate of several DOFs,
+        from its largest recorded value, and with ``refine`` at the instant its rate
+        vanishes, found by the Illinois iteration on runs that end there."""
         impacts = raw["impacts"]
         x = np.asarray(raw["displacement"], dtype=float)
         t = np.asarray(raw["time"], dtype=float)
         margins = []
         for g, sign in self.walls:
-            gap = shooting.model.gaps[g]
+            gap, numbers = self.shooting.model.gaps[g], shooting.spec["gaps"][g]
             here = (impacts["gap"] == g) & (impacts["side"] == (1 if sign > 0 else 0))
             if here.any():
                 if gap.law.impulsive:
@@ -314,13 +330,19 @@ class _Continuation:
                 else:
                     margins.append(-float(np.nanmax(impacts["delta_max"][here])))
                 continue
-            coefficients = np.asarray(gap.coefficients, dtype=float)
-            u = sign * (x[:, list(gap.dofs)] @ coefficients)
+            dofs = tuple(numbers["dofs"])
+            coefficients = np.asarray(numbers["coefficients"], dtype=float)
+            if len(dofs) == 1:
+                c = sign * float(coefficients[0])
+                extreme = raw["displacement_max" if c > 0 else "displacement_min"]
+                margins.append(float(numbers["clearance"]) - c * float(extreme[dofs[0]]))
+                continue
+            u = sign * (x[:, list(dofs)] @ coefficients)
             k = int(np.argmax(u))
             peak = float(u[k])
             if refine:
-                peak = self._refined_peak(shooting, z, t, k, sign, gap.dofs, coefficients)
-            margins.append(float(gap.clearance) - peak)
+                peak = self._refined_peak(shooting, z, t, k, sign, dofs, coefficients)
+            margins.append(float(numbers["clearance"]) - peak)
         return np.array(margins)
 
     @staticmethod
@@ -556,7 +578,8 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
         elif iterations >= SLOW:
             ds *= SHRINK
     specials.sort(key=lambda s: s.point.arclength)
-    return Branch(parameter=path, points=tuple(points), special_points=tuple(specials))
+    return Branch(parameter=path, points=tuple(points), special_points=tuple(specials),
+                  dof_units=tuple(model.structure.dof_units))
 
 
 def _switch(run: _Continuation, pd: SpecialPoint, ds: float) -> tuple[_Continuation, _Solution]:
