@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -62,6 +62,8 @@ SWITCH_ATTEMPTS = 12
 #: Iterations locating a special point, and the arclength (scaled) it is located to.
 MAX_LOCATE_ITERATIONS = 40
 LOCATE_TOLERANCE = 1e-13
+#: A located zero's test function must be below this fraction of its values at the ends.
+LOCATED_FRACTION = 1e-3
 #: At a located fold, period-doubling or Neimark–Sacker point a multiplier must be this close to
 #: the critical one (else the test function jumped: a grazing, not that bifurcation).
 CRITICAL_MULTIPLIER_TOLERANCE = 1e-3
@@ -138,6 +140,9 @@ class Branch:
     special_points: tuple[SpecialPoint, ...]
     #: The displacement unit of each DOF (``m`` or ``rad``; the model's).
     dof_units: tuple[str, ...] = ()
+    #: Why the branch ended before the range's end or ``max_points`` (empty otherwise): at a
+    #: rigid stop's grazing.
+    stopped: str = ""
 
     def summary(self) -> dict[str, Any]:
         """The JSON of ``vibroimpact continue --json``: ``parameter`` (the path), ``points``
@@ -153,7 +158,8 @@ class Branch:
         ``state`` (point, component: the section's displacements then velocities),
         ``multiplier_real``/``_imag`` (point, multiplier), ``impact_speed_max`` (point, gap),
         the coordinate ``dof_unit`` (dof) and the attribute ``kind = "vibroimpact-branch"``; the
-        special points along dimension ``special``: ``special_type``, ``special_value``,
+        special points along dimension ``special`` (and the attribute ``stopped``: why the
+        branch ended early, if it did): ``special_type``, ``special_value``,
         ``special_arclength``, ``special_multiplier_real``/``_imag``."""
         pts, sps = self.points, self.special_points
         n_mult = pts[0].multipliers.size
@@ -182,7 +188,7 @@ class Branch:
             },
             coords={"arclength": ("point", [p.arclength for p in pts]),
                     **({"dof_unit": ("dof", list(self.dof_units))} if self.dof_units else {})},
-            attrs={"parameter": self.parameter, "kind": BRANCH_KIND},
+            attrs={"parameter": self.parameter, "kind": BRANCH_KIND, "stopped": self.stopped},
         )
         return ds
 
@@ -388,18 +394,25 @@ class _Continuation:
     # --- a step and a special point --------------------------------------------------------
 
     def step(self, sol: _Solution, ds: float, refine: bool = False,
-             tol: float | None = None, value: float | None = None) -> tuple[_Solution, int]:
+             tol: float | None = None, value: float | None = None,
+             guard: bool = True) -> tuple[_Solution, int]:
         """The corrected point at arclength ``ds`` along ``sol``'s tangent (or, given
         ``value``, the one at that parameter value predicted from there), with its
-        parameter column, tangent and test functions."""
+        parameter column, tangent and test functions. ``guard``: fail if the corrector moved
+        farther than ``ds`` from the prediction (onto another branch)."""
         predicted = sol.u + ds * sol.tangent
         row = sol.tangent
         if value is not None:
             row = np.zeros(sol.u.size)
             row[-1] = 1.0
             predicted[-1] = value * self.weights[-1]
+            guard = False
         u, phi, raw, column, iterations = self.correct(predicted, row, row @ predicted,
                                                        sol.column, tol)
+        if guard and np.linalg.norm(u - predicted) > max(ds, 1e-12):
+            # onto another branch (an impact lost or gained by a large Newton step)
+            raise _StepFailed(f"the corrector moved {np.linalg.norm(u - predicted):.3g} from "
+                              f"the prediction, more than the step {ds:.3g}")
         moved = ds if value is None else float(np.linalg.norm(u - sol.u))
         try:
             point = self.point(u, phi, raw, sol.point.arclength + moved, refine)
@@ -421,7 +434,8 @@ class _Continuation:
 
         def test(s: float) -> float:
             try:
-                cache[s] = self.step(sol, s, refine=refine, tol=0.01 * self.tol)[0]
+                cache[s] = self.step(sol, s, refine=refine, tol=0.01 * self.tol,
+                                     guard=False)[0]
             except _StepFailed:
                 raise _LocateFailed from None
             return float(cache[s].tests[kind][index])
@@ -438,6 +452,8 @@ class _Continuation:
             return None
         if np.linalg.norm(cache[s].u - sol.u) > 2 * ds:  # the corrector left the segment
             return None
+        if abs(cache[s].tests[kind][index]) > LOCATED_FRACTION * max(abs(fa), abs(fb)):
+            return None  # the test function jumps there (the branch changed orbits), no zero
         return cache[s]
 
 
@@ -534,7 +550,7 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
     sol.tangent = run.tangent(phi, sol.column, np.sign(end - start) * row)
     sol.tests = run.tests(sol)
     points, specials = [sol.point], []
-    ds, switched = float(step), False
+    ds, switched, stop = float(step), False, ""
     low, high = min(start, end), max(start, end)
     while len(points) < max_points:
         try:
@@ -542,9 +558,16 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
         except _StepFailed as e:
             ds *= SHRINK
             if ds < min_step:
-                raise SolverError(f"continuation: the step fell below {min_step:g} at "
-                                  f"{path} = {sol.point.value:.9g} after {len(points)} "
-                                  f"points ({e})") from None
+                grazing = _rigid_grazing(run, points, sol)
+                if grazing is None:
+                    raise SolverError(f"continuation: the step fell below {min_step:g} at "
+                                      f"{path} = {sol.point.value:.9g} after {len(points)} "
+                                      f"points ({e})") from None
+                specials.append(grazing)
+                stop = (f"stopped at the grazing of a rigid stop at {path} = "
+                        f"{grazing.point.value:.9g}: an impact at zero speed has no "
+                        "derivative, so the branch is not continued through it")
+                break
             continue
         value = new.point.value
         last = not low < value < high
@@ -579,7 +602,44 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
             ds *= SHRINK
     specials.sort(key=lambda s: s.point.arclength)
     return Branch(parameter=path, points=tuple(points), special_points=tuple(specials),
-                  dof_units=tuple(model.structure.dof_units))
+                  dof_units=tuple(model.structure.dof_units), stopped=stop)
+
+
+#: A rigid wall's grazing test function (its distance, or minus the impact speed) this small
+#: against the wall's clearance (at least 1) at a branch's last point is a grazing at hand.
+GRAZING_END = 1e-3
+
+
+def _rigid_grazing(run: _Continuation, points: list[BranchPoint],
+                   sol: _Solution) -> SpecialPoint | None:
+    """The grazing of a rigid stop where the branch that cannot go on from ``sol`` ends, or
+    None if it does not end at one: the grazing test function of a rigid wall (its distance,
+    or minus the impact speed) at the last two points is small (``GRAZING_END``) and goes to
+    zero, and its zero is found by the secant through them (both points end at the grazing
+    orbit; the event-driven method has no derivative at an impact at zero speed, so the
+    corrector fails there). The orbit reported is the one corrected at that value, or the
+    last point's if the corrector fails there."""
+    if len(points) < 2:
+        return None
+    previous, last = points[-2], sol.point
+    for i, (g, _) in enumerate(run.walls):
+        gap = run.shooting.model.gaps[g]
+        fa, fb = float(previous.wall_margins[i]), float(last.wall_margins[i])
+        near = GRAZING_END * max(abs(float(gap.clearance)), 1.0)
+        if not (gap.law.impulsive and abs(fb) < near and abs(fb) < abs(fa) and fa != fb):
+            continue
+        value = last.value - fb * (last.value - previous.value) / (fb - fa)
+        row = np.zeros(sol.u.size)
+        row[-1] = 1.0
+        u0 = sol.u.copy()
+        u0[-1] = value * run.weights[-1]
+        try:
+            u, phi, raw, _, _ = run.correct(u0, row, u0[-1], sol.column)
+            point = run.point(u, phi, raw, last.arclength + float(np.linalg.norm(u - sol.u)))
+        except (_StepFailed, ModelError, SolverError):
+            point = replace(last, value=value)
+        return SpecialPoint("grazing", point)
+    return None
 
 
 def _switch(run: _Continuation, pd: SpecialPoint, ds: float) -> tuple[_Continuation, _Solution]:
@@ -602,7 +662,8 @@ def _switch(run: _Continuation, pd: SpecialPoint, ds: float) -> tuple[_Continuat
                     column=doubled.column(y), tangent=direction)
     for _ in range(SWITCH_ATTEMPTS):
         try:
-            return doubled, doubled.step(sol, ds)[0]
+            # the period-2 branch leaves at a right angle: its first correction is large
+            return doubled, doubled.step(sol, ds, guard=False)[0]
         except _StepFailed as e:
             failure = e
             ds *= SHRINK
