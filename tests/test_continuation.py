@@ -149,6 +149,25 @@ def test_grazing_frequency_equals_the_linear_response_closed_form() -> None:
     assert branch.points[-1].value == pytest.approx(0.95 / (2 * np.pi), rel=1e-12)
 
 
+def test_rigid_branch_stops_at_its_grazing_against_the_closed_form() -> None:
+    """Past its fold the rigid stop's unstable branch loses its impact speed: the branch ends
+    at the grazing, where the free response's amplitude |H(w)| equals the clearance (the
+    event-driven method has no derivative at an impact at zero speed)."""
+    d = 0.5
+    model = oscillator(vi.contact.Rigid(restitution=R), 1.5, d)
+    branch = vi.continue_orbit(model, FREQUENCY, 1.5 / (2 * np.pi), 2.0 / (2 * np.pi),
+                               transient=50, max_points=100)
+    b = 2 - 4 * ZETA**2  # |H(w)| = d above the resonance
+    expected = np.sqrt((b + np.sqrt(b**2 - 4 * (1 - 1 / d**2))) / 2) / (2 * np.pi)
+    assert [s.type for s in branch.special_points] == ["fold", "grazing"]
+    grazing = branch.special_points[-1].point
+    assert abs(grazing.value - expected) < 1e-9 * expected
+    assert abs(grazing.wall_margins[0]) < 1e-8
+    assert branch.stopped.startswith(f"stopped at the grazing of a rigid stop at {FREQUENCY} = ")
+    assert branch.points[-1].value == pytest.approx(expected, rel=1e-5)
+    assert len(branch.points) < 100  # it ended there, not at max_points or the range's end
+
+
 MODEL_FILE = """
 schema_version = 1
 [structure]

@@ -84,6 +84,78 @@ def test_rigid_stop_period_one_orbit_matches_the_closed_form() -> None:
     assert orbit.residual <= 1e-9 * np.linalg.norm(section)
 
 
+def test_rigid_orbit_extremes_are_located_on_the_exact_flight() -> None:
+    """On the event-driven method's default coarse grid (200 steps a period) the orbit's
+    smallest displacement is the closed-form flight's turning point, not a sample's."""
+    model = oscillator(vi.contact.Rigid(restitution=R))
+    orbit = vi.periodic_orbit(model, transient=5)
+    assert orbit.shooting.dt == pytest.approx(T / 200, rel=1e-14)
+
+    def equations(p: np.ndarray) -> np.ndarray:  # as closed_form_orbit, solved by root
+        start = np.array([D, -R * p[1]])
+        end = scipy.linalg.expm(A * T) @ (start - particular(p[0])) + particular(p[0])
+        return end - np.array([D, p[1]])
+
+    t0, v = scipy.optimize.root(equations, [float(orbit.impacts.t_start[0]) + 1e-3,
+                                            1.001 * float(orbit.impacts.v_in[0])],
+                                tol=1e-14).x
+    assert np.max(np.abs(equations(np.array([t0, v])))) < 1e-13
+
+    def flight(s: float) -> np.ndarray:
+        return (scipy.linalg.expm(A * s) @ (np.array([D, -R * v]) - particular(t0))
+                + particular(t0 + s))
+
+    grid = np.linspace(0.0, T, 2001)
+    rates = np.array([flight(s)[1] for s in grid])
+    k = int(np.flatnonzero((rates[:-1] < 0) & (rates[1:] >= 0))[0])
+    turn = scipy.optimize.brentq(lambda s: flight(s)[1], grid[k], grid[k + 1], xtol=1e-15)
+    assert abs(orbit.displacement_min[0] - flight(turn)[0]) < 1e-12
+    assert orbit.displacement_max[0] == pytest.approx(D, abs=1e-12)  # on the wall
+    # the samples alone are off by far more: what the located turning point replaces
+    sampled = orbit.result.displacement[:, 0].min()
+    assert sampled - flight(turn)[0] > 1e-7
+
+
+def test_contact_spanning_the_section_is_one_onset() -> None:
+    """A contact under way at the section is in the impact table twice (from t = 0 and from
+    its onset before the period's end); the orbit, its JSON and the continuation count it
+    once."""
+    law = vi.contact.Hertz(stiffness=1e4, exponent=1.5)
+    orbit = vi.periodic_orbit(oscillator(law), transient=30)
+    assert len(orbit.impacts) == 1
+    start, end = float(orbit.impacts.t_start[0]), float(orbit.impacts.t_end[0])
+    middle = 0.5 * (start + end)
+    state = orbit.shooting.state_at(orbit.state, middle)
+    shifted = vi.Model(  # the same orbit, its section moved into the contact
+        orbit.shooting.model.structure, gaps=orbit.shooting.model.gaps,
+        loads=[vi.HarmonicLoad(dof=0, amplitude=1.0, frequency=W / (2 * np.pi),
+                               phase=np.pi / 2 + W * middle)],
+        initial_displacement=state[:1], initial_velocity=state[1:])
+    inside = vi.periodic_orbit(shifted, transient=0)
+    assert len(inside.impacts) == 2 and float(inside.impacts.t_start[0]) == 0.0
+    assert inside.impacts_per_period == 1 and inside.summary()["impacts_per_period"] == 1
+    assert orbit.impacts_per_period == 1
+    branch = vi.continue_orbit(shifted, "loads.0.frequency", W / (2 * np.pi),
+                               1.001 * W / (2 * np.pi), transient=0, max_points=3)
+    assert [p.impacts_per_period for p in branch.points] == [1] * len(branch.points)
+
+
+def test_an_orbit_at_a_parameter_value_carries_the_model_there() -> None:
+    model = oscillator(vi.contact.Rigid(restitution=R))
+    base = vi.periodic_orbit(model, transient=20)
+    shooting = base.shooting.at("gaps.0.clearance", 0.45)
+    orbit = vi.orbits.solve_orbit(shooting, base.state)
+    assert orbit.result.model.gaps[0].clearance == 0.45
+    assert orbit.shooting.model.gaps[0].clearance == 0.45
+    assert orbit.displacement_max[0] == pytest.approx(0.45, abs=1e-12)
+    # the carried model is the orbit's: simulated from the section state for one period, it
+    # returns there (the base model, its stop at 0.5, would not)
+    run = vi.simulate(orbit.result.model, orbit.period, orbit.shooting.dt, vi.EventDriven())
+    end = np.array([run.displacement[-1, 0], run.velocity[-1, 0]])
+    assert np.linalg.norm(end - orbit.state) < 1e-9 * np.linalg.norm(orbit.state)
+    assert orbit.result.model.loads == model.loads
+
+
 def finite_difference_monodromy(shooting: Shooting, z: np.ndarray, eps: float) -> np.ndarray:
     columns = []
     for j in range(z.size):

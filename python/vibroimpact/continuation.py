@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -36,12 +36,14 @@ from numpy.typing import NDArray
 from vibroimpact.errors import ModelError, SolverError
 from vibroimpact.integrators import Integrator
 from vibroimpact.model import Model
-from vibroimpact.orbits import Shooting, solve_orbit
+from vibroimpact.orbits import Shooting, contact_onsets, multipliers_of, solve_orbit
 from vibroimpact.sweeps.grid import canonical_path, units_of
 
-__all__ = ["SPECIAL_POINT_TYPES", "Branch", "BranchPoint", "SpecialPoint", "continue_orbit",
-           "parameter_column"]
+__all__ = ["BRANCH_KIND", "SPECIAL_POINT_TYPES", "Branch", "BranchPoint", "SpecialPoint",
+           "continue_orbit", "parameter_column"]
 
+#: The ``kind`` attribute of a branch's Dataset (its ``.nc`` file).
+BRANCH_KIND = "vibroimpact-branch"
 #: The ``type`` of a special point (public names: JSON, the ``.nc`` file).
 SPECIAL_POINT_TYPES = ("fold", "period-doubling", "neimark-sacker", "grazing", "branch-point")
 
@@ -60,6 +62,8 @@ SWITCH_ATTEMPTS = 12
 #: Iterations locating a special point, and the arclength (scaled) it is located to.
 MAX_LOCATE_ITERATIONS = 40
 LOCATE_TOLERANCE = 1e-13
+#: A located zero's test function must be below this fraction of its values at the ends.
+LOCATED_FRACTION = 1e-3
 #: At a located fold, period-doubling or Neimark–Sacker point a multiplier must be this close to
 #: the critical one (else the test function jumped: a grazing, not that bifurcation).
 CRITICAL_MULTIPLIER_TOLERANCE = 1e-3
@@ -81,7 +85,8 @@ class BranchPoint:
     periods), the ``state`` on the section, the ``monodromy`` and its ``multipliers`` (largest
     modulus first), each DOF's ``displacement_max``/``displacement_min`` over the orbit, its
     ``impacts_per_period`` (contact onsets over the orbit's period), ``wall_margins`` (per wall: the
-    grazing test function, see the module doc) and its ``arclength`` (scaled units)."""
+    grazing test function, see the module doc), its ``arclength`` (scaled units) and
+    ``impact_speed_max`` (per gap)."""
 
     value: float
     periods: int
@@ -93,6 +98,8 @@ class BranchPoint:
     impacts_per_period: int
     wall_margins: NDArray[np.float64]
     arclength: float
+    #: Per gap: the largest approach speed of its impacts over the orbit, m/s (0 without).
+    impact_speed_max: NDArray[np.float64]
 
     @property
     def stable(self) -> bool:
@@ -131,6 +138,11 @@ class Branch:
     parameter: str
     points: tuple[BranchPoint, ...]
     special_points: tuple[SpecialPoint, ...]
+    #: The displacement unit of each DOF (``m`` or ``rad``; the model's).
+    dof_units: tuple[str, ...] = ()
+    #: Why the branch ended before the range's end or ``max_points`` (empty otherwise): at a
+    #: rigid stop's grazing.
+    stopped: str = ""
 
     def summary(self) -> dict[str, Any]:
         """The JSON of ``vibroimpact continue --json``: ``parameter`` (the path), ``points``
@@ -144,8 +156,10 @@ class Branch:
         parameter (variable ``parameter``, its path in the attribute ``path``), ``stable``,
         ``forcing_periods``, ``impacts_per_period``, ``displacement_max``/``_min`` (point, dof),
         ``state`` (point, component: the section's displacements then velocities),
-        ``multiplier_real``/``_imag`` (point, multiplier); the
-        special points along dimension ``special``: ``special_type``, ``special_value``,
+        ``multiplier_real``/``_imag`` (point, multiplier), ``impact_speed_max`` (point, gap),
+        the coordinate ``dof_unit`` (dof) and the attribute ``kind = "vibroimpact-branch"``; the
+        special points along dimension ``special`` (and the attribute ``stopped``: why the
+        branch ended early, if it did): ``special_type``, ``special_value``,
         ``special_arclength``, ``special_multiplier_real``/``_imag``."""
         pts, sps = self.points, self.special_points
         n_mult = pts[0].multipliers.size
@@ -162,6 +176,8 @@ class Branch:
                 "displacement_max": (("point", "dof"), [p.displacement_max for p in pts]),
                 "displacement_min": (("point", "dof"), [p.displacement_min for p in pts]),
                 "state": (("point", "component"), [p.state for p in pts]),
+                "impact_speed_max": (("point", "gap"), [p.impact_speed_max for p in pts],
+                                     {"units": "m/s"}),
                 "multiplier_real": (("point", "multiplier"), multipliers.real),
                 "multiplier_imag": (("point", "multiplier"), multipliers.imag),
                 "special_type": ("special", np.array([s.type for s in sps], dtype=str)),
@@ -170,19 +186,15 @@ class Branch:
                 "special_multiplier_real": (("special", "multiplier"), special.real),
                 "special_multiplier_imag": (("special", "multiplier"), special.imag),
             },
-            coords={"arclength": ("point", [p.arclength for p in pts])},
-            attrs={"parameter": self.parameter},
+            coords={"arclength": ("point", [p.arclength for p in pts]),
+                    **({"dof_unit": ("dof", list(self.dof_units))} if self.dof_units else {})},
+            attrs={"parameter": self.parameter, "kind": BRANCH_KIND, "stopped": self.stopped},
         )
         return ds
 
 
 def _pairs(multipliers: NDArray[np.complex128]) -> list[list[float]]:
     return [[float(m.real), float(m.imag)] for m in multipliers]
-
-
-def _multipliers(monodromy: NDArray[np.float64]) -> NDArray[np.complex128]:
-    values = np.linalg.eigvals(monodromy).astype(complex)
-    return values[np.argsort(-np.abs(values), kind="stable")]
 
 
 def parameter_column(shooting: Shooting, z: NDArray[np.float64], path: str, value: float,
@@ -288,25 +300,35 @@ class _Continuation:
         shooting = self.at(float(y[-1]))
         return BranchPoint(
             value=float(y[-1]), periods=shooting.periods, state=y[:-1].copy(), monodromy=phi,
-            multipliers=_multipliers(phi),
+            multipliers=multipliers_of(phi),
             displacement_max=np.asarray(raw["displacement_max"], dtype=float),
             displacement_min=np.asarray(raw["displacement_min"], dtype=float),
-            # onsets: a contact under way at the section is in the table from t = 0 too
-            impacts_per_period=int(np.count_nonzero(raw["impacts"]["t_start"] > 0)),
+            impacts_per_period=contact_onsets(raw["impacts"]["t_start"]),
             wall_margins=self.wall_margins(shooting, y[:-1], raw, refine),
-            arclength=arclength)
+            arclength=arclength,
+            impact_speed_max=self.impact_speeds(raw))
+
+    def impact_speeds(self, raw: dict[str, Any]) -> NDArray[np.float64]:
+        """Per gap: the largest approach speed of its impacts in the core's output ``raw``."""
+        impacts = raw["impacts"]
+        speeds = np.abs(np.asarray(impacts["v_in"], dtype=float))
+        speeds[~np.isfinite(speeds)] = 0.0
+        return np.array([float(np.max(speeds[impacts["gap"] == g], initial=0.0))
+                         for g in range(len(self.shooting.model.gaps))])
 
     def wall_margins(self, shooting: Shooting, z: NDArray[np.float64], raw: dict[str, Any],
                      refine: bool) -> NDArray[np.float64]:
-        """Per wall, the grazing test function (module doc). The distance is the largest
-        recorded gap coordinate's; ``refine``: at the instant its rate vanishes, found by
-        the Illinois iteration on runs that end there."""
+        """Per wall, the grazing test function (module doc). The distance: for a gap on one
+        DOF, from that DOF's extremes over the orbit (located inside the steps: exact for the
+        event-driven flights, DOP853's interpolant); for a gap coordinate of several DOFs,
+        from its largest recorded value, and with ``refine`` at the instant its rate
+        vanishes, found by the Illinois iteration on runs that end there."""
         impacts = raw["impacts"]
         x = np.asarray(raw["displacement"], dtype=float)
         t = np.asarray(raw["time"], dtype=float)
         margins = []
         for g, sign in self.walls:
-            gap = shooting.model.gaps[g]
+            gap, numbers = self.shooting.model.gaps[g], shooting.spec["gaps"][g]
             here = (impacts["gap"] == g) & (impacts["side"] == (1 if sign > 0 else 0))
             if here.any():
                 if gap.law.impulsive:
@@ -314,13 +336,19 @@ class _Continuation:
                 else:
                     margins.append(-float(np.nanmax(impacts["delta_max"][here])))
                 continue
-            coefficients = np.asarray(gap.coefficients, dtype=float)
-            u = sign * (x[:, list(gap.dofs)] @ coefficients)
+            dofs = tuple(numbers["dofs"])
+            coefficients = np.asarray(numbers["coefficients"], dtype=float)
+            if len(dofs) == 1:
+                c = sign * float(coefficients[0])
+                extreme = raw["displacement_max" if c > 0 else "displacement_min"]
+                margins.append(float(numbers["clearance"]) - c * float(extreme[dofs[0]]))
+                continue
+            u = sign * (x[:, list(dofs)] @ coefficients)
             k = int(np.argmax(u))
             peak = float(u[k])
             if refine:
-                peak = self._refined_peak(shooting, z, t, k, sign, gap.dofs, coefficients)
-            margins.append(float(gap.clearance) - peak)
+                peak = self._refined_peak(shooting, z, t, k, sign, dofs, coefficients)
+            margins.append(float(numbers["clearance"]) - peak)
         return np.array(margins)
 
     @staticmethod
@@ -366,18 +394,25 @@ class _Continuation:
     # --- a step and a special point --------------------------------------------------------
 
     def step(self, sol: _Solution, ds: float, refine: bool = False,
-             tol: float | None = None, value: float | None = None) -> tuple[_Solution, int]:
+             tol: float | None = None, value: float | None = None,
+             guard: bool = True) -> tuple[_Solution, int]:
         """The corrected point at arclength ``ds`` along ``sol``'s tangent (or, given
         ``value``, the one at that parameter value predicted from there), with its
-        parameter column, tangent and test functions."""
+        parameter column, tangent and test functions. ``guard``: fail if the corrector moved
+        farther than ``ds`` from the prediction (onto another branch)."""
         predicted = sol.u + ds * sol.tangent
         row = sol.tangent
         if value is not None:
             row = np.zeros(sol.u.size)
             row[-1] = 1.0
             predicted[-1] = value * self.weights[-1]
+            guard = False
         u, phi, raw, column, iterations = self.correct(predicted, row, row @ predicted,
                                                        sol.column, tol)
+        if guard and np.linalg.norm(u - predicted) > max(ds, 1e-12):
+            # onto another branch (an impact lost or gained by a large Newton step)
+            raise _StepFailed(f"the corrector moved {np.linalg.norm(u - predicted):.3g} from "
+                              f"the prediction, more than the step {ds:.3g}")
         moved = ds if value is None else float(np.linalg.norm(u - sol.u))
         try:
             point = self.point(u, phi, raw, sol.point.arclength + moved, refine)
@@ -399,7 +434,8 @@ class _Continuation:
 
         def test(s: float) -> float:
             try:
-                cache[s] = self.step(sol, s, refine=refine, tol=0.01 * self.tol)[0]
+                cache[s] = self.step(sol, s, refine=refine, tol=0.01 * self.tol,
+                                     guard=False)[0]
             except _StepFailed:
                 raise _LocateFailed from None
             return float(cache[s].tests[kind][index])
@@ -416,6 +452,8 @@ class _Continuation:
             return None
         if np.linalg.norm(cache[s].u - sol.u) > 2 * ds:  # the corrector left the segment
             return None
+        if abs(cache[s].tests[kind][index]) > LOCATED_FRACTION * max(abs(fa), abs(fb)):
+            return None  # the test function jumps there (the branch changed orbits), no zero
         return cache[s]
 
 
@@ -512,7 +550,7 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
     sol.tangent = run.tangent(phi, sol.column, np.sign(end - start) * row)
     sol.tests = run.tests(sol)
     points, specials = [sol.point], []
-    ds, switched = float(step), False
+    ds, switched, stop = float(step), False, ""
     low, high = min(start, end), max(start, end)
     while len(points) < max_points:
         try:
@@ -520,9 +558,16 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
         except _StepFailed as e:
             ds *= SHRINK
             if ds < min_step:
-                raise SolverError(f"continuation: the step fell below {min_step:g} at "
-                                  f"{path} = {sol.point.value:.9g} after {len(points)} "
-                                  f"points ({e})") from None
+                grazing = _rigid_grazing(run, points, sol)
+                if grazing is None:
+                    raise SolverError(f"continuation: the step fell below {min_step:g} at "
+                                      f"{path} = {sol.point.value:.9g} after {len(points)} "
+                                      f"points ({e})") from None
+                specials.append(grazing)
+                stop = (f"stopped at the grazing of a rigid stop at {path} = "
+                        f"{grazing.point.value:.9g}: an impact at zero speed has no "
+                        "derivative, so the branch is not continued through it")
+                break
             continue
         value = new.point.value
         last = not low < value < high
@@ -556,7 +601,45 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
         elif iterations >= SLOW:
             ds *= SHRINK
     specials.sort(key=lambda s: s.point.arclength)
-    return Branch(parameter=path, points=tuple(points), special_points=tuple(specials))
+    return Branch(parameter=path, points=tuple(points), special_points=tuple(specials),
+                  dof_units=tuple(model.structure.dof_units), stopped=stop)
+
+
+#: A rigid wall's grazing test function (its distance, or minus the impact speed) this small
+#: against the wall's clearance (at least 1) at a branch's last point is a grazing at hand.
+GRAZING_END = 1e-3
+
+
+def _rigid_grazing(run: _Continuation, points: list[BranchPoint],
+                   sol: _Solution) -> SpecialPoint | None:
+    """The grazing of a rigid stop where the branch that cannot go on from ``sol`` ends, or
+    None if it does not end at one: the grazing test function of a rigid wall (its distance,
+    or minus the impact speed) at the last two points is small (``GRAZING_END``) and goes to
+    zero, and its zero is found by the secant through them (both points end at the grazing
+    orbit; the event-driven method has no derivative at an impact at zero speed, so the
+    corrector fails there). The orbit reported is the one corrected at that value, or the
+    last point's if the corrector fails there."""
+    if len(points) < 2:
+        return None
+    previous, last = points[-2], sol.point
+    for i, (g, _) in enumerate(run.walls):
+        gap = run.shooting.model.gaps[g]
+        fa, fb = float(previous.wall_margins[i]), float(last.wall_margins[i])
+        near = GRAZING_END * max(abs(float(gap.clearance)), 1.0)
+        if not (gap.law.impulsive and abs(fb) < near and abs(fb) < abs(fa) and fa != fb):
+            continue
+        value = last.value - fb * (last.value - previous.value) / (fb - fa)
+        row = np.zeros(sol.u.size)
+        row[-1] = 1.0
+        u0 = sol.u.copy()
+        u0[-1] = value * run.weights[-1]
+        try:
+            u, phi, raw, _, _ = run.correct(u0, row, u0[-1], sol.column)
+            point = run.point(u, phi, raw, last.arclength + float(np.linalg.norm(u - sol.u)))
+        except (_StepFailed, ModelError, SolverError):
+            point = replace(last, value=value)
+        return SpecialPoint("grazing", point)
+    return None
 
 
 def _switch(run: _Continuation, pd: SpecialPoint, ds: float) -> tuple[_Continuation, _Solution]:
@@ -579,7 +662,8 @@ def _switch(run: _Continuation, pd: SpecialPoint, ds: float) -> tuple[_Continuat
                     column=doubled.column(y), tangent=direction)
     for _ in range(SWITCH_ATTEMPTS):
         try:
-            return doubled, doubled.step(sol, ds)[0]
+            # the period-2 branch leaves at a right angle: its first correction is large
+            return doubled, doubled.step(sol, ds, guard=False)[0]
         except _StepFailed as e:
             failure = e
             ds *= SHRINK

@@ -26,7 +26,7 @@ import scipy.sparse.linalg as spla
 from numpy.typing import ArrayLike, NDArray
 
 from vibroimpact import _core
-from vibroimpact.contact import ContactLaw
+from vibroimpact.contact import LAWS, REMOVED_LAWS, ContactLaw
 from vibroimpact.errors import ModelError, require
 
 __all__ = [
@@ -673,6 +673,43 @@ class Model:
     def __getstate__(self) -> dict[str, Any]:
         """Pickled and copied without the core's compiled system (:meth:`_run_spec`)."""
         return {k: v for k, v in self.__dict__.items() if k != "_core_system"}
+
+    @classmethod
+    def from_spec(cls, spec: dict[str, Any],
+                  dof_units: Sequence[str] | None = None) -> Model:
+        """The model of a :meth:`to_spec` dict (a gap's optional ``name`` kept): what a
+        parameter path set in a spec (:func:`vibroimpact.sweeps.apply`) is as a model."""
+        structure = Structure(spec["mass"], spec["stiffness"], spec["damping"],
+                              dof_units=dof_units)
+        gaps = []
+        for i, g in enumerate(spec["gaps"]):
+            kind = g["law"]["kind"]
+            if kind in REMOVED_LAWS:
+                raise ModelError(f"gaps[{i}].law.kind: {REMOVED_LAWS[kind]}")
+            if kind not in LAWS:
+                raise ModelError(f"gaps[{i}].law.kind: {kind!r} is not known to this "
+                                 "vibroimpact version")
+            law = LAWS[kind](**{k: v for k, v in g["law"].items()
+                                if k != "kind" and v is not None})
+            gaps.append(Gap(dof=g["dofs"], coefficients=g["coefficients"],
+                            clearance=g["clearance"], side=g["side"], law=law,
+                            name=g.get("name")))
+        loads: list[Load] = []
+        for i, ld in enumerate(spec["loads"]):
+            kind = ld["kind"]
+            if kind == "constant":
+                loads.append(ConstantLoad(dof=ld["dofs"], amplitude=ld["amplitude"]))
+            elif kind == "harmonic":
+                loads.append(HarmonicLoad(dof=ld["dofs"], amplitude=ld["amplitude"],
+                                          frequency=ld["frequency"], phase=ld["phase"]))
+            elif kind == "table":
+                loads.append(TableLoad(dof=ld["dofs"], time=ld["time"], force=ld["value"],
+                                       scale=ld["amplitude"]))
+            else:
+                raise ModelError(f"loads[{i}].kind: {kind!r} is not known to this "
+                                 "vibroimpact version")
+        return cls(structure, gaps=gaps, loads=loads, initial_displacement=spec["x0"],
+                   initial_velocity=spec["v0"])
 
     def to_spec(self) -> dict[str, Any]:
         """Plain dict of arrays and numbers that the Rust core compiles."""

@@ -16,6 +16,7 @@ transient. :meth:`Shooting.at` is the same problem at another value of a model p
 from __future__ import annotations
 
 import copy
+import functools
 import math
 from dataclasses import dataclass, replace
 from fractions import Fraction
@@ -23,7 +24,7 @@ from typing import Any
 
 import numpy as np
 import xarray as xr
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from vibroimpact import _core
 from vibroimpact.errors import ModelError, SolverError
@@ -33,10 +34,15 @@ from vibroimpact.result import ImpactTable, Result
 from vibroimpact.simulate import _run_core, check_run
 from vibroimpact.sweeps.grid import apply, canonical_path
 
-__all__ = ["PeriodicOrbit", "Shooting", "forcing_period", "periodic_orbit", "solve_orbit"]
+__all__ = ["PeriodicOrbit", "Shooting", "contact_onsets", "forcing_period", "periodic_orbit",
+           "solve_orbit"]
 
-#: Steps (event-driven) or first step (DOP853) per forcing period by default.
+#: DOP853's first step per forcing period by default.
 STEPS_PER_PERIOD = 1000
+#: The event-driven method's steps per forcing period by default: its flights are exact and
+#: the displacements' extremes are located inside them, so the grid only bounds where an
+#: impact is looked for (a quintic interpolant sampled at 1/32 of a step).
+EVENT_DRIVEN_STEPS_PER_PERIOD = 200
 #: Largest denominator of a ratio of two load frequencies taken as commensurate.
 MAX_FREQUENCY_DENOMINATOR = 64
 
@@ -58,10 +64,11 @@ def forcing_period(model: Model) -> float:
         elif not isinstance(load, (HarmonicLoad, ConstantLoad)):
             raise ModelError(f"loads[{i}]: {type(load).__name__} is not periodic; expected "
                              "harmonic or constant loads for a periodic orbit")
-    return _common_period(frequencies)
+    return _common_period(tuple(frequencies))
 
 
-def _common_period(frequencies: list[float]) -> float:
+@functools.lru_cache(maxsize=64)
+def _common_period(frequencies: tuple[float, ...]) -> float:
     """The smallest ``T`` with ``f T`` whole for every frequency (Hz) of ``frequencies``."""
     if not frequencies:
         raise ModelError("loads: no harmonic load with a frequency > 0; expected one (its "
@@ -80,6 +87,18 @@ def _common_period(frequencies: list[float]) -> float:
     return denominator / (numerator * base)
 
 
+def default_steps_per_period(method: Integrator) -> int:
+    """Steps per forcing period of ``method`` by default (DOP853: its first step)."""
+    return EVENT_DRIVEN_STEPS_PER_PERIOD if isinstance(method, EventDriven) else STEPS_PER_PERIOD
+
+
+def contact_onsets(t_start: ArrayLike) -> int:
+    """The contacts that begin over an orbit's period, from its impact table's start times:
+    a contact under way at the section is in the table from ``t = 0`` and again from its onset
+    before the period's end, and is one contact."""
+    return int(np.count_nonzero(np.asarray(t_start, dtype=float) > 0))
+
+
 def default_method(model: Model) -> Integrator:
     """The event-driven method for rigid stops, else DOP853 at ``rtol = 1e-12`` (its
     state-transition matrix is that of the integrated flow to about the tolerance's square
@@ -94,19 +113,27 @@ class Shooting:
     state-transition matrix, integrated by ``method`` (default :func:`default_method`; one that
     carries the matrix: DOP853 with adaptive steps, the event-driven method, or Newmark-β,
     HHT-α and generalized-α with fixed steps) with steps of ``dt`` (s; default the forcing
-    period / 1000; DOP853: its first step)."""
+    period / :func:`default_steps_per_period`; DOP853: its first step)."""
 
     def __init__(self, model: Model, period: int = 1, method: Integrator | None = None,
                  dt: float | None = None) -> None:
         if not (isinstance(period, int) and not isinstance(period, bool) and period >= 1):
             raise ModelError(f"period: {period!r} is not valid; expected an integer >= 1 "
                              "(forcing periods per orbit)")
-        self.model = model
+        self._model: Model | None = model
+        #: The model's numbers (:meth:`Model.to_spec`), with the parameter of :meth:`at` set:
+        #: the model is built from them only when asked for (the continuation's many runs need
+        #: only these).
+        self.spec = model.to_spec()
+        #: The model that :attr:`spec` came from (its gaps' names and DOF units).
+        self._source = model
+        self.n_dof = model.n_dof
         self.periods = period
         self.forcing_period = forcing_period(model)
         self.duration = period * self.forcing_period
         self.method = default_method(model) if method is None else method
-        self.dt = self.forcing_period / STEPS_PER_PERIOD if dt is None else float(dt)
+        self.dt = (self.forcing_period / default_steps_per_period(self.method) if dt is None
+                   else float(dt))
         check_run(model, self.duration, self.dt, self.method)
         #: The parameter set by :meth:`at` (path, value); None: the model's own numbers.
         self.parameter: tuple[str, float] | None = None
@@ -125,20 +152,32 @@ class Shooting:
         frequency moves the forcing period, hence the section's period and the steps, which
         stay the same fraction of it. The core checks the value at the first :meth:`flow`
         (:class:`ModelError` naming the field)."""
-        spec = apply(self.model.to_spec(), path, value)
-        period = _common_period([float(ld["frequency"]) for ld in spec["loads"]
-                                 if ld["kind"] == "harmonic" and ld["frequency"] > 0])
+        spec = apply(self.spec, path, value)
+        period = _common_period(tuple(float(ld["frequency"]) for ld in spec["loads"]
+                                      if ld["kind"] == "harmonic" and ld["frequency"] > 0))
         shooting = copy.copy(self)
+        shooting._model, shooting.spec = None, spec
         shooting.parameter = (canonical_path(path), float(value))
         shooting.forcing_period = period
         shooting.duration = self.periods * period
         shooting.dt = self.dt * period / self.forcing_period
         shooting._spec = dict(self._spec, t_end=shooting.duration, dt=shooting.dt)
-        if self.model.structure.is_sparse:  # as Model._run_spec: only a dense one compiles
+        if self._source.structure.is_sparse:  # as Model._run_spec: only a dense one compiles
             shooting._spec.update(spec)
         else:
             shooting._spec["system"] = _core.compile_system(spec)
         return shooting
+
+    @property
+    def model(self) -> Model:
+        """The model, with the parameter of :meth:`at` set (its gaps' names and DOF units kept)."""
+        if self._model is None:
+            source = self._source
+            self._model = Model.from_spec(
+                dict(self.spec, gaps=[dict(g, name=gap.name) for g, gap in
+                                      zip(self.spec["gaps"], source.gaps, strict=True)]),
+                dof_units=source.structure.dof_units)
+        return self._model
 
     def with_periods(self, period: int) -> Shooting:
         """This problem (at the same parameter value) over ``period`` forcing periods."""
@@ -152,7 +191,7 @@ class Shooting:
         """The state ``periods`` forcing periods after ``z`` (a plain run, no derivatives)."""
         if periods == 0:
             return np.asarray(z, dtype=float)
-        n = self.model.n_dof
+        n = self.n_dof
         t_end = periods * self.forcing_period
         raw, _ = _run_core(dict(self._spec, x0=np.ascontiguousarray(z[:n]),
                                 v0=np.ascontiguousarray(z[n:]), t_end=t_end,
@@ -165,7 +204,7 @@ class Shooting:
     def state_at(self, z: NDArray[np.float64], t: float) -> NDArray[np.float64]:
         """The state at ``0 < t <= `` :attr:`duration` from ``z`` at the section (the last step
         ends at ``t``)."""
-        n = self.model.n_dof
+        n = self.n_dof
         raw, _ = _run_core(dict(self._spec, x0=np.ascontiguousarray(z[:n]),
                                 v0=np.ascontiguousarray(z[n:]), t_end=float(t),
                                 dt=min(self.dt, float(t)), every=10**9))
@@ -177,12 +216,12 @@ class Shooting:
     @property
     def n_state(self) -> int:
         """``2n``: displacements then velocities."""
-        return 2 * self.model.n_dof
+        return 2 * self.n_dof
 
     def flow(self, z: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64],
                                                     dict[str, Any]]:
         """``P^N(z)``, ``∂P^N/∂z`` and the core's output of the run (its time histories)."""
-        n = self.model.n_dof
+        n = self.n_dof
         spec = dict(self._spec, x0=np.ascontiguousarray(z[:n]),
                     v0=np.ascontiguousarray(z[n:]))
         raw = _core.flow_map(spec)
@@ -243,6 +282,11 @@ class PeriodicOrbit:
         return self.result.impacts
 
     @property
+    def impacts_per_period(self) -> int:
+        """The contacts that begin over the orbit's period (:func:`contact_onsets`)."""
+        return contact_onsets(self.impacts.t_start)
+
+    @property
     def impact_phase(self) -> NDArray[np.float64]:
         """Each impact's instant as a phase of the forcing period, rad in ``[0, 2π)``."""
         t = np.asarray(self.impacts.t_start, dtype=float)
@@ -299,13 +343,14 @@ class PeriodicOrbit:
                               "velocity": self.velocity.tolist()},
             "displacement_max": self.displacement_max.tolist(),
             "displacement_min": self.displacement_min.tolist(),
-            "impacts_per_period": len(self.impacts),
+            "impacts_per_period": self.impacts_per_period,
             "force_max": self.force_max,
             "penetration_max": self.penetration_max,
         }
 
 
-def _multipliers(monodromy: NDArray[np.float64]) -> NDArray[np.complex128]:
+def multipliers_of(monodromy: NDArray[np.float64]) -> NDArray[np.complex128]:
+    """The eigenvalues of ``monodromy`` (the Floquet multipliers), largest modulus first."""
     values = np.linalg.eigvals(monodromy).astype(complex)
     return values[np.argsort(-np.abs(values), kind="stable")]
 
@@ -383,7 +428,7 @@ def solve_orbit(shooting: Shooting, z: NDArray[np.float64], tol: float = 1e-9,
                                                  initial_velocity=z[n:]),
                               method=shooting.method, t_end=shooting.duration)
     return PeriodicOrbit(shooting=shooting, displacement=z[:n].copy(), velocity=z[n:].copy(),
-                         result=result, monodromy=phi, multipliers=_multipliers(phi),
+                         result=result, monodromy=phi, multipliers=multipliers_of(phi),
                          residual=residual, iterations=iteration,
                          displacement_max=np.asarray(raw["displacement_max"]),
                          displacement_min=np.asarray(raw["displacement_min"]))

@@ -107,6 +107,8 @@ def main(argv: Sequence[str]) -> int:
               f"{a['scipy_rtol']:g} ({a['scipy_peak_error_m']:.1e} m, "
               f"{a['scipy_impact_time_error_s']:.1e} s)")
     print()
+    _print_continuation()
+    print()
     _print_large_models(quick=args.quick, reduction=args.large)
     points = args.sweep_points if args.sweep_points is not None else (40 if args.quick else 400)
     if points > 0:
@@ -117,6 +119,25 @@ def main(argv: Sequence[str]) -> int:
         rows = sweep_benchmark(points=points, repeats=1 if args.quick else 2)
         print("\n".join(format_rows(rows)))
     return 0
+
+
+def _print_continuation() -> None:
+    """Issue 21's speed target: a 200-point branch of the rigid impact oscillator with its
+    multipliers in under 1 s, beside the brute-force sweep over the same range."""
+    from vibroimpact.benchmarks.continuation import continuation_benchmark
+
+    c = continuation_benchmark()
+    specials = ", ".join(f"{kind} at w = {w:.4f}" for kind, w in c["special_points"])
+    print(f"Continuation (rigid impact oscillator, w = {c['w_range'][0]:.2f} to "
+          f"{c['w_range'][1]:.4f}): {c['branch_points']} points with multipliers in "
+          f"{c['branch_s']:.2f} s, CPU {c['branch_cpu_s']:.2f} s ({c['ms_per_point']:.1f} "
+          f"ms/point, CPU {c['cpu_ms_per_point']:.1f}; target <= "
+          f"{c['target_ms_per_point']:.0f}), {c['stable_points']} stable + "
+          f"{c['unstable_points']} unstable{'; ' + specials if specials else ''}")
+    print(f"  brute-force sweep over the same range ({c['sweep_points']} frequencies x 110 "
+          f"periods, event-driven, 1 thread): {c['sweep_s']:.2f} s, CPU {c['sweep_cpu_s']:.2f} s; "
+          f"on the period-1 orbit at "
+          f"{c['sweep_period_one_points']} of them (the stable part only)")
 
 
 def _print_large_models(quick: bool, reduction: bool) -> None:

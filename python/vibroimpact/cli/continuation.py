@@ -94,6 +94,8 @@ def _print(branch: Branch, name: str) -> None:
         worst = max(s.point.multipliers, key=abs)
         print(f"  {s.type:<16} {branch.parameter} = {s.point.value:.9g}  (|multiplier| max "
               f"{abs(worst):.6f})")
+    if branch.stopped:
+        print(f"  {branch.stopped}")
 
 
 def main(args: argparse.Namespace) -> int:

@@ -24,8 +24,9 @@ with the exact Jacobian of the map (state-transition matrix and saltation matric
 orbit's state on the section (t = 0 of a forcing period), its peaks and impacts, and its
 Floquet multipliers (stable: all inside the unit circle). The forcing period is the common
 period of the harmonic loads. The file's method must carry the state-transition matrix:
-dop853 (compliant laws; its tolerances are used) or event-driven (rigid stops); the steps are
-the forcing period / 1000 (DOP853: the first step)."""
+dop853 (compliant laws; its tolerances are used; its first step is the forcing period / 1000)
+or event-driven (rigid stops; 200 steps a forcing period: its flights are exact and the
+displacements' extremes are located inside them)."""
 
 _EPILOG = """\
 examples:

@@ -7,19 +7,22 @@ from typing import Any
 
 from vibroimpact.io.results_file import SUFFIXES, load
 from vibroimpact.plotting import FIGURE_SUFFIXES, KINDS, plot, save_figure
+from vibroimpact.plotting.branch import BRANCH_KINDS
 from vibroimpact.sweeps.plot import SWEEP_KINDS
 
 __all__ = ["add_parser", "main"]
 
 _EPILOG = "kinds:\n" + "\n".join(f"  {k:22s} {v.description}" for k, v in KINDS.items()) + "".join(
-    f"\n  {k:22s} {d}" for k, d in SWEEP_KINDS.items()) + """
+    f"\n  {k:22s} {d}" for k, d in {**SWEEP_KINDS, **BRANCH_KINDS}.items()) + """
 
 examples:
   vibroimpact run examples/models/sdof_paper_ln.toml -o run.nc
   vibroimpact plot run.nc --kind displacement -o displacement.png
   vibroimpact plot run.nc --kind force-indentation --gap 0 -o loops.svg
   vibroimpact plot run.nc --kind impact-map --x phase --period 0.2 -o map.pdf
-  vibroimpact plot run.nc --kind spectrum --quantity acceleration --f-max 5000 -o fft.png"""
+  vibroimpact plot run.nc --kind spectrum --quantity acceleration --f-max 5000 -o fft.png
+  vibroimpact plot branch.nc --kind branch --sweep sweep.nc -o branch.png
+  vibroimpact plot branch.nc --kind multipliers -o multipliers.png"""
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -33,7 +36,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("result", metavar="RESULT", help=f"result file ({', '.join(SUFFIXES)})")
-    p.add_argument("--kind", default="displacement", choices=[*KINDS, *SWEEP_KINDS], metavar="KIND",
+    p.add_argument("--kind", default="displacement", choices=[*KINDS, *SWEEP_KINDS, *BRANCH_KINDS],
+                   metavar="KIND",
                    help="what to draw (default displacement; see the list below)")
     p.add_argument("-o", "--output", required=True, metavar="FIGURE",
                    help=f"figure file ({', '.join(FIGURE_SUFFIXES)})")
@@ -53,6 +57,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--f-max", type=float, default=None, help="spectrum: highest frequency, Hz")
     p.add_argument("--n-modes", type=int, default=None,
                    help="mode-shapes: elastic modes to draw (default 4)")
+    p.add_argument("--sweep", default=None, metavar="SWEEP.nc",
+                   help="branch: draw this sweep's bifurcation diagram (over the branch's "
+                   "parameter) under the branch")
     p.add_argument("--title", default=None, help="figure title")
     p.set_defaults(handler=main)
     return p
@@ -75,6 +82,13 @@ def main(args: argparse.Namespace) -> int:
         from vibroimpact.sweeps.plot import cli_plot
 
         return cli_plot(args)
+    if args.kind in BRANCH_KINDS:  # files of `vibroimpact continue`
+        from vibroimpact.plotting.branch import cli_plot as branch_plot
+
+        return branch_plot(args)
+    if args.sweep is not None:
+        raise ModelError(f"--sweep: not an option of --kind {args.kind}; it is one of "
+                         "--kind branch")
     ds = load(args.result)
     kind = KINDS[args.kind]
     options: dict[str, Any] = {"t_min": args.t_min, "t_max": args.t_max}

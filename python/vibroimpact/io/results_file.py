@@ -259,43 +259,17 @@ def metadata(ds: xr.Dataset) -> dict[str, Any]:
 def model_from_dataset(ds: xr.Dataset) -> tuple[Model, Integrator]:
     """Rebuild the :class:`~vibroimpact.Model` and the integrator a result was made with, so
     that any result file can be re-run: ``vi.simulate(model, ds.t_end, ds.dt, method)``."""
-    from vibroimpact.contact import LAWS, REMOVED_LAWS
-    from vibroimpact.model import ConstantLoad, Gap, HarmonicLoad, Model, Structure, TableLoad
+    from vibroimpact.model import Model
 
     meta = metadata(ds)
     spec, msettings = meta["model_spec"], meta["method_spec"]
     if not spec or "structure_mass" not in ds:
         raise ModelError("result file: no model stored; expected a file written by vibroimpact")
-    structure = Structure(*(structure_matrix(ds, f"structure_{key}")
-                            for key in ("mass", "stiffness", "damping")),
-                          dof_units=spec.get("dof_units"))
-    gaps = []
-    for g in spec["gaps"]:
-        law_spec = {k: v for k, v in g["law"].items() if k != "kind" and v is not None}
-        if g["law"]["kind"] in REMOVED_LAWS:
-            raise ModelError(f"result file: {REMOVED_LAWS[g['law']['kind']]}")
-        if g["law"]["kind"] not in LAWS:
-            raise ModelError(f"result file: contact law {g['law']['kind']!r} is not known to "
-                             "this vibroimpact version")
-        law = LAWS[g["law"]["kind"]](**law_spec)
-        gaps.append(Gap(dof=g["dofs"], coefficients=g["coefficients"], clearance=g["clearance"],
-                        side=g["side"], law=law, name=g.get("name")))
-    loads: list[Any] = []
-    for ld in spec["loads"]:
-        kind = ld["kind"]
-        if kind == "constant":
-            loads.append(ConstantLoad(dof=ld["dofs"], amplitude=ld["amplitude"]))
-        elif kind == "harmonic":
-            loads.append(HarmonicLoad(dof=ld["dofs"], amplitude=ld["amplitude"],
-                                      frequency=ld["frequency"], phase=ld["phase"]))
-        elif kind == "table":
-            loads.append(TableLoad(dof=ld["dofs"], time=ld["time"], force=ld["value"],
-                                   scale=ld["amplitude"]))
-        else:
-            raise ModelError(f"result file: load kind {kind!r} is not known to this version")
-    model = Model(structure, gaps=gaps, loads=loads,
-                  initial_displacement=ds["initial_displacement"].values,
-                  initial_velocity=ds["initial_velocity"].values)
+    matrices = {key: structure_matrix(ds, f"structure_{key}")
+                for key in ("mass", "stiffness", "damping")}
+    model = Model.from_spec(dict(spec, **matrices, x0=ds["initial_displacement"].values,
+                                 v0=ds["initial_velocity"].values),
+                            dof_units=spec.get("dof_units"))
     return model, method_from_settings(msettings)
 
 

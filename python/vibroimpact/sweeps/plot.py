@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     from matplotlib.axes import Axes
     from matplotlib.figure import Figure
 
-__all__ = ["SWEEP_KINDS", "cli_plot", "plot_bifurcation", "plot_response"]
+__all__ = ["SWEEP_KINDS", "cli_plot", "plot_bifurcation", "plot_response", "sweep_dataset"]
 
 #: Plot kinds of sweep files: name -> description.
 SWEEP_KINDS = {
@@ -42,7 +42,9 @@ _RESPONSES = {
 }
 
 
-def _source(source: Any) -> xr.Dataset:
+def sweep_dataset(source: Any) -> xr.Dataset:
+    """The Dataset of a sweep (one returned by ``run_sweep`` or a file of ``vibroimpact
+    sweep``); :class:`ModelError` for anything else."""
     if isinstance(source, (str, os.PathLike)):
         from vibroimpact.sweeps.runner import load_sweep
 
@@ -130,7 +132,7 @@ def plot_bifurcation(
     if quantity not in _QUANTITIES:
         raise ModelError(f"--quantity: {quantity!r} is not valid; expected one of "
                          f"{', '.join(_QUANTITIES)}")
-    ds = _source(source)
+    ds = sweep_dataset(source)
     param, sub, note = _axis(ds, param, select)
     var, text, units = _QUANTITIES[quantity]
     fig, ax = _new(ax)
@@ -185,7 +187,7 @@ def plot_response(
     if quantity not in _RESPONSES:
         raise ModelError(f"--quantity: {quantity!r} is not valid; expected one of "
                          f"{', '.join(_RESPONSES)}")
-    ds = _source(source)
+    ds = sweep_dataset(source)
     param, sub, note = _axis(ds, param, select)
     fig, ax = _new(ax)
     dd = int(sub["dof"].values[0]) if dof is None else dof

@@ -252,6 +252,41 @@ impl<'o> Run<'o> {
         iterations: usize,
         integrals: Option<&StepIntegrals>,
     ) -> Result<(), SimError> {
+        let turns = integrals.map(|i| i.displacement_turns);
+        self.commit(sys, h, iterations, integrals, turns)
+    }
+
+    /// [`Self::commit_trial`] without integrals but with `turns` (per DOF, as
+    /// [`StepIntegrals::displacement_turns`]): a method that locates them on its exact
+    /// solution (the event-driven flights) when [`Self::observed`].
+    pub(crate) fn commit_with_turns(
+        &mut self,
+        sys: &System,
+        h: f64,
+        turns: &[Option<Turn>],
+    ) -> Result<(), SimError> {
+        self.commit(sys, h, 0, None, Some(turns))
+    }
+
+    /// The DOFs whose displacements are recorded.
+    pub(crate) fn recorded_dofs(&self) -> &[usize] {
+        &self.out.dofs
+    }
+
+    /// Whether a [`StepObserver`] watches the run (the one that asks for the turning points
+    /// inside the steps of a method that spends work locating them).
+    pub(crate) fn observed(&self) -> bool {
+        self.observer.is_some()
+    }
+
+    fn commit(
+        &mut self,
+        sys: &System,
+        h: f64,
+        iterations: usize,
+        integrals: Option<&StepIntegrals>,
+        turns: Option<&[Option<Turn>]>,
+    ) -> Result<(), SimError> {
         self.stats.newton_iterations += iterations;
         self.stats.steps += 1;
         let trial = &self.trial;
@@ -266,7 +301,7 @@ impl<'o> Run<'o> {
             None => self.account.commit(sys, &self.cur, trial),
         }
         for (m, &d) in self.out.max_abs.iter_mut().zip(&self.out.dofs) {
-            let inside = integrals.and_then(|i| i.displacement_turns[d]);
+            let inside = turns.and_then(|t| t[d]);
             *m = m
                 .max(trial.x[d].abs())
                 .max(inside.map_or(0.0, |(_, x)| x.abs()));
@@ -277,7 +312,6 @@ impl<'o> Run<'o> {
             self.contact_events(sys, iterations);
         }
         if let Some(observer) = self.observer.as_deref_mut() {
-            let turns = integrals.map(|i| i.displacement_turns);
             observer.accepted(sys, &self.cur, &self.trial, h, turns);
         }
         std::mem::swap(&mut self.cur, &mut self.trial);

@@ -54,6 +54,8 @@ use crate::driver::{Run, StepPolicy};
 use crate::error::{invalid, SimError};
 use crate::gap::ImpactRecord;
 use crate::integrators::expm::{duhamel, expm, expm_action};
+use crate::interpolation::QuinticSegment;
+use crate::observe::Turn;
 use crate::sensitivity::{saltation_update, StateTransition};
 use crate::structure::LoadHistory;
 use crate::system::{State, System};
@@ -476,10 +478,17 @@ impl Driver<'_> {
 
     /// Refines an event inside `(lo, hi]` from `guess` on the exact solution (Newton with
     /// bisection as the safeguard); returns the event instant offset and the state there.
-    fn refine(
+    fn refine(&mut self, p0: &Point, ev: Event, lo: f64, hi: f64, guess: f64) -> (f64, Point) {
+        self.root(p0, |d, p| d.event_value(ev, p), lo, hi, guess)
+    }
+
+    /// The instant in `(lo, hi]` after `p0` where `f` (value and time derivative at a state,
+    /// increasing through 0) vanishes on the exact solution, from `guess` by Newton with
+    /// bisection as the safeguard, and the state there.
+    fn root(
         &mut self,
         p0: &Point,
-        ev: Event,
+        f: impl Fn(&mut Self, &Point) -> (f64, f64),
         mut lo: f64,
         mut hi: f64,
         guess: f64,
@@ -488,7 +497,7 @@ impl Driver<'_> {
         let tol = 4.0 * f64::EPSILON * (p0.t + hi).max(self.h0);
         let mut state = self.advance(p0, tau);
         for _ in 0..60 {
-            let (f, df) = self.event_value(ev, &state);
+            let (f, df) = f(self, &state);
             if f < 0.0 {
                 lo = lo.max(tau);
             } else {
@@ -958,10 +967,50 @@ impl<'s> EventDrivenSteps<'s> {
 }
 
 impl Driver<'_> {
-    /// Commits the flight from the run's current state to `to`, of length `h`.
-    fn commit(&mut self, run: &mut Run, sys: &System, to: &Point, h: f64) -> Result<(), SimError> {
+    /// Commits the flight from `from` (the run's current state) to `to`, of length `h`, with
+    /// the turning points of the recorded displacements inside it when an observer watches.
+    fn commit(
+        &mut self,
+        run: &mut Run,
+        sys: &System,
+        from: &Point,
+        to: &Point,
+        h: f64,
+    ) -> Result<(), SimError> {
         self.fill(to, &mut run.trial);
-        run.commit_trial(sys, h, 0, None)
+        if !run.observed() {
+            return run.commit_trial(sys, h, 0, None);
+        }
+        let mut turns = vec![None; self.rig.n];
+        for &d in run.recorded_dofs() {
+            turns[d] = self.turning_point(from, to, h, d);
+        }
+        run.commit_with_turns(sys, h, &turns)
+    }
+
+    /// Where DOF `d`'s displacement turns inside the flight from `p0` to `p1` (of length
+    /// `h`, no event inside) if its velocity changes sign between the ends: the fraction of
+    /// the flight and the displacement there, located on the exact solution (the zero of the
+    /// velocity by Newton from the quintic interpolant's turning point) to round-off.
+    fn turning_point(&mut self, p0: &Point, p1: &Point, h: f64, d: usize) -> Option<Turn> {
+        let (v0, v1) = (p0.v[d], p1.v[d]);
+        if v0 * v1 >= 0.0 {
+            return None;
+        }
+        let (_, a0) = self.accel(p0);
+        let (_, a1) = self.accel(p1);
+        let seg = QuinticSegment::new([p0.x[d], v0, a0[d]], [p1.x[d], v1, a1[d]], h);
+        let guess = seg.first_crossing(true, v0 < 0.0, SAMPLES).unwrap_or(0.5);
+        // increasing through 0: the velocity at a minimum, minus it at a maximum
+        let sign = if v0 < 0.0 { 1.0 } else { -1.0 };
+        let (tau, at) = self.root(
+            p0,
+            |drv, p| (sign * p.v[d], sign * drv.accel(p).1[d]),
+            0.0,
+            h,
+            guess * h,
+        );
+        Some((tau / h, at.x[d]))
     }
 }
 
@@ -991,7 +1040,8 @@ impl StepPolicy for EventDrivenSteps<'_> {
                 None => {
                     self.d.stuck_forces(&self.p, &end);
                     end.t = t_target;
-                    self.d.commit(run, sys, &end, eta)?;
+                    let from = self.p.clone();
+                    self.d.commit(run, sys, &from, &end, eta)?;
                     self.carry_flight(eta);
                     self.p = end;
                     return Ok(true);
@@ -999,7 +1049,8 @@ impl StepPolicy for EventDrivenSteps<'_> {
                 Some((tau, ev, mut at)) => {
                     at.t = self.p.t + tau;
                     self.d.stuck_forces(&self.p, &at);
-                    self.d.commit(run, sys, &at, tau)?;
+                    let from = self.p.clone();
+                    self.d.commit(run, sys, &from, &at, tau)?;
                     self.carry_flight(tau);
                     self.p = at;
                     events += 1;
