@@ -37,6 +37,9 @@ def test_bench_peers_quick_completes(tmp_path: Path) -> None:
     ours = [r for r in rows if r["tool"] == "vibroimpact" and r["problem"] == "paper-sdof"]
     assert ours[0]["method"] == "Newmark"
     assert all(r["peak_error"] is not None and r["peak_error"] < 1e-4 for r in ours)
+    eq = data["equal_accuracy"]  # issue 20: ours first, the base of the ratios, meeting it
+    assert eq["rows"][0]["tool"] == "vibroimpact" and eq["rows"][0]["ratio"] == 1.0
+    assert eq["rows"][0]["meets"] and len(data["issue20_targets"]) == 8
     text = out.read_text(encoding="utf-8")
     assert "## Machine" in text and "| cpu |" in text and "## Results" in text
     assert "ONE run per peer" in text  # --quick says what it changed
