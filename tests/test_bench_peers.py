@@ -117,3 +117,11 @@ def test_impact_time_error_matches_nearest_contacts() -> None:
     assert impact_time_error([[0.1, 0.2 + 1e-9], [0.5, 0.6]], ref)[0] < 2e-9
     err, note = impact_time_error([[0.1, 0.2], [0.3, 0.30001], [0.5, 0.6]], ref)
     assert err < 1e-12 and "3 contacts vs 2" in note
+
+
+def test_load_note_says_when_the_machine_was_loaded() -> None:
+    info = {"cores": "2", "load average (1/5/15 min) at the start": "0.50 / 0.40 / 0.30",
+            "load average (1/5/15 min) when written": "3.10 / 2.00 / 1.00"}
+    assert "load average up to 3.1 on 2 cores" in table.load_note(info)
+    quiet = {**info, "load average (1/5/15 min) when written": "1.90 / 1.00 / 1.00"}
+    assert table.load_note(quiet) == ""

@@ -16,7 +16,7 @@ import platform
 import statistics
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from datetime import datetime, timezone
 from typing import Any
 
@@ -405,8 +405,13 @@ def format_issue20(targets: list[dict[str, Any]]) -> list[str]:
     return lines
 
 
-def machine() -> dict[str, str]:
-    """CPU, cores and versions of everything that ran."""
+def _loads(loads: Sequence[float]) -> str:
+    return " / ".join(f"{x:.2f}" for x in loads)
+
+
+def machine(start_load: Sequence[float] | None = None) -> dict[str, str]:
+    """CPU, cores, the load average (when written and, with ``start_load``, at the start of
+    the run) and versions of everything that ran."""
     from importlib.metadata import version
 
     import scipy
@@ -424,8 +429,10 @@ def machine() -> dict[str, str]:
         "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "cpu": cpu,
         "cores": str(os.cpu_count()),
-        "load average (1/5/15 min) when written": " / ".join(
-            f"{x:.2f}" for x in (os.getloadavg() if hasattr(os, "getloadavg") else ())),
+        **({} if start_load is None else
+           {"load average (1/5/15 min) at the start": _loads(start_load)}),
+        "load average (1/5/15 min) when written": _loads(
+            os.getloadavg() if hasattr(os, "getloadavg") else ()),
         "os": f"{platform.system()} {platform.release()} ({platform.machine()})",
         "python": platform.python_version(),
         "numpy": np.__version__,
@@ -436,6 +443,25 @@ def machine() -> dict[str, str]:
         "exudyn": exudyn_peer.version() if exudyn_peer.available() is None else "not available",
     }
     return info
+
+
+def load_note(info: dict[str, str]) -> str:
+    """A sentence if the machine was loaded (a 1-minute load average above its cores at the
+    start or the end of the run), else ""."""
+    def first(v: str) -> float:
+        try:
+            return float(v.split(" / ")[0])
+        except ValueError:  # not measured on this OS
+            return 0.0
+
+    cores = first(info.get("cores") or "0")
+    ones = [first(v) for k, v in info.items() if k.startswith("load average")]
+    if not cores or not ones or max(ones) <= cores:
+        return ""
+    return (f"Measured on a shared, loaded machine (1-minute load average up to "
+            f"{max(ones):.1f} on {cores:g} cores, other work running beside this run): every "
+            "wall time is longer and noisier than on a quiet machine; the ratios are timed "
+            "beside each other, which evens out part of it, not all.")
 
 
 def _fmt_time(s: float | None) -> str:
@@ -512,6 +538,8 @@ def format_markdown(rows: list[dict[str, Any]], info: dict[str, str], quick: boo
            + "; every tool runs in the same Python process, one after the other.", "",
            "## Machine", "", "| | |", "|---|---|"]
     out += [f"| {k} | {v} |" for k, v in info.items()]
+    if load_note(info):
+        out += ["", f"**{load_note(info)}**"]
     out += ["", "## Problems and the reference", ""]
     for p in problems:
         out.append(f"* **{p.key}** — {p.describe()}.")
@@ -578,7 +606,8 @@ def format_readme(rows: list[dict[str, Any]], info: dict[str, str], quick: bool,
            "`solve_ivp` with contact events at the loosest tolerance whose errors are at most "
            "our Newmark's; OpenSeesPy and Exudyn at our dt). Errors, notes and the machine: "
            "[benchmarks/results.md](benchmarks/results.md)."
-           + (f" {QUICK}." if quick else ""), "",
+           + (f" {QUICK}." if quick else "") + (f" {load_note(info)}" if load_note(info)
+                                                 else ""), "",
            "| problem | our Newmark | " + " | ".join(h for h, _ in _README_COLUMNS) + " |",
            "|---|---|" + "---|" * len(_README_COLUMNS)]
     for key in dict.fromkeys(r["problem"] for r in rows):
@@ -713,6 +742,7 @@ def cli_main(quick: bool = False, repeats: int | None = None, write: str | None 
 
     if readme:  # fail before the long run, not after it
         replace_readme_block(Path(readme).read_text(encoding="utf-8"), "")
+    start_load = os.getloadavg() if hasattr(os, "getloadavg") else None
     for tool, why in missing_peers().items():
         log(f"{tool} is not installed, its rows say 'not available': {why}")
     n = 1 if quick else (repeats or 5)
@@ -721,7 +751,7 @@ def cli_main(quick: bool = False, repeats: int | None = None, write: str | None 
     log("paper-sdof: our Newmark against the bare loop")
     floor = floor_benchmark(repeats=3 if quick else 20)
     issue20 = issue20_targets(rows, eq, floor)
-    info = machine()
+    info = machine(start_load)
     if as_json:
         print(json.dumps({"machine": info, "rows": rows, "targets": targets(rows),
                           "equal_accuracy": eq, "floor": floor, "issue20_targets": issue20},
