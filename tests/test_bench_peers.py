@@ -37,6 +37,9 @@ def test_bench_peers_quick_completes(tmp_path: Path) -> None:
     ours = [r for r in rows if r["tool"] == "vibroimpact" and r["problem"] == "paper-sdof"]
     assert ours[0]["method"] == "Newmark"
     assert all(r["peak_error"] is not None and r["peak_error"] < 1e-4 for r in ours)
+    eq = data["equal_accuracy"]  # issue 20: ours first, the base of the ratios, meeting it
+    assert eq["rows"][0]["tool"] == "vibroimpact" and eq["rows"][0]["ratio"] == 1.0
+    assert eq["rows"][0]["meets"] and len(data["issue20_targets"]) == 8
     text = out.read_text(encoding="utf-8")
     assert "## Machine" in text and "| cpu |" in text and "## Results" in text
     assert "ONE run per peer" in text  # --quick says what it changed
@@ -114,3 +117,11 @@ def test_impact_time_error_matches_nearest_contacts() -> None:
     assert impact_time_error([[0.1, 0.2 + 1e-9], [0.5, 0.6]], ref)[0] < 2e-9
     err, note = impact_time_error([[0.1, 0.2], [0.3, 0.30001], [0.5, 0.6]], ref)
     assert err < 1e-12 and "3 contacts vs 2" in note
+
+
+def test_load_note_says_when_the_machine_was_loaded() -> None:
+    info = {"cores": "2", "load average (1/5/15 min) at the start": "0.50 / 0.40 / 0.30",
+            "load average (1/5/15 min) when written": "3.10 / 2.00 / 1.00"}
+    assert "load average up to 3.1 on 2 cores" in table.load_note(info)
+    quiet = {**info, "load average (1/5/15 min) when written": "1.90 / 1.00 / 1.00"}
+    assert table.load_note(quiet) == ""

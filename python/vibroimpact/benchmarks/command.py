@@ -41,12 +41,16 @@ def build_parser() -> argparse.ArgumentParser:
                    "SciPy's factorisation in the reduction)")
     p.add_argument("--peers", action="store_true",
                    help="instead: the side-by-side table against SciPy solve_ivp, OpenSeesPy and "
-                   "Exudyn (pip install '.[peers]'; a missing peer gives a 'not available' row)")
+                   "Exudyn at our dt, the paper's SDOF case at equal accuracy (each tool at the "
+                   "loosest dt or rtol of its ladder within 1e-7 m / 1e-8 s) and issue 20's "
+                   "targets, in one run (pip install '.[peers]'; a missing peer gives one line "
+                   "and 'not available' rows)")
     p.add_argument("--peer-repeats", type=int, default=5, metavar="N",
                    help="with --peers: timed runs per peer (median; default and minimum 5; 1 "
                    "with --quick)")
     p.add_argument("--write", metavar="FILE.md", default=None,
-                   help="with --peers: also write the table and the machine to FILE.md")
+                   help="with --peers: also write the tables and the machine to FILE.md and "
+                   "the figure of error against wall time to equal-accuracy.png beside it")
     p.add_argument("--readme", metavar="README.md", default=None,
                    help="with --peers: also replace the generated peer table (between "
                    "<!-- bench-peers:start --> and <!-- bench-peers:end -->) in README.md")
@@ -88,13 +92,19 @@ def main(argv: Sequence[str]) -> int:
     print("Integrators (paper Table 3): SDOF case, Lankarani-Nikravesh, 0.02 s at dt = 1 us")
     print(f"{'method':32s} {'median':>10s} {'vs Newmark':>11s} {'paper (MATLAB)':>15s} "
           f"{'paper ratio':>12s}")
-    for r in integrator_table(repeats=repeats):
+    table = integrator_table(repeats=repeats)
+    for r in table:
         paper = "" if r["paper_s"] is None else f"{r['paper_s']:.1f} s"
         paper_ratio = ("" if r["paper_ratio_to_newmark"] is None
                        else f"{r['paper_ratio_to_newmark']:.1f}x")
         print(f"{r['label']:32s} {r['median_s'] * 1e3:8.3f} ms {r['ratio_to_newmark']:10.2f}x "
               f"{paper:>15s} {paper_ratio:>12s}")
-    print("targets: generalized-alpha <= 1.3x Newmark, precise <= 1.5x Newmark (paper: 19x)")
+    ratio = {r["method"]: r["ratio_to_newmark"] for r in table}
+    print("targets (issue 20): " + "; ".join(
+        f"{name} / Newmark {ratio[key]:.2f}x, <= {goal}x: "
+        f"{'met' if ratio[key] <= goal else 'MISSED'}"
+        for key, name, goal in (("generalized-alpha", "generalized-alpha", 1.3),
+                                ("precise", "precise", 1.5))) + " (paper: 19x for precise)")
     print()
     print("Adaptive stepping with located events: SDOF case, 0.02 s (target: 1e-08 m / "
           "1e-09 s in 0.2 ms)")

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from vibroimpact.benchmarks.peers.opensees_peer import crossings
+from vibroimpact.benchmarks.peers.opensees_peer import crossings, sampled_contacts
 from vibroimpact.benchmarks.peers.problems import SdofProblem
 
 __all__ = ["available", "run_beam", "run_sdof", "version"]
@@ -109,9 +109,7 @@ def run_sdof(p: SdofProblem, integrator: str = "newmark", dt: float | None = Non
                                           storeInternal=True, writeToFile=False))
         _solve(exu, mbs, n, p.t_end, integrator)
         data = mbs.GetSensorStoredData(sensor)
-    t, x = np.asarray(data[:, 0]), np.asarray(data[:, 1])
-    return {"t": t, "x": x, "peak": float(np.abs(x).max()),
-            "impacts": crossings(t, x, p.clearance, p.sides)}
+    return sampled_contacts(np.asarray(data[:, 0]), np.asarray(data[:, 1]), p)
 
 
 def _solve(exu: Any, mbs: Any, steps: int, t_end: float, integrator: str,

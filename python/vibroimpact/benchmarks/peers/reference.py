@@ -25,7 +25,7 @@ from scipy.integrate import solve_ivp
 
 from vibroimpact.benchmarks.peers.problems import SdofProblem
 
-__all__ = ["converged", "impact_time_error", "sdof_piecewise"]
+__all__ = ["contact_pairs", "converged", "impact_time_error", "sdof_piecewise"]
 
 
 def _event(fun: Any, direction: float, terminal: bool) -> Any:
@@ -45,7 +45,8 @@ def sdof_piecewise(
 ) -> dict[str, Any]:
     """Integrate ``p`` phase by phase with ``solve_ivp(method)``. Returns ``peak`` (max |x|,
     located at ``x' = 0`` events), ``impacts`` (list of ``[t_start, t_end]``, ``t_end`` None
-    if still closed), ``t``/``x`` (every solver step if ``keep_steps``), ``bracket_min``."""
+    if still closed), ``contact_peaks`` (max |x| of each contact, located likewise),
+    ``t``/``x`` (every solver step if ``keep_steps``), ``bracket_min``."""
     m, k, c, d = p.mass, p.stiffness, p.damping, p.clearance
     if atol is None:
         atol = [rtol * 0.1 * p.length_scale, rtol * 0.1 * p.speed_scale]
@@ -77,6 +78,7 @@ def sdof_piecewise(
     t, y = 0.0, np.array([p.x0, p.v0], dtype=float)
     side, v_imp = 0, 0.0
     impacts: list[list[Any]] = []
+    contact_peaks: list[float] = []
     peaks = [abs(p.x0)]
     ts, xs = [np.array([0.0])], [np.array([p.x0])]
     bracket_min = math.inf
@@ -91,7 +93,10 @@ def sdof_piecewise(
                         events=events, max_step=max_step)
         if sol.status < 0:
             raise RuntimeError(f"solve_ivp {method} failed at t = {t}: {sol.message}")
-        peaks.extend(abs(float(ye[0])) for ye in sol.y_events[-1])
+        turns = [abs(float(ye[0])) for ye in sol.y_events[-1]]
+        peaks.extend(turns)
+        if side:
+            contact_peaks[-1] = max(contact_peaks[-1], *turns, abs(float(sol.y[0, -1])))
         if keep_steps:
             ts.append(sol.t[1:])
             xs.append(sol.y[0, 1:])
@@ -107,6 +112,7 @@ def sdof_piecewise(
             y[0] = side * d
             v_imp = side * y[1]
             impacts.append([t, None])
+            contact_peaks.append(d)
         else:
             y[0] = side * d
             impacts[-1][1] = t
@@ -114,6 +120,7 @@ def sdof_piecewise(
     return {
         "peak": max(peaks),
         "impacts": impacts,
+        "contact_peaks": contact_peaks,
         "t": np.concatenate(ts) if keep_steps else None,
         "x": np.concatenate(xs) if keep_steps else None,
         "bracket_min": bracket_min,
@@ -138,24 +145,30 @@ def converged(p: SdofProblem) -> dict[str, Any]:
     return _CACHE[key]
 
 
+def contact_pairs(impacts: Any, ref: Any) -> list[tuple[int, int]]:
+    """``(i, j)`` pairs matching each contact ``j`` of ``ref`` with a contact ``i`` of
+    ``impacts`` (lists of ``[t_start, t_end]``): in order when the numbers agree, else the one
+    that starts nearest to it; none if either is empty."""
+    if not len(impacts) or not len(ref):
+        return []
+    if len(impacts) == len(ref):
+        return [(j, j) for j in range(len(ref))]
+    starts = np.array([float(r[0]) for r in impacts])
+    return [(int(np.argmin(np.abs(starts - float(r[0])))), j) for j, r in enumerate(ref)]
+
+
 def impact_time_error(impacts: Any, ref: Any) -> tuple[float, str]:
-    """Largest |difference| of the contacts' start and end times (s): each contact of the
-    reference is matched with the contact of ``impacts`` that starts nearest to it (in order,
-    when the numbers agree). A different number of contacts is stated in the note; the extra
+    """Largest |difference| of the contacts' start and end times (s), over the pairs of
+    :func:`contact_pairs`. A different number of contacts is stated in the note; the extra
     (grazing) contacts are then left out of the error."""
     a = [list(r) for r in impacts]
     b = [list(r) for r in ref]
     if not a or not b:
         return math.nan, f"{len(a)} contacts vs {len(b)} in the reference"
-    if len(a) == len(b):
-        pairs = list(zip(a, b, strict=True))
-    else:
-        starts = np.array([float(r[0]) for r in a])
-        pairs = [(a[int(np.argmin(np.abs(starts - float(r[0]))))], r) for r in b]
     err = 0.0
-    for x, y in pairs:
-        for j in (0, 1):
-            if x[j] is not None and y[j] is not None:
-                err = max(err, abs(float(x[j]) - float(y[j])))
+    for i, j in contact_pairs(a, b):
+        for k in (0, 1):
+            if a[i][k] is not None and b[j][k] is not None:
+                err = max(err, abs(float(a[i][k]) - float(b[j][k])))
     note = "" if len(a) == len(b) else f"{len(a)} contacts vs {len(b)} in the reference"
     return err, note

@@ -16,13 +16,15 @@ import platform
 import statistics
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from datetime import datetime, timezone
 from typing import Any
 
 import numpy as np
 
+from vibroimpact.benchmarks.peers import equal_accuracy as eqacc
 from vibroimpact.benchmarks.peers import exudyn_peer, opensees_peer, scipy_peer
+from vibroimpact.benchmarks.peers.equal_accuracy import ours_contacts
 from vibroimpact.benchmarks.peers.problems import (
     BeamProblem,
     SdofProblem,
@@ -84,13 +86,6 @@ def _unavailable(problem: str, tool: str, method: str, setting: str, reason: str
     return _row(problem, tool, method, setting, note=f"not available: {reason}")
 
 
-def _ours_impacts(result: Any) -> list[list[Any]]:
-    imp = result.impacts
-    rows = [[float(a), None if not math.isfinite(b) else float(b)]
-            for a, b in zip(imp.t_start, imp.t_end, strict=True)]
-    return sorted(rows, key=lambda r: r[0])
-
-
 def _measured(problem: str, tool: str, method: str, setting: str,
               timing: tuple[float, Any, float | None], repeats: int, ref: dict[str, Any],
               *notes: str, **kw: Any) -> dict[str, Any]:
@@ -133,7 +128,7 @@ def ours_rows(key: str, model: Any, t_end: float, dt: float, adaptive: dict[str,
             for n, st, m in methods]:
         secs, res, base_s = _timed(fn, repeats, beside)
         out = {"peak": float(res.max_abs_displacement[peak_dof]),
-               "impacts": _ours_impacts(res)}
+               **ours_contacts(res, model)}
         rows.append(_measured(key, "vibroimpact", name, setting, (secs, out, base_s), repeats,
                               ref, f"{res.stats.steps} steps"))
     return rows
@@ -333,8 +328,90 @@ def targets(rows: list[dict[str, Any]]) -> list[str]:
     return out
 
 
-def machine() -> dict[str, str]:
-    """CPU, cores and versions of everything that ran."""
+#: Issue 20's targets on the paper's SDOF case: (what, goal, "max" or "min").
+ISSUE20 = {
+    "newmark_vs_floor": ("fixed-step Newmark / the bare loop (wall time)", 1.7, "max"),
+    "generalized_alpha_vs_newmark": ("generalized-α / Newmark", 1.3, "max"),
+    "precise_vs_newmark": ("precise integration / Newmark", 1.5, "max"),
+    "opensees_same_dt": ("same dt: OpenSeesPy Newmark / ours", 50.0, "min"),
+    "exudyn_same_dt": ("same dt: Exudyn Newmark / ours", 30.0, "min"),
+    "scipy_same_dt": ("same dt: SciPy DOP853 with events (loosest rtol with errors <= our "
+                      "Newmark's) / ours", 30.0, "min"),
+    "scipy_equal_accuracy": ("equal accuracy: SciPy DOP853 with events / ours", 150.0, "min"),
+}
+
+
+def issue20_targets(rows: list[dict[str, Any]], eq: dict[str, Any] | None,
+                    floor: dict[str, Any] | None) -> list[dict[str, Any]]:
+    """Issue 20's targets (:data:`ISSUE20`) measured in this run, on the paper's SDOF case:
+    per target ``key``, ``what``, ``goal``, ``value`` (None if not measured), ``met`` and
+    ``detail``; the sweep-throughput target last, not measured here."""
+    def ratio(tool: str, method: str) -> tuple[float | None, str]:
+        r = next((x for x in rows if x["problem"] == "paper-sdof" and x["tool"] == tool
+                  and x["method"] == method), None)
+        if r is None or r["ratio"] is None:
+            return None, r["note"] if r else "no such row in this run"
+        return r["ratio"], f"{r['setting']}, {_fmt_time(r['time_s'])}"
+
+    found: dict[str, tuple[float | None, str]] = {
+        "generalized_alpha_vs_newmark": ratio("vibroimpact", "generalized-α ρ∞ 0.8"),
+        "precise_vs_newmark": ratio("vibroimpact", "precise (Adams)"),
+        "opensees_same_dt": ratio("OpenSeesPy", "Newmark"),
+        "exudyn_same_dt": ratio("Exudyn", "Newmark"),
+        "scipy_same_dt": ratio("SciPy", "DOP853"),
+    }
+    found["newmark_vs_floor"] = (None, "not measured") if floor is None else (
+        floor["ratio"], f"{_fmt_time(floor['ours_s'])} vs {_fmt_time(floor['floor_s'])}; CPU "
+        f"time {floor['cpu_ratio']:.2f}x")
+    scipy_eq = None if eq is None else next(
+        (r for r in eq["rows"] if r["tool"] == "SciPy"), None)
+    if scipy_eq is None or scipy_eq["ratio"] is None:
+        found["scipy_equal_accuracy"] = (None, "not measured")
+    else:
+        ours = eq["rows"][0]
+        found["scipy_equal_accuracy"] = (
+            scipy_eq["ratio"],
+            f"SciPy at {scipy_eq['setting']} ({_fmt_time(scipy_eq['time_s'])}"
+            + ("" if scipy_eq["meets"] else ", which does NOT meet the accuracy")
+            + f") vs our {ours['method']} at {ours['setting']} ({_fmt_time(ours['time_s'])})")
+    out = []
+    for key, (what, goal, sense) in ISSUE20.items():
+        value, detail = found[key]
+        met = None if value is None else (value <= goal if sense == "max" else value >= goal)
+        if key == "scipy_equal_accuracy" and scipy_eq is not None and not scipy_eq["meets"]:
+            met = None
+        out.append({"key": key, "what": what, "goal": goal, "sense": sense, "value": value,
+                    "met": met, "detail": detail})
+    out.append({"key": "sweep_throughput", "what": "fixed-step sweep throughput per core",
+                "goal": 2.0, "sense": "min", "value": None, "met": None,
+                "detail": "not measured by bench --peers (the sweep rows of `vibroimpact "
+                          "bench`)"})
+    return out
+
+
+def format_issue20(targets: list[dict[str, Any]]) -> list[str]:
+    """One line per issue-20 target: the measured ratio, the goal, met or missed."""
+    lines = []
+    for t in targets:
+        goal = f"{'<=' if t['sense'] == 'max' else '>='} {t['goal']:g}x"
+        if t["value"] is None:
+            verdict = "not measured"
+            value = "-"
+        else:
+            value = f"{t['value']:.3g}x"
+            verdict = ("met" if t["met"] else "not judged" if t["met"] is None
+                       else "MISSED")
+        lines.append(f"{t['what']}: {value} (target {goal}): {verdict}; {t['detail']}")
+    return lines
+
+
+def _loads(loads: Sequence[float]) -> str:
+    return " / ".join(f"{x:.2f}" for x in loads)
+
+
+def machine(start_load: Sequence[float] | None = None) -> dict[str, str]:
+    """CPU, cores, the load average (when written and, with ``start_load``, at the start of
+    the run) and versions of everything that ran."""
     from importlib.metadata import version
 
     import scipy
@@ -352,8 +429,10 @@ def machine() -> dict[str, str]:
         "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "cpu": cpu,
         "cores": str(os.cpu_count()),
-        "load average (1/5/15 min) when written": " / ".join(
-            f"{x:.2f}" for x in (os.getloadavg() if hasattr(os, "getloadavg") else ())),
+        **({} if start_load is None else
+           {"load average (1/5/15 min) at the start": _loads(start_load)}),
+        "load average (1/5/15 min) when written": _loads(
+            os.getloadavg() if hasattr(os, "getloadavg") else ()),
         "os": f"{platform.system()} {platform.release()} ({platform.machine()})",
         "python": platform.python_version(),
         "numpy": np.__version__,
@@ -364,6 +443,25 @@ def machine() -> dict[str, str]:
         "exudyn": exudyn_peer.version() if exudyn_peer.available() is None else "not available",
     }
     return info
+
+
+def load_note(info: dict[str, str]) -> str:
+    """A sentence if the machine was loaded (a 1-minute load average above its cores at the
+    start or the end of the run), else ""."""
+    def first(v: str) -> float:
+        try:
+            return float(v.split(" / ")[0])
+        except ValueError:  # not measured on this OS
+            return 0.0
+
+    cores = first(info.get("cores") or "0")
+    ones = [first(v) for k, v in info.items() if k.startswith("load average")]
+    if not cores or not ones or max(ones) <= cores:
+        return ""
+    return (f"Measured on a shared, loaded machine (1-minute load average up to "
+            f"{max(ones):.1f} on {cores:g} cores, other work running beside this run): every "
+            "wall time is longer and noisier than on a quiet machine; the ratios are timed "
+            "beside each other, which evens out part of it, not all.")
 
 
 def _fmt_time(s: float | None) -> str:
@@ -396,41 +494,78 @@ QUICK = ("`--quick` (a smoke test, not the benchmark): ONE run per peer (ours: m
          "long")
 
 
-def format_text(rows: list[dict[str, Any]], quick: bool = False) -> str:
-    cells = [HEADER] + [_cells(r) for r in rows]
-    widths = [max(len(c[i]) for c in cells) for i in range(len(HEADER) - 1)]
+def _columns(header: list[str], cells: list[list[str]]) -> list[str]:
+    """Rows of text in aligned columns (the last, a note, left ragged)."""
+    table = [header, *cells]
+    widths = [max(len(c[i]) for c in table) for i in range(len(header) - 1)]
+    return ["  ".join(c[i].ljust(widths[i]) for i in range(len(widths))) + "  " + c[-1]
+            for c in table]
+
+
+def format_text(rows: list[dict[str, Any]], quick: bool = False,
+                eq: dict[str, Any] | None = None,
+                issue20: list[dict[str, Any]] | None = None) -> str:
+    """The same-dt table and issue 9's targets; with ``eq``, the equal-accuracy table; with
+    ``issue20``, issue 20's targets."""
     lines = [QUICK.replace("`", "")] if quick else []
-    for c in cells:
-        lines.append("  ".join(c[i].ljust(widths[i]) for i in range(len(widths))) + "  " + c[-1])
+    lines += _columns(HEADER, [_cells(r) for r in rows])
     lines.append("")
     lines += targets(rows)
+    if eq is not None:
+        lines += ["", eqacc.describe(eq) + ":"]
+        lines += _columns(eqacc.HEADER, [eqacc.row_cells(r) for r in eq["rows"]])
+    if issue20 is not None:
+        lines += ["", "Issue 20's targets (paper SDOF case, this run):"]
+        lines += format_issue20(issue20)
     return "\n".join(lines)
 
 
-def format_markdown(rows: list[dict[str, Any]], info: dict[str, str], quick: bool) -> str:
+def format_markdown(rows: list[dict[str, Any]], info: dict[str, str], quick: bool,
+                    eq: dict[str, Any] | None = None,
+                    issue20: list[dict[str, Any]] | None = None,
+                    figure: str | None = None) -> str:
+    """``benchmarks/results.md``: the machine, the problems, the same-dt table and issue 9's
+    targets; with ``eq`` the equal-accuracy table (and ``figure``, its PNG's relative path)
+    and every ladder point; with ``issue20`` issue 20's targets."""
     problems = problem_list(quick)
     refs = {}
     for r in rows:
         if "reference" in r:
             refs[r["problem"]] = r["reference"]
-    out = ["# Benchmark against peers (issue 9)", "",
+    out = ["# Benchmark against peers (issues 9 and 20)", "",
            f"Generated by `{COMMAND}`"
            + (f" with {QUICK}" if quick else "")
            + "; every tool runs in the same Python process, one after the other.", "",
            "## Machine", "", "| | |", "|---|---|"]
     out += [f"| {k} | {v} |" for k, v in info.items()]
+    if load_note(info):
+        out += ["", f"**{load_note(info)}**"]
     out += ["", "## Problems and the reference", ""]
     for p in problems:
         out.append(f"* **{p.key}** — {p.describe()}.")
         if p.key in refs:
             out.append(f"  Reference: {refs[p.key]}.")
-    out += ["", "## Results", "",
-            "| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
-    out += ["| " + " | ".join(c.replace("|", "/") for c in _cells(r)) + " |" for r in rows]
+    out += ["", "## Results", "", *_markdown_table(HEADER, [_cells(r) for r in rows])]
     out += ["", "## Targets (issue 9: at equal or better accuracy)", ""]
     out += [f"* {t}" for t in targets(rows)]
+    if eq is not None:
+        out += ["", "## Equal accuracy (issue 20)", "", eqacc.describe(eq) + ".", "",
+                *_markdown_table(eqacc.HEADER, [eqacc.row_cells(r) for r in eq["rows"]])]
+        if figure:
+            out += ["", f"![Error against wall time, every tool and setting]({figure})"]
+        out += ["", "Every setting of every ladder (the points of the figure):", "",
+                *_markdown_table(eqacc.POINT_HEADER,
+                                 [eqacc.point_cells(pt) for pt in eq["points"]])]
+    if issue20 is not None:
+        out += ["", "## Issue 20's targets (paper SDOF case, measured in this run)", ""]
+        out += [f"* {line}" for line in format_issue20(issue20)]
     out += ["", "## How it was measured", "", *NOTES]
     return "\n".join(out) + "\n"
+
+
+def _markdown_table(header: list[str], cells: list[list[str]]) -> list[str]:
+    return ["| " + " | ".join(header) + " |", "|" + "---|" * len(header),
+            *("| " + " | ".join(c.replace("|", "/") for c in row) + " |" for row in cells)]
 
 
 #: The command that writes ``benchmarks/results.md`` and the README's peer table.
@@ -450,9 +585,12 @@ _README_COLUMNS = [
 ]
 
 
-def format_readme(rows: list[dict[str, Any]], info: dict[str, str], quick: bool) -> str:
+def format_readme(rows: list[dict[str, Any]], info: dict[str, str], quick: bool,
+                  eq: dict[str, Any] | None = None,
+                  issue20: list[dict[str, Any]] | None = None) -> str:
     """The README's peer table (between :data:`README_START` and :data:`README_END`): peer
-    time over our Newmark's per problem, and the targets met or missed, by how much."""
+    time over our Newmark's per problem, and the targets met or missed, by how much; with
+    ``eq`` the equal-accuracy line, with ``issue20`` issue 20's targets."""
     def cell(r: dict[str, Any] | None) -> str:
         if r is None or r["ratio"] is None:
             return "not measured"
@@ -468,7 +606,8 @@ def format_readme(rows: list[dict[str, Any]], info: dict[str, str], quick: bool)
            "`solve_ivp` with contact events at the loosest tolerance whose errors are at most "
            "our Newmark's; OpenSeesPy and Exudyn at our dt). Errors, notes and the machine: "
            "[benchmarks/results.md](benchmarks/results.md)."
-           + (f" {QUICK}." if quick else ""), "",
+           + (f" {QUICK}." if quick else "") + (f" {load_note(info)}" if load_note(info)
+                                                 else ""), "",
            "| problem | our Newmark | " + " | ".join(h for h, _ in _README_COLUMNS) + " |",
            "|---|---|" + "---|" * len(_README_COLUMNS)]
     for key in dict.fromkeys(r["problem"] for r in rows):
@@ -495,8 +634,35 @@ def format_readme(rows: list[dict[str, Any]], info: dict[str, str], quick: bool)
             missed.append(f"{r['problem']} {r['tool']} {r['method']} ({by} of ≥ {goal:g}×)")
     out += ["", f"**Targets** (issue 9: ≥ 100× SciPy Radau/LSODA, ≥ 30× DOP853, ≥ 50× "
             f"OpenSeesPy, at equal or better accuracy): met {met} of {met + len(missed)}."
-            + (" Missed: " + "; ".join(missed) + "." if missed else ""), README_END]
-    return "\n".join(out)
+            + (" Missed: " + "; ".join(missed) + "." if missed else "")]
+    if eq is not None:
+        out += ["", _readme_equal_accuracy(eq)]
+    if issue20 is not None:
+        out += ["", "**Issue 20's targets** (the paper's SDOF case, measured in the same run):", ""]
+        out += [f"* {line}" for line in format_issue20(issue20)]
+    return "\n".join([*out, README_END])
+
+
+def _readme_equal_accuracy(eq: dict[str, Any]) -> str:
+    """One paragraph: each tool's time at equal accuracy and its ratio to ours."""
+    parts = []
+    for r in eq["rows"]:
+        name = f"{r['tool']} {r['method']}"
+        if r["time_s"] is None:
+            parts.append(f"{name}: {r['note']}")
+        elif r["meets"]:
+            parts.append(f"{name} at {r['setting']}: {_fmt_time(r['time_s'])}"
+                         + ("" if r["ratio"] == 1.0 or r["ratio"] is None
+                            else f" = {r['ratio']:.3g}× ours"))
+        else:
+            parts.append(f"{name}: meets it at no setting of its ladder (best: "
+                         f"{r['peak_error_m']:.1e} m / {r['impact_time_error_s']:.1e} s at "
+                         f"{r['setting']})")
+    return (f"**At equal accuracy** ({eq['problem']}: peaks within {eqacc.PEAK_TARGET_M:g} m, "
+            f"impact times within {eqacc.TIME_TARGET_S:g} s of the converged reference; each "
+            "tool at the loosest setting of its ladder that meets both; ours: the fastest of "
+            "our methods there): " + "; ".join(parts) + ". Every setting and the figure of "
+            "error against wall time: [benchmarks/results.md](benchmarks/results.md).")
 
 
 def replace_readme_block(text: str, block: str) -> str:
@@ -551,33 +717,58 @@ NOTES = [
 ]
 
 
+#: The Pareto figure's file, written beside the ``--write`` file.
+FIGURE = "equal-accuracy.png"
+
+
+def missing_peers() -> dict[str, str]:
+    """The peers that cannot run here and why."""
+    reasons = {"OpenSeesPy": opensees_peer.available(), "Exudyn": exudyn_peer.available()}
+    return {tool: why for tool, why in reasons.items() if why}
+
+
 def cli_main(quick: bool = False, repeats: int | None = None, write: str | None = None,
              as_json: bool = False, readme: str | None = None) -> int:
-    """``vibroimpact bench --peers [--quick] [--write FILE.md] [--readme README.md] [--json]``."""
+    """``vibroimpact bench --peers [--quick] [--write FILE.md] [--readme README.md] [--json]``:
+    the same-dt table, the paper's SDOF case at equal accuracy, the bare loop and issue 20's
+    targets, all in this run; ``--write`` also writes the Pareto figure beside FILE.md."""
     import json
     from pathlib import Path
+
+    from vibroimpact.benchmarks.sdof import floor_benchmark
 
     def log(msg: str) -> None:
         print(f"[bench --peers] {msg}", file=sys.stderr, flush=True)
 
     if readme:  # fail before the long run, not after it
         replace_readme_block(Path(readme).read_text(encoding="utf-8"), "")
+    start_load = os.getloadavg() if hasattr(os, "getloadavg") else None
+    for tool, why in missing_peers().items():
+        log(f"{tool} is not installed, its rows say 'not available': {why}")
+    n = 1 if quick else (repeats or 5)
     rows = run(quick=quick, repeats=repeats, log=log)
-    info = machine()
+    eq = eqacc.equal_accuracy(paper_sdof(), quick, n, max(n, 3 if quick else 20), log)
+    log("paper-sdof: our Newmark against the bare loop")
+    floor = floor_benchmark(repeats=3 if quick else 20)
+    issue20 = issue20_targets(rows, eq, floor)
+    info = machine(start_load)
     if as_json:
-        print(json.dumps({"machine": info, "rows": rows, "targets": targets(rows)},
+        print(json.dumps({"machine": info, "rows": rows, "targets": targets(rows),
+                          "equal_accuracy": eq, "floor": floor, "issue20_targets": issue20},
                          default=float))
     else:
-        print(format_text(rows, quick))
+        print(format_text(rows, quick, eq, issue20))
     if write:
         path = Path(write)
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(format_markdown(rows, info, quick), encoding="utf-8")
-        log(f"wrote {path}")
+        eqacc.pareto_figure(eq, path.parent / FIGURE)
+        path.write_text(format_markdown(rows, info, quick, eq, issue20, FIGURE),
+                        encoding="utf-8")
+        log(f"wrote {path} and {path.parent / FIGURE}")
     if readme:
         path = Path(readme)
         path.write_text(replace_readme_block(path.read_text(encoding="utf-8"),
-                                             format_readme(rows, info, quick)),
+                                             format_readme(rows, info, quick, eq, issue20)),
                         encoding="utf-8")
         log(f"updated the peer table in {path}")
     return 0
