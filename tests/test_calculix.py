@@ -16,13 +16,17 @@ from __future__ import annotations
 import json
 import re
 import shutil
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.linalg
+from vibroimpact import ContactResolutionWarning, Gap, Model, Newmark, simulate
 from vibroimpact.benchmarks.calculix import EXPORT_STEP, MATERIAL, brick_mesh, run_ccx
 from vibroimpact.cli import main as cli_main
-from vibroimpact.fe import modes
+from vibroimpact.contact import Hertz
+from vibroimpact.fe import FEStructure, modes
 from vibroimpact.fe.matrices import read_calculix
 
 pytestmark = pytest.mark.skipif(
@@ -119,12 +123,21 @@ def test_expanded_shell_layers_are_labelled(exported: tuple[str, Path, np.ndarra
     assert dm.layer_dofs(3, "x") == [i for i, lab in enumerate(labels) if lab.startswith("3.x")]
 
 
+def tip_dof(job: Path) -> int:
+    """The z DOF of the last node (at x = 0.1, a corner: for S8R its first layer)."""
+    dm = read_calculix(job).dof_map
+    assert dm is not None
+    tip = max(dm.nodes)
+    return (dm.layer_dofs(tip, "z") or [dm.index(tip, "z")])[0]
+
+
 def test_model_file_modal_and_a_gap_on_the_null_space(
     exported: tuple[str, Path, np.ndarray], capsys: pytest.CaptureFixture[str]
 ) -> None:
     """``vibroimpact modal`` on a model file of the exported files gives CalculiX's
-    frequencies; a gap on a node of a singular-mass model is refused in one line (every node
-    of C3D20R and S8R has a part in the massless modes), on C3D20 it runs."""
+    frequencies; a Hertz gap on a node runs on every model (on C3D20R and S8R every node has
+    a part in the massless modes: the law in series with their compliance), a damped law
+    there is refused in one line."""
     element, job, reference = exported
     model = job.parent / "model.toml"
     structure = (f'[structure]\nkind = "matrices"\nmass = "{job.name}.mas"\n'
@@ -133,18 +146,89 @@ def test_model_file_modal_and_a_gap_on_the_null_space(
     assert cli_main(["modal", str(model), "--modes", str(len(reference)), "--json"]) == 0
     got = json.loads(capsys.readouterr().out)
     np.testing.assert_allclose(got["frequencies_hz"], reference, rtol=1e-6)
-    dm = read_calculix(job).dof_map
-    assert dm is not None
-    tip = max(dm.nodes)  # the last node: at x = 0.1 (a corner, three layers for S8R)
-    dof = (dm.layer_dofs(tip, "z") or [dm.index(tip, "z")])[0]
-    gap = (f'[[gaps]]\ndof = {dof}\nclearance = 1e-6\n[gaps.law]\nkind = "hertz"\n'
-           'stiffness = 1e10\n[solver]\ndt = 1e-6\nt_end = 2e-5\n')
-    model.write_text(structure + gap, encoding="utf-8")
+    dof = tip_dof(job)
+    gap = (f'[[gaps]]\ndof = {dof}\nclearance = 1e-6\n[gaps.law]\nkind = "{{}}"\n'
+           'stiffness = 1e10\n{}[solver]\ndt = 1e-6\nt_end = 2e-5\n')
+    model.write_text(structure + gap.format("hertz", ""), encoding="utf-8")
     code = cli_main(["run", str(model), "-o", str(job.parent / "out.nc")])
+    assert code == 0, capsys.readouterr().err
+    capsys.readouterr()
+    model.write_text(structure + gap.format("hunt-crossley", "restitution = 0.8\n"),
+                     encoding="utf-8")
+    code = cli_main(["run", str(model), "-o", str(job.parent / "damped.nc")])
     err = capsys.readouterr().err
     if element == "C3D20":
         assert code == 0, err
         return
     assert code == 2, err
-    assert err.count("\n") == 1 and f"error: gaps[0].dof: {dof} is not valid" in err, err
-    assert "null space of the mass matrix" in err and "C3D20" in err
+    assert err.count("\n") == 1 and "error: gaps[0].law: 'hunt-crossley' is not valid" in err
+    assert "expected hertz" in err and not (job.parent / "damped.nc").exists()
+
+
+def dense_newmark(fe: FEStructure, dof: int, law: Hertz, clearance: float,
+                  v0: np.ndarray, dt: float, steps: int) -> np.ndarray:
+    """Average-acceleration Newmark on the full matrices (a singular ``M`` as it is: the
+    massless rows are static equations in the step's ``(K + 4M/dt²) x = ...``) with a Hertz
+    wall on ``dof`` solved by Newton: the displacement history, one row per step."""
+    m, k = fe.mass.toarray(), fe.stiffness.toarray()
+    x, v = np.zeros(fe.n_dof), v0.copy()
+    a = np.linalg.lstsq(m, -k @ x, rcond=None)[0]  # only M a enters the steps
+    keff = k + 4 / dt**2 * m
+    rows = [x]
+    for _ in range(steps):
+        rhs = m @ (4 / dt**2 * x + 4 / dt * v + a)
+        xn = np.linalg.solve(keff, rhs)
+        for _ in range(50):
+            p = xn[dof] - clearance
+            f, df = ((law.stiffness * p**1.5, 1.5 * law.stiffness * p**0.5) if p > 0
+                     else (0.0, 0.0))
+            r = keff @ xn - rhs
+            r[dof] += f
+            j = keff.copy()
+            j[dof, dof] += df
+            step = np.linalg.solve(j, -r)
+            xn = xn + step
+            if np.abs(step).max() <= 1e-14 * np.abs(xn).max():
+                break
+        an = 4 / dt**2 * (xn - x) - 4 / dt * v - a
+        v, a, x = v + dt / 2 * (a + an), an, xn
+        rows.append(x)
+    return np.array(rows)
+
+
+@pytest.mark.parametrize("exported", ["C3D20", "C3D20R"], indirect=True)
+def test_a_gap_on_the_massless_modes_equals_the_full_singular_model(
+    exported: tuple[str, Path, np.ndarray]
+) -> None:
+    """A Hertz wall on the tip of the condensed model (its law in series with the massless
+    modes' compliance, the recovery adding their static response to the contact force) gives
+    the displacements and the penetration of Newmark on the full, singular matrices stepped
+    here with the original law, to round-off; the reduced velocities and ``M a`` too (the
+    massless DOFs' own velocity is the exact derivative here, a Newmark recursion there)."""
+    element, job, _ = exported
+    fe = read_calculix(job)
+    cond = fe.condense_massless()
+    dof, clearance, dt, steps = tip_dof(job), 2e-6, 2.5e-7, 400
+    gap = Gap(dof=dof, law=Hertz(stiffness=1e9), clearance=clearance)
+    assert (cond.gap_compliance(gap) > 0) == (element != "C3D20")
+    _, phi = scipy.linalg.eigh(cond.structure.stiffness.toarray(),
+                               cond.structure.mass.toarray())
+    tip_velocity = (cond.transform @ phi[:, :6])[dof]
+    mode = int(np.argmax(np.abs(tip_velocity)))
+    q0 = phi[:, mode] * 0.3 / tip_velocity[mode]  # the tip towards the wall at 0.3 m/s
+    model = Model(cond.structure.to_structure(), gaps=cond.reduce_gaps([gap]),
+                  initial_velocity=q0)
+    recovery = cond.output(None, [gap])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ContactResolutionWarning)
+        run = simulate(model, steps * dt, dt, Newmark(), dofs=recovery.record.tolist())
+    got = recovery.result(run)
+    x = dense_newmark(fe, dof, gap.law, clearance, np.asarray(cond.transform @ q0), dt, steps)
+    assert got.gap_force.max() > 10  # in contact for most of the run
+    scale = np.abs(x).max()
+    np.testing.assert_allclose(got.displacement, x, rtol=0, atol=1e-9 * scale)
+    np.testing.assert_allclose(got.gap_penetration[:, 0], x[:, dof] - clearance, rtol=0,
+                               atol=1e-9 * scale)
+    if element == "C3D20R":  # without the contact's static part the tip would be off
+        plain = np.asarray(cond.transform @ run.displacement.T).T
+        assert np.abs(plain[:, dof] - x[:, dof]).max() > 1e-4 * scale

@@ -289,9 +289,27 @@ def _check_restitution(value: Any) -> None:
 
 @dataclass(frozen=True)
 class Hertz(PowerLaw):
-    """``F = K δⁿ`` (Hertz 1882; paper eq. 3). Elastic: no energy lost, no damping."""
+    """``F = K δⁿ`` (Hertz 1882; paper eq. 3). Elastic: no energy lost, no damping.
+
+    ``compliance`` ``c`` (m/N, default 0): a linear spring in series with the law, so the gap
+    penetrates ``δ = δ_l + c F`` with ``F = K δ_lⁿ`` (a flexible stop; and what a contact on
+    a node with a massless part of an FE model sees, :mod:`vibroimpact.fe.condensation`)."""
 
     kind: ClassVar[str] = "hertz"
+    compliance: float = catalog_default("hertz", "compliance")
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        require(
+            _is_number(self.compliance) and math.isfinite(self.compliance)
+            and self.compliance >= 0,
+            "law.compliance",
+            self.compliance,
+            "a number >= 0 in m/N",
+        )
+
+    def to_spec(self) -> dict[str, Any]:
+        return {**super().to_spec(), "compliance": float(self.compliance)}
 
 
 @dataclass(frozen=True)

@@ -38,17 +38,28 @@ read ``Zᵀ K x = Zᵀ f`` (``Zᵀ M = 0``), so with no force there ``s = -(Zᵀ
 
 the massless-DOF case with ``R``, ``Z`` the unit vectors of the DOFs with and without mass.
 The finite eigenvalues of ``(K, M)`` are exactly those of ``(K_r, M_r)``. The coordinates
-``q = Rᵀ x`` are generalized (the retained DOFs are none); a gap, a load or an initial state
-must have no part in the null space (``Zᵀ b = 0``: a force there would move ``s`` without
-inertia), which rules out single nodes of such elements (their DOFs all have one): for
-contacts, export fully integrated elements (C3D20) or a lumped mass.
+``q = Rᵀ x`` are generalized (the retained DOFs are none).
+
+**Gaps on the null space.** Every node of a C3D20R or S8R model has a part in the null space
+(and a massless DOF is one): a force ``φ b`` there moves the massless modes statically, ``x =
+T q + G b φ`` with ``G = Z (ZᵀKZ)⁻¹ Zᵀ`` (the rows ``Z`` with the force), so the gap
+coordinate ``u = bᵀx = (Tᵀb)ᵀq + c φ``, ``c = bᵀGb ≥ 0``: the contact sees the reduced
+coordinates through a linear spring of compliance ``c`` in series with its law, exactly. A gap
+is reduced to ``u_q = (Tᵀb)ᵀq`` and its law to the same law in series with ``c``
+(:class:`~vibroimpact.contact.Hertz` ``compliance``; only an elastic law has a series form
+that is a function of the penetration, so a damped law there is refused), and
+:class:`DofRecovery` adds ``G b φ`` (and its time derivatives, from the law) to the
+recovered DOFs and ``c φ`` to the gap's penetration, which are then the full model's. Two
+such gaps would be coupled through ``bᵢᵀ G bⱼ`` (refused unless that vanishes); a load or an
+initial state must still have no part in the null space (``Zᵀ b = 0``).
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 import warnings
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -105,7 +116,8 @@ class StaticCondensation:
     DOFs (zero rows of ``M``); ``transform``: ``T`` (n × n_reduced, sparse), ``x = T q``;
     ``damping_residual``: ``‖Zᵀ C T‖ / ‖C‖`` (max-abs norms; 0 when the condensation is exact);
     ``projection``: ``q = P x`` for a state without a null-space part (``Rᵀ``, n_reduced × n);
-    ``null_space``: ``Z`` (n × the nullity), orthonormal.
+    ``null_space``: ``Z`` (n × the nullity), orthonormal; ``null_solve``: ``y ↦ (ZᵀKZ)⁻¹ y``
+    (factorised once).
     """
 
     full: FEStructure
@@ -116,6 +128,7 @@ class StaticCondensation:
     damping_residual: float
     projection: sp.csr_array | NDArray[np.float64]
     null_space: sp.csr_array | NDArray[np.float64]
+    null_solve: Callable[[NDArray[np.float64]], NDArray[np.float64]]
 
     def null_part(self, vector: ArrayLike) -> float:
         """``‖Zᵀ b‖ / ‖b‖``: how much of a force or state ``b`` (full DOFs) lies in the null
@@ -124,21 +137,29 @@ class StaticCondensation:
         size = float(np.linalg.norm(b))
         return float(np.linalg.norm(self.null_space.T @ b)) / size if size > 0 else 0.0
 
+    def static_response(self, vector: ArrayLike) -> NDArray[np.float64]:
+        """``G b = Z (ZᵀKZ)⁻¹ Zᵀ b``: the full DOFs' static displacement of the massless modes
+        under the force ``b`` with ``q`` held (module docstring, "Gaps on the null space")."""
+        zb = np.asarray(self.null_space.T @ np.asarray(vector, dtype=float))
+        if not zb.size:
+            return np.zeros(self.full.n_dof)
+        return np.asarray(self.null_space @ self.null_solve(zb))
+
     def forcing_problem(self, vector: ArrayLike, what: str) -> str | None:
-        """Why ``what`` (``"a gap on DOF 9 (node 5 direction 'x')"``) acting along ``vector``
+        """Why ``what`` (``"a load on DOF 9 (node 5 direction 'x')"``) acting along ``vector``
         (full DOFs) cannot be condensed, as the "expected ..." of an error line; None if it
-        can (no part in the null space of ``M``)."""
+        can (no part in the null space of ``M``: massless DOFs are in it)."""
         b = np.asarray(vector, dtype=float)
         if np.any(b[self.condensed] != 0):
             return (f"a DOF that carries mass ({what}, which is massless and condensed out "
-                    "statically)")
+                    "statically; gaps may act there, loads and initial states not)")
         part = self.null_part(b)
         if part > NULL_PART_TOLERANCE:
             return (f"DOFs with no part in the null space of the mass matrix ({what}: "
-                    f"{part:.2g} of it lies in the {self.null_space.shape[1]} massless modes, "
-                    "where a force meets no inertia; reduced-integration and expanded-shell "
-                    "masses have this at every node: export fully integrated elements, e.g. "
-                    "C3D20, or a lumped mass)")
+                    f"{part:.2g} of it lies in the {self.null_space.shape[1]} massless modes or "
+                    "DOFs, where a prescribed force meets no inertia; gaps may act there, "
+                    "loads and initial states not: put them on a DOF with mass, or export "
+                    "fully integrated elements, e.g. C3D20, or a lumped mass)")
         return None
 
     def _checked(self, vector: NDArray[np.float64], what: str) -> None:
@@ -151,11 +172,61 @@ class StaticCondensation:
         np.add.at(b, np.asarray(dofs, dtype=np.int64), np.asarray(weights, dtype=float))
         return b
 
-    def reduce_gap(self, gap: Gap) -> Gap:
-        """``gap`` (on full DOFs) on the reduced coordinates: ``u = bᵀx = (Tᵀb)ᵀq``."""
+    def gap_compliance(self, gap: Gap) -> float:
+        """``c = bᵀGb`` of ``gap`` (full DOFs; 0 if it has no part in the null space)."""
         b = self._vector(gap.dofs, gap.coefficients or (1.0,) * len(gap.dofs))
-        self._checked(b, f"the gap {gap.name or ''}".rstrip())
-        return weighted_gap(gap, np.asarray(self.transform.T @ b))
+        if self.null_part(b) <= NULL_PART_TOLERANCE:
+            return 0.0
+        return float(b @ self.static_response(b))
+
+    def reduce_gap(self, gap: Gap) -> Gap:
+        """``gap`` (on full DOFs) on the reduced coordinates: ``u_q = (Tᵀb)ᵀq``, its law in
+        series with the compliance :meth:`gap_compliance` of the massless modes (module
+        docstring); a :class:`ModelError` for a damped law there."""
+        from vibroimpact.contact import Hertz
+
+        b = self._vector(gap.dofs, gap.coefficients or (1.0,) * len(gap.dofs))
+        row = np.asarray(self.transform.T @ b)
+        if not np.any(row):
+            raise ModelError(f"gap.dof: {list(gap.dofs)} is not valid; expected DOFs that the "
+                             "condensed model moves (this gap lies in the massless modes only)")
+        reduced = weighted_gap(gap, row)
+        c = self.gap_compliance(gap)
+        if c == 0.0:
+            return reduced
+        if not isinstance(gap.law, Hertz):
+            raise ModelError(
+                f"law: {gap.law.kind!r} is not valid on a gap whose DOFs have a part in the "
+                f"massless modes (which act as a spring of {c:.3e} m/N in series with the law); "
+                "expected hertz (an elastic law: a damped law's rate would split between the "
+                "two), or fully integrated elements (C3D20) or a lumped mass"
+            )
+        law = dataclasses.replace(gap.law, compliance=gap.law.compliance + c)
+        return dataclasses.replace(reduced, law=law)
+
+    def reduce_gaps(self, gaps: Sequence[Gap]) -> list[Gap]:
+        """:meth:`reduce_gap` of each; a :class:`ModelError` if two of them with a part in the
+        massless modes are coupled through them (``bᵢᵀ G bⱼ`` above 1e-9 of
+        ``√(cᵢ cⱼ)``: their series springs would not be independent)."""
+        return [self.reduce_gap(g) for g in self.check_gaps(gaps)]
+
+    def check_gaps(self, gaps: Sequence[Gap]) -> Sequence[Gap]:
+        """``gaps`` if no two of them are coupled through the massless modes (see
+        :meth:`reduce_gaps`), else a :class:`ModelError` naming the second one."""
+        vectors = [self._vector(g.dofs, g.coefficients or (1.0,) * len(g.dofs)) for g in gaps]
+        compliant = [(i, b, self.static_response(b)) for i, (g, b) in
+                     enumerate(zip(gaps, vectors, strict=True)) if self.gap_compliance(g) > 0]
+        for a, (i, bi, gi) in enumerate(compliant):
+            for j, bj, gj in compliant[a + 1:]:
+                cross = float(bj @ gi)
+                if abs(cross) > 1e-9 * math.sqrt(float(bi @ gi) * float(bj @ gj)):
+                    raise ModelError(
+                        f"gaps[{j}].dof: {list(gaps[j].dofs)} is not valid; expected a gap not "
+                        f"coupled to gaps[{i}] through the massless modes of the mass matrix "
+                        f"(bᵀ·G·b' = {cross:.3e} m/N: their series springs interact); put one "
+                        "of them on fully integrated elements (C3D20) or a lumped mass"
+                    )
+        return gaps
 
     def reduce_load(self, load: Load) -> list[Load]:
         """``load`` (on full DOFs) as loads on the reduced coordinates with the generalized
@@ -189,10 +260,48 @@ class StaticCondensation:
             return np.asarray(self.transform @ x)
         return np.asarray((self.transform @ x.T).T)
 
-    def output(self, dofs: Sequence[int] | None = None) -> DofRecovery:
+    def output(self, dofs: Sequence[int] | None = None, gaps: Sequence[Gap] = ()) -> DofRecovery:
         """The :class:`DofRecovery` of a run that should report the full DOFs ``dofs`` (None:
-        every DOF, the condensed ones included)."""
-        return DofRecovery(self, dofs)
+        every DOF, the condensed ones included); ``gaps``: the model's gaps on the full DOFs
+        (before :meth:`reduce_gaps`), whose contact forces move the massless modes."""
+        return DofRecovery(self, dofs, gaps)
+
+
+@dataclass(frozen=True)
+class _CompliantGap:
+    """A gap with a part in the massless modes (module docstring, "Gaps on the null space"):
+    ``index`` in the model, ``row`` (``u_q = row · x_record``), ``response`` (``G b`` on the
+    reported DOFs), its compliance ``c`` (the law's own added), the law's ``K``, ``n`` and
+    the total series compliance, and its wall ``signs``."""
+
+    index: int
+    row: NDArray[np.float64]
+    response: NDArray[np.float64]
+    compliance: float
+    stiffness: float
+    exponent: float
+    series: float
+    signs: tuple[float, ...]
+
+    def forcing(self, force: NDArray[np.float64], x: NDArray[np.float64],
+                v: NDArray[np.float64], a: NDArray[np.float64]
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """The generalized force ``φ = −s F`` on the gap and its two time derivatives at the
+        rows with contact force ``force`` and recorded ``x``, ``v``, ``a``: ``F`` is a function
+        of the penetration ``δ_q`` (Hertz in series), ``Ḟ = F' δ̇_q``, ``F̈ = F'' δ̇_q² + F' δ̈_q``
+        with ``F' = f'/(1 + c f')``, ``F'' = f''/(1 + c f')³`` at the law's own ``δ_l``."""
+        u, du, ddu = x @ self.row, v @ self.row, a @ self.row
+        side = (np.full(len(u), self.signs[0]) if len(self.signs) == 1
+                else np.where(u >= 0, 1.0, -1.0))
+        k, n, c = self.stiffness, self.exponent, self.series
+        closed = force > 0
+        own = np.where(closed, force / k, 1.0) ** (1.0 / n)
+        d1 = np.where(closed, n * k * own ** (n - 1), 0.0)
+        d2 = np.where(closed, n * (n - 1) * k * own ** (n - 2), 0.0)
+        slope, curvature = d1 / (1 + c * d1), d2 / (1 + c * d1) ** 3
+        rate, accel = side * du, side * ddu
+        return (-side * force, -side * slope * rate,
+                -side * (curvature * rate**2 + slope * accel))
 
 
 class DofRecovery:
@@ -201,16 +310,18 @@ class DofRecovery:
 
     ``x_s = T_s x_m`` (module docstring) is linear and time-independent, so velocities and
     accelerations follow by the same matrix: ``v_s = T_s v_m``, ``a_s = T_s a_m`` (exact when
-    the condensation is, see :attr:`StaticCondensation.damping_residual`). ``labels``: the full
-    DOFs reported (the ``dof`` coordinate of the results; ``units``: their units, the full
-    structure's ``dof_units``); ``record``: the retained (run) DOFs the run must record, those
-    the reported rows of ``T`` touch; ``matrix``: ``T[labels,
-    record]``, reported = recorded ``@ matrix.T``. One object per run: :meth:`rows` keeps the
-    recovered DOFs' peak ``|x|`` over the rows it sees (every recorded row; the retained DOFs
-    keep the core's peak over every step).
+    the condensation is, see :attr:`StaticCondensation.damping_residual`); a gap with a part
+    in the massless modes adds ``G b φ`` and its derivatives, and ``c φ`` to its penetration
+    (:class:`_CompliantGap`). ``labels``: the full DOFs reported (the ``dof`` coordinate of
+    the results; ``units``: their units, the full structure's ``dof_units``); ``record``: the
+    retained (run) DOFs the run must record, those the reported rows of ``T`` and the gaps'
+    rows touch; ``matrix``: ``T[labels, record]``, reported = recorded ``@ matrix.T``. One
+    object per run: :meth:`rows` keeps the recovered DOFs' peak ``|x|`` over the rows it sees
+    (every recorded row; the retained DOFs keep the core's peak over every step).
     """
 
-    def __init__(self, condensation: StaticCondensation, dofs: Sequence[int] | None) -> None:
+    def __init__(self, condensation: StaticCondensation, dofs: Sequence[int] | None,
+                 gaps: Sequence[Gap] = ()) -> None:
         t = condensation.transform
         n = t.shape[0]
         self.labels = np.arange(n) if dofs is None else np.asarray(dofs, dtype=np.int64)
@@ -218,12 +329,27 @@ class DofRecovery:
         if bad:
             raise ModelError(f"output.dofs: {bad[0]} is out of range; expected 0 <= dof < {n}")
         rows = sp.csr_array(t[self.labels])
-        self.record: NDArray[np.int64] = np.unique(rows.indices).astype(np.int64)
+        compliant = [(i, g) for i, g in enumerate(condensation.check_gaps(gaps))
+                     if condensation.gap_compliance(g) > 0]
+        gap_rows = [np.asarray(t.T @ condensation._vector(g.dofs, g.coefficients or ()))
+                    for _, g in compliant]
+        touched = [rows.indices, *(np.flatnonzero(r) for r in gap_rows)]
+        self.record: NDArray[np.int64] = np.unique(np.concatenate(touched)).astype(np.int64)
         self.matrix = sp.csr_array(rows[:, self.record])
+        self._gaps = []
+        for (i, g), row in zip(compliant, gap_rows, strict=True):
+            b = condensation._vector(g.dofs, g.coefficients or ())
+            c = condensation.gap_compliance(g)
+            law = g.law
+            self._gaps.append(_CompliantGap(
+                i, row[self.record], condensation.static_response(b)[self.labels], c,
+                law.contact_stiffness, float(law.exponent), law.compliance + c,
+                {"positive": (1.0,), "negative": (-1.0,), "both": (1.0, -1.0)}[g.side]))
         retained = {int(d): k for k, d in enumerate(condensation.retained)}
         position = {int(d): j for j, d in enumerate(self.record)}
         #: column of ``record`` that a reported DOF is, -1 for a recovered (condensed) one
-        self._direct = np.array([position[retained[int(d)]] if int(d) in retained else -1
+        self._direct = np.array([position[retained[int(d)]]
+                                 if int(d) in retained and not self._gaps else -1
                                  for d in self.labels], dtype=np.int64)
         self._peak = np.zeros(len(self.labels))
         full_units = condensation.full.dof_units
@@ -232,11 +358,23 @@ class DofRecovery:
 
     def rows(self, raw: Mapping[str, object]) -> dict[str, object]:
         """A block of rows in the core's layout (``on_rows`` of :func:`vibroimpact.simulate`)
-        with ``displacement``, ``velocity`` and ``acceleration`` on the reported DOFs."""
+        with ``displacement``, ``velocity`` and ``acceleration`` on the reported DOFs (and,
+        with gaps on the massless modes, ``gap_penetration`` the full model's)."""
         out = dict(raw)
-        for name in ("displacement", "velocity", "acceleration"):
-            x = np.asarray(raw[name], dtype=float).reshape(-1, len(self.record))
+        recorded = {name: np.asarray(raw[name], dtype=float).reshape(-1, len(self.record))
+                    for name in ("displacement", "velocity", "acceleration")}
+        for name, x in recorded.items():
             out[name] = np.asarray((self.matrix @ x.T).T).reshape(-1, len(self.labels))
+        if self._gaps:
+            force = np.asarray(raw["gap_force"], dtype=float)
+            force = force.reshape(len(recorded["displacement"]), -1)
+            penetration = np.array(raw["gap_penetration"], dtype=float).reshape(force.shape)
+            for gap in self._gaps:
+                terms = gap.forcing(force[:, gap.index], *recorded.values())
+                for name, term in zip(recorded, terms, strict=True):
+                    out[name] = out[name] + np.outer(term, gap.response)  # type: ignore[operator]
+                penetration[:, gap.index] -= gap.compliance * force[:, gap.index]
+            out["gap_penetration"] = penetration
         x = out["displacement"]
         assert isinstance(x, np.ndarray)
         if len(x):
@@ -250,7 +388,9 @@ class DofRecovery:
             raise ModelError(f"dofs: {result.dofs.tolist()} is not valid; expected the run to "
                              f"record the DOFs {self.record.tolist()} of DofRecovery.record")
         rows = self.rows({"displacement": result.displacement, "velocity": result.velocity,
-                          "acceleration": result.acceleration})
+                          "acceleration": result.acceleration,
+                          "gap_force": result.gap_force,
+                          "gap_penetration": result.gap_penetration})
         direct = self._direct >= 0
         peak = self._peak.copy()
         peak[direct] = np.asarray(result.max_abs_displacement, dtype=float)[self._direct[direct]]
@@ -294,7 +434,7 @@ def condense_massless(fe: FEStructure, keep: Iterable[int] = ()) -> StaticConden
     if spd_solver(fe.mass[m_idx][:, m_idx], NULL_SPACE_RTOL) is None:
         return condense_null_space(fe, keep)
     k = sp.csr_array(fe.stiffness)
-    ts = _slave_transform(k, s, m_idx, fe)
+    ts, solve = _slave_transform(k, s, m_idx, fe)
     eye = sp.identity(len(m_idx), format="csr")
     # T has rows in full DOF order: retained rows are I, condensed rows are T_s
     blocks = sp.vstack([eye, ts], format="csr")
@@ -306,7 +446,7 @@ def condense_massless(fe: FEStructure, keep: Iterable[int] = ()) -> StaticConden
     dof_map = None if fe.dof_map is None else fe.dof_map.take(m_idx.tolist())
     declared = (None if fe.declared_units is None
                 else tuple(fe.declared_units[i] for i in m_idx.tolist()))
-    return _condensation(fe, t, m_idx, s, projection, null_space, dof_map, declared)
+    return _condensation(fe, t, m_idx, s, projection, null_space, solve, dof_map, declared)
 
 
 def condense_null_space(fe: FEStructure, keep: Iterable[int] = ()) -> StaticCondensation:
@@ -365,8 +505,11 @@ def condense_null_space(fe: FEStructure, keep: Iterable[int] = ()) -> StaticCond
                 f"dof: {d} ({_label(fe, d)}) is not valid; expected a DOF with no part in the "
                 f"null space of the mass matrix for a gap or a load ({part:.2g} of it lies there)"
             )
+    def solve(y: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.asarray(scipy.linalg.cho_solve(factor, y))
+
     return _condensation(fe, sp.csr_array(t), np.zeros(0, dtype=np.int64),
-                         massless_dofs(fe.mass), r.T, z, None, declared)
+                         massless_dofs(fe.mass), r.T, z, solve, None, declared)
 
 
 def _condensation(
@@ -376,6 +519,7 @@ def _condensation(
     condensed: NDArray[np.int64],
     projection: sp.csr_array | NDArray[np.float64],
     null_space: sp.csr_array | NDArray[np.float64],
+    null_solve: Callable[[NDArray[np.float64]], NDArray[np.float64]],
     dof_map: DofMap | None,
     declared: tuple[str, ...] | None,
 ) -> StaticCondensation:
@@ -411,7 +555,7 @@ def _condensation(
     reduced = FEStructure(m_r, k_r, c_r, dof_map, declared, gyroscopic=g_r,
                           spin_speed=fe.spin_speed)
     return StaticCondensation(fe, reduced, retained, condensed, t, residual, projection,
-                              null_space)
+                              null_space, null_solve)
 
 
 def weighted_gap(gap: Gap, row: NDArray[np.float64]) -> Gap:
@@ -441,10 +585,11 @@ def weighted_loads(load: Load, weights: NDArray[np.float64]) -> list[Load]:
 
 def _slave_transform(
     k: sp.csr_array, s: NDArray[np.int64], m_idx: NDArray[np.int64], fe: FEStructure
-) -> sp.csr_array:
-    """``T_s = -K_ss⁻¹ K_sm`` (n_s × n_m, sparse), solving only for the coupled columns."""
+) -> tuple[sp.csr_array, Callable[[NDArray[np.float64]], NDArray[np.float64]]]:
+    """``T_s = -K_ss⁻¹ K_sm`` (n_s × n_m, sparse), solving only for the coupled columns, and
+    ``y ↦ K_ss⁻¹ y`` (the factor it used)."""
     if len(s) == 0:
-        return sp.csr_array((0, len(m_idx)))
+        return sp.csr_array((0, len(m_idx))), lambda y: y
     kss = sp.csc_array(k[s][:, s])
     ksm = sp.csc_array(k[s][:, m_idx])
     try:
@@ -467,7 +612,7 @@ def _slave_transform(
     out = sp.coo_array(ts)
     return sp.csr_array(
         (out.data, (out.row, cols[out.col])), shape=(len(s), len(m_idx))
-    )
+    ), lu.solve
 
 
 def _symmetric(a: sp.csr_array) -> sp.csr_array:

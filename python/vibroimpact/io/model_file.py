@@ -500,6 +500,9 @@ SCHEMA: tuple[Field, ...] = (
     Field("gaps[].law.exponent", "number", "exponent n of the penetration δⁿ", minimum=1,
           default_text=_exponent_default(), rule="1 for kelvin-voigt",
           when=("kind", _kinds_with("exponent"))),
+    Field("gaps[].law.compliance", "number", "a linear spring in series with the law (a "
+          "flexible stop; set by the condensation on a node with a massless part)",
+          unit="m/N", minimum=0, default=0.0, when=("kind", _kinds_with("compliance"))),
     Field("gaps[].law.restitution", "number", "coefficient of restitution ce", minimum=0,
           minimum_inclusive=False, maximum=1, when=("kind", _kinds_with("restitution")),
           required_when=("kind", _RESTITUTION_LAWS)),
@@ -1369,8 +1372,6 @@ def _build_gap(ck: _Checker, i: int, g: Mapping[str, Any], n: int | None) -> Gap
             ck.invalid(
                 f"{gp}.coefficients", ck.raw.get(f"{gp}.coefficients"), "numbers not all zero"
             )
-    if ck.ok(gp) and dofs and not _on_mass(ck, _addressed_by(gp, g), dofs, coefficients, "a gap"):
-        dofs = ()
     law = _build_law(ck, f"{gp}.law", g["law"])
     if law is None or not ck.ok(gp) or not dofs:
         return None
@@ -1384,7 +1385,10 @@ def _build_gap(ck: _Checker, i: int, g: Mapping[str, Any], n: int | None) -> Gap
             name=g.get("name"),
         )
         cond = ck.context.get("condensation")
-        return gap if cond is None else cond.reduce_gap(gap)
+        if cond is None:
+            return gap
+        ck.context.setdefault("file_gaps", []).append(gap)
+        return cond.reduce_gap(gap)
     except _CAUGHT as e:
         ck.add(gp, _reprefix(e, {"gap": gp, "law": f"{gp}.law"}, gp))
         return None
@@ -1640,6 +1644,11 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
     else:
         n = structure.n_dof if structure is not None else _n_dof(top.get("structure", {}))
     gaps = [_build_gap(ck, i, g, n) for i, g in enumerate(top.get("gaps", []))]
+    if "condensation" in ck.context and ck.ok("gaps"):
+        try:
+            ck.context["condensation"].check_gaps(ck.context.get("file_gaps", []))
+        except _CAUGHT as e:
+            ck.add(str(e).split(":", 1)[0], str(e))
     loads = [_build_load(ck, i, ld, n) for i, ld in enumerate(top.get("loads", []))]
     dofs = _output_dofs(ck, top.get("output", {}), n)
     initial = _build_initial(ck, top.get("initial", {}), n)
@@ -1677,6 +1686,7 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
         path=path,
         beam=ck.context.get("beam"),
         condensation=ck.context.get("condensation"),
+        file_gaps=tuple(ck.context.get("file_gaps", ())),
     )
 
 
@@ -1709,6 +1719,9 @@ class ModelFile:
     #: ``output.dofs`` in the file count the file's DOFs); :meth:`simulate` reports the
     #: file's DOFs, the condensed ones recovered (:class:`vibroimpact.fe.condensation.DofRecovery`).
     condensation: Any = None
+    #: The gaps on the file's DOFs (of a condensed model: :attr:`model` has them reduced),
+    #: which :meth:`recovery` needs for the contact's part in the massless modes.
+    file_gaps: tuple[Gap, ...] = ()
 
     @property
     def run_dofs(self) -> list[int] | None:
@@ -1716,13 +1729,15 @@ class ModelFile:
         None for all) so that :meth:`recovery` can report :attr:`dofs`."""
         if self.condensation is None or self.dofs is None:
             return self.dofs
-        return self.condensation.output(self.dofs).record.tolist()
+        return self.condensation.output(self.dofs, self.file_gaps).record.tolist()
 
     def recovery(self) -> DofRecovery | None:
         """A fresh :class:`~vibroimpact.fe.condensation.DofRecovery` that turns a run of
         :attr:`model` (recording :attr:`run_dofs`) into the file's DOFs; None if the model is
         the file's (no condensation)."""
-        return None if self.condensation is None else self.condensation.output(self.dofs)
+        if self.condensation is None:
+            return None
+        return self.condensation.output(self.dofs, self.file_gaps)
 
     def simulate(self, *, throw: bool = True, progress: bool = False) -> Result:
         """Run the model with the file's solver and output settings
@@ -2005,9 +2020,11 @@ def render_reference() -> str:
         "(`vibroimpact.fe.condensation`, sparse). This is exact when the damping on the massless",
         "DOFs is zero, Rayleigh (`αM + βK`) or modal; any other damping acting on them is",
         "neglected in their (static) equations, with a `CondensationWarning`. `K_ss` must be",
-        "positive definite (the massless DOFs held by stiffness). A gap or a load on a massless",
-        "DOF is refused (a force there would move it instantaneously), and `[initial]` must be",
-        "0 there. DOF indices in the file (`dof`, `output.dofs`, the `[initial]` lists) count",
+        "positive definite (the massless DOFs held by stiffness). A load on a massless DOF is",
+        "refused (a force there would move it instantaneously), and `[initial]` must be 0",
+        "there; a gap there has its `hertz` law in series with the DOF's static compliance (see",
+        "the next paragraph). DOF indices in the file (`dof`, `output.dofs`, the `[initial]`",
+        "lists) count",
         "the file's DOFs. The model that runs has the DOFs with mass only, in the same order",
         "(`ModelFile.condensation.retained` maps them back), but its results (`vibroimpact run`,",
         "`ModelFile.simulate`: the `dof` coordinate, the CSV columns `x8 [m]`, `x9 [rad]`, ...)",
@@ -2025,10 +2042,13 @@ def render_reference() -> str:
         "below -1e-10 of it is refused, naming it) is condensed the same way in the eigenvectors",
         "of `M`, `x = T q` with `T = R - Z (ZᵀKZ)⁻¹ ZᵀKR` (dense, up to 6,000 DOFs), so that the",
         "finite frequencies are exactly those of the FE program. The coordinates `q` are then",
-        "generalized: results are recovered on the file's DOFs as above, and a gap, a load or",
-        "an `[initial]` state must have no part in `Z` (a force there meets no inertia). Every",
-        "node of such elements has one: for contacts export fully integrated elements (C3D20)",
-        "or a lumped mass.",
+        "generalized: results are recovered on the file's DOFs as above, and a load or an",
+        "`[initial]` state must have no part in `Z` (a force there meets no inertia). Every",
+        "node of such elements has one. A gap there works: the massless modes answer its force",
+        "`φ` statically, `u = (Tᵀb)ᵀq + c φ` with `c = bᵀ Z (ZᵀKZ)⁻¹ Zᵀ b`, so its law (`hertz`",
+        "only, any exponent) runs in series with a spring of compliance `c` (`law.compliance`),",
+        "exactly, and the recovered DOFs and penetration include the contact's static part",
+        "(docs/beam.md, Gaps on massless DOFs and modes).",
         "",
     ]
     out += _methods_section()

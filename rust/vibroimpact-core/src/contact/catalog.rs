@@ -163,7 +163,17 @@ pub static LAWS: &[LawEntry] = &[
         family: Family::Elastic,
         source: "Hertz (1882); paper eq. 3",
         damping: "none: `F = K δⁿ`",
-        parameters: &[STIFFNESS, EXPONENT],
+        parameters: &[
+            STIFFNESS,
+            EXPONENT,
+            number(
+                "compliance",
+                Requirement::Default(0.0),
+                "m/N",
+                "compliance c of a linear spring in series with the law, >= 0 (0: none); \
+                 the gap then penetrates δ_l + c F, F = K δ_lⁿ",
+            ),
+        ],
         doc: "",
     },
     LawEntry {
@@ -511,9 +521,9 @@ impl Law {
         };
         let r = Reader { law, values };
         match law.family {
-            Family::Elastic => {
-                Hertz::new(r.number("stiffness")?, r.number("exponent")?).map(Law::Hertz)
-            }
+            Family::Elastic => Hertz::new(r.number("stiffness")?, r.number("exponent")?)?
+                .in_series(r.number("compliance")?)
+                .map(Law::Hertz),
             Family::SpringDashpot => {
                 let exponent = r.number("exponent")?;
                 if exponent != 1.0 {
