@@ -23,12 +23,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 import scipy.linalg
+import scipy.sparse.linalg
 from vibroimpact import ContactResolutionWarning, Gap, HarmonicLoad, Model, Newmark, simulate
 from vibroimpact.benchmarks.calculix import EXPORT_STEP, MATERIAL, brick_mesh, run_ccx
 from vibroimpact.cli import main as cli_main
 from vibroimpact.contact import Hertz
 from vibroimpact.fe import FEStructure, modes
 from vibroimpact.fe.matrices import read_calculix
+from vibroimpact.io.model_file import load_model
 
 pytestmark = pytest.mark.skipif(
     shutil.which("ccx") is None,
@@ -279,3 +281,51 @@ def test_a_load_and_a_mode_shape_on_the_massless_modes_equal_the_full_singular_m
     without = got.displacement - np.outer(load.force_and_rates(got.time)[0],
                                           cond.load_response(load))
     assert np.abs(without - x).max() > 1e-4 * scale  # the static part matters here
+
+
+def test_a_shell_node_is_the_mean_of_its_layers(tmp_path: Path) -> None:
+    """CalculiX's own ``*STATIC`` result at every free node of an S8R plate (4 × 2 shells,
+    supported at x = 0 and in z at x = 12.5 mm, a 1 N z load at the midside node of the tip
+    edge) equals ``DofMap.shell_weights`` applied to the solve with the exported stiffness,
+    the load spread over the layers by the same weights, to 1e-6 of the peak (CalculiX
+    prints 7 digits); a model file's gap by that node acts on those weights."""
+    model = shell_mesh(4, 2)
+    xyz = {int(a[0]): float(a[1]) for a in (line.split(",") for line in
+                                            model.split("*ELEMENT")[0].splitlines()[1:])}
+    support = [n for n, x in xyz.items() if abs(x - 0.0125) < 1e-9]
+    free = [n for n, x in xyz.items() if x > 0.013]
+    tip = [n for n, x in xyz.items() if abs(x - 0.1) < 1e-9][1]  # midside, 2 layers
+    model += ("*NSET, NSET=SUPPORT\n" + "\n".join(map(str, support))
+              + "\n*NSET, NSET=FREE\n" + "\n".join(map(str, free)) + "\n"
+              "*BOUNDARY\nFIXED, 1, 3\nSUPPORT, 3, 3\n")
+    job = run_ccx(tmp_path, "export", model + "*STEP\n" + EXPORT_STEP + "*END STEP\n")
+    static = run_ccx(tmp_path, "static", model + f"*STEP\n*STATIC\n*CLOAD\n{tip}, 3, 1.0\n"
+                     "*NODE PRINT, NSET=FREE\nU\n*END STEP\n")
+    printed = {int(p[0]): [float(v) for v in p[1:]] for p in
+               (line.split() for line in static.with_suffix(".dat").read_text().splitlines())
+               if len(p) == 4 and p[0].isdigit()}
+    assert sorted(printed) == sorted(free)
+    fe = read_calculix(job)
+    dm = fe.dof_map
+    assert dm is not None
+    dofs, weights = dm.shell_weights(tip, "z")
+    assert weights == [0.5, 0.5]
+    f = np.zeros(fe.n_dof)
+    f[dofs] = weights
+    x = scipy.sparse.linalg.spsolve(fe.stiffness.tocsc(), f)
+    ours = {n: [float(np.dot(x[d], w)) for d, w in (dm.shell_weights(n, c) for c in "xyz")]
+            for n in free}
+    assert {len(dm.layer_dofs(n, "x")) for n in free} == {2, 3}  # midside and corner nodes
+    peak = max(abs(v) for row in printed.values() for v in row)
+    for n in free:
+        np.testing.assert_allclose(ours[n], printed[n], rtol=0, atol=1e-6 * peak)
+    layers = np.array([x[d] for d in dm.layer_dofs(tip, "x")])
+    assert np.abs(layers).max() > 1e-3 * peak  # the layers differ: the mean matters
+
+    toml = tmp_path / "model.toml"
+    toml.write_text(f'[structure]\nkind = "matrices"\nmass = "export.mas"\n'
+                    f'stiffness = "export.sti"\n[[gaps]]\nnode = {tip}\ndirection = "z"\n'
+                    'clearance = 1e-6\n[gaps.law]\nkind = "hertz"\nstiffness = 1e9\n'
+                    '[solver]\ndt = 1e-6\nt_end = 1e-5\n', encoding="utf-8")
+    gap = load_model(toml).file_gaps[0]
+    assert list(gap.dofs) == dofs and list(gap.coefficients) == weights

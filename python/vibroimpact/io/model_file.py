@@ -1320,6 +1320,20 @@ def _node_dofs(
         return None
 
 
+def _shell_node(ck: _Checker, g: Mapping[str, Any]) -> tuple[list[int], list[float]] | None:
+    """The layers and weights of the gap's ``node``/``direction`` if CalculiX expanded it
+    (:meth:`~vibroimpact.fe.dofs.DofMap.shell_weights`), else None."""
+    dm = getattr(ck.context.get("fe"), "dof_map", None)
+    if dm is None or "node" not in g or "direction" not in g:
+        return None
+    try:
+        if not dm.layer_dofs(g["node"], g["direction"]):
+            return None
+        return dm.shell_weights(g["node"], g["direction"])
+    except _CAUGHT:
+        return None  # _node_dofs names the mistake
+
+
 def _dof_label(ck: _Checker, dof: int) -> str:
     dm = ck.context["fe"].dof_map
     layer = "" if dm is None or not dm.layers[dof] else f" layer {dm.layers[dof]}"
@@ -1332,9 +1346,13 @@ def _build_gap(ck: _Checker, i: int, g: Mapping[str, Any], n: int | None) -> Gap
     if not ck.ok(gp):
         return None
     by_node = ck.context.get("structure.kind") in _WITH_NODES[1]
-    dofs: tuple[int, ...] = (_node_dofs(ck, gp, g, many=False) if by_node else g.get("dof")) or ()
-    _check_dofs(ck, f"{gp}.dof", dofs, n)
     coefficients = g.get("coefficients")
+    shell = _shell_node(ck, g) if by_node and coefficients is None else None
+    if shell is not None:  # a CalculiX shell node: the mean of its layers
+        dofs, coefficients = tuple(shell[0]), shell[1]
+    else:
+        dofs = (_node_dofs(ck, gp, g, many=False) if by_node else g.get("dof")) or ()
+    _check_dofs(ck, f"{gp}.dof", dofs, n)
     if coefficients is not None:
         if len(coefficients) != len(dofs):
             ck.invalid(
