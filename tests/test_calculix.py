@@ -17,17 +17,20 @@ import json
 import re
 import shutil
 import warnings
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.linalg
-from vibroimpact import ContactResolutionWarning, Gap, Model, Newmark, simulate
+import scipy.sparse.linalg
+from vibroimpact import ContactResolutionWarning, Gap, HarmonicLoad, Model, Newmark, simulate
 from vibroimpact.benchmarks.calculix import EXPORT_STEP, MATERIAL, brick_mesh, run_ccx
 from vibroimpact.cli import main as cli_main
 from vibroimpact.contact import Hertz
 from vibroimpact.fe import FEStructure, modes
 from vibroimpact.fe.matrices import read_calculix
+from vibroimpact.io.model_file import load_model
 
 pytestmark = pytest.mark.skipif(
     shutil.which("ccx") is None,
@@ -166,17 +169,21 @@ def test_model_file_modal_and_a_gap_on_the_null_space(
 
 
 def dense_newmark(fe: FEStructure, dof: int, law: Hertz, clearance: float,
-                  v0: np.ndarray, dt: float, steps: int) -> np.ndarray:
+                  v0: np.ndarray, dt: float, steps: int, x0: np.ndarray | None = None,
+                  force: Callable[[float], np.ndarray] | None = None) -> np.ndarray:
     """Average-acceleration Newmark on the full matrices (a singular ``M`` as it is: the
-    massless rows are static equations in the step's ``(K + 4M/dt²) x = ...``) with a Hertz
-    wall on ``dof`` solved by Newton: the displacement history, one row per step."""
+    massless rows are static equations in the step's ``(K + 4M/dt²) x = ...``) from ``x0``
+    (default 0) and ``v0``, under ``force(t)`` (full DOFs) if given, with a Hertz wall on
+    ``dof`` solved by Newton: the displacement history, one row per step."""
     m, k = fe.mass.toarray(), fe.stiffness.toarray()
-    x, v = np.zeros(fe.n_dof), v0.copy()
-    a = np.linalg.lstsq(m, -k @ x, rcond=None)[0]  # only M a enters the steps
+    load = force or (lambda t: np.zeros(fe.n_dof))
+    x = np.zeros(fe.n_dof) if x0 is None else x0.copy()
+    v = v0.copy()
+    a = np.linalg.lstsq(m, load(0.0) - k @ x, rcond=None)[0]  # only M a enters the steps
     keff = k + 4 / dt**2 * m
     rows = [x]
-    for _ in range(steps):
-        rhs = m @ (4 / dt**2 * x + 4 / dt * v + a)
+    for n in range(steps):
+        rhs = m @ (4 / dt**2 * x + 4 / dt * v + a) + load((n + 1) * dt)
         xn = np.linalg.solve(keff, rhs)
         for _ in range(50):
             p = xn[dof] - clearance
@@ -190,7 +197,7 @@ def dense_newmark(fe: FEStructure, dof: int, law: Hertz, clearance: float,
             xn = xn + step
             if np.abs(step).max() <= 1e-14 * np.abs(xn).max():
                 break
-        an = 4 / dt**2 * (xn - x) - 4 / dt * v - a
+        an = 4 / dt**2 * (xn - x) - 4 / dt * v - a  # M an = f - K xn (not an itself)
         v, a, x = v + dt / 2 * (a + an), an, xn
         rows.append(x)
     return np.array(rows)
@@ -232,3 +239,93 @@ def test_a_gap_on_the_massless_modes_equals_the_full_singular_model(
     if element == "C3D20R":  # without the contact's static part the tip would be off
         plain = np.asarray(cond.transform @ run.displacement.T).T
         assert np.abs(plain[:, dof] - x[:, dof]).max() > 1e-4 * scale
+
+
+@pytest.mark.parametrize("exported", ["C3D20R"], indirect=True)
+def test_a_load_and_a_mode_shape_on_the_massless_modes_equal_the_full_singular_model(
+    exported: tuple[str, Path, np.ndarray]
+) -> None:
+    """A tip load of the C3D20R block has a part in the massless modes (which respond to it
+    statically, ``G f F(t)``, added by the recovery): its static deflection ``T K_r⁻¹ Tᵀ f +
+    G f`` equals ``K⁻¹ f`` of the full matrices, and a harmonic load on a run started from a
+    mode shape ``T φ`` (not refused: it is a state of the condensed model, though ``Zᵀ T φ ≠
+    0``) gives the displacements of Newmark on the full, singular matrices to round-off."""
+    _, job, _ = exported
+    fe = read_calculix(job)
+    cond = fe.condense_massless()
+    dof, dt, steps = tip_dof(job), 2.5e-7, 300
+    load = HarmonicLoad(dof=dof, amplitude=200.0, frequency=20e3)
+    f = np.zeros(fe.n_dof)
+    f[dof] = 1.0
+    assert cond.null_part(f) > 1e-3 and cond.load_response(load) is not None
+    t = cond.transform.toarray()
+    static = (t @ np.linalg.solve(cond.structure.stiffness.toarray(), t.T @ f)
+              + cond.load_response(load))
+    full = np.linalg.solve(fe.stiffness.toarray(), f)
+    np.testing.assert_allclose(static, full, rtol=0, atol=1e-10 * np.abs(full).max())
+
+    _, phi = scipy.linalg.eigh(cond.structure.stiffness.toarray(),
+                               cond.structure.mass.toarray())
+    x0 = t @ phi[:, 0] * 1e-7 / np.abs(t @ phi[:, 0]).max()
+    assert cond.null_part(x0) > 1e-3  # refused by a test on Zᵀx alone
+    model = Model(cond.structure.to_structure(), loads=cond.reduce_load(load),
+                  initial_displacement=cond.reduce_state(x0))
+    recovery = cond.output(None, [], [load])
+    got = recovery.result(simulate(model, steps * dt, dt, Newmark(),
+                                   dofs=recovery.record.tolist()))
+    x = dense_newmark(fe, dof, Hertz(stiffness=1.0), 1.0, np.zeros(fe.n_dof), dt, steps, x0,
+                      lambda time: f * load.force_and_rates(time)[0])
+    scale = np.abs(x).max()
+    assert np.abs(x[:, dof]).max() > 3 * np.abs(x0[dof])  # the load moves the tip
+    np.testing.assert_allclose(got.displacement, x, rtol=0, atol=1e-9 * scale)
+    without = got.displacement - np.outer(load.force_and_rates(got.time)[0],
+                                          cond.load_response(load))
+    assert np.abs(without - x).max() > 1e-4 * scale  # the static part matters here
+
+
+def test_a_shell_node_is_the_mean_of_its_layers(tmp_path: Path) -> None:
+    """CalculiX's own ``*STATIC`` result at every free node of an S8R plate (4 × 2 shells,
+    supported at x = 0 and in z at x = 12.5 mm, a 1 N z load at the midside node of the tip
+    edge) equals ``DofMap.shell_weights`` applied to the solve with the exported stiffness,
+    the load spread over the layers by the same weights, to 1e-6 of the peak (CalculiX
+    prints 7 digits); a model file's gap by that node acts on those weights."""
+    model = shell_mesh(4, 2)
+    xyz = {int(a[0]): float(a[1]) for a in (line.split(",") for line in
+                                            model.split("*ELEMENT")[0].splitlines()[1:])}
+    support = [n for n, x in xyz.items() if abs(x - 0.0125) < 1e-9]
+    free = [n for n, x in xyz.items() if x > 0.013]
+    tip = [n for n, x in xyz.items() if abs(x - 0.1) < 1e-9][1]  # midside, 2 layers
+    model += ("*NSET, NSET=SUPPORT\n" + "\n".join(map(str, support))
+              + "\n*NSET, NSET=FREE\n" + "\n".join(map(str, free)) + "\n"
+              "*BOUNDARY\nFIXED, 1, 3\nSUPPORT, 3, 3\n")
+    job = run_ccx(tmp_path, "export", model + "*STEP\n" + EXPORT_STEP + "*END STEP\n")
+    static = run_ccx(tmp_path, "static", model + f"*STEP\n*STATIC\n*CLOAD\n{tip}, 3, 1.0\n"
+                     "*NODE PRINT, NSET=FREE\nU\n*END STEP\n")
+    printed = {int(p[0]): [float(v) for v in p[1:]] for p in
+               (line.split() for line in static.with_suffix(".dat").read_text().splitlines())
+               if len(p) == 4 and p[0].isdigit()}
+    assert sorted(printed) == sorted(free)
+    fe = read_calculix(job)
+    dm = fe.dof_map
+    assert dm is not None
+    dofs, weights = dm.shell_weights(tip, "z")
+    assert weights == [0.5, 0.5]
+    f = np.zeros(fe.n_dof)
+    f[dofs] = weights
+    x = scipy.sparse.linalg.spsolve(fe.stiffness.tocsc(), f)
+    ours = {n: [float(np.dot(x[d], w)) for d, w in (dm.shell_weights(n, c) for c in "xyz")]
+            for n in free}
+    assert {len(dm.layer_dofs(n, "x")) for n in free} == {2, 3}  # midside and corner nodes
+    peak = max(abs(v) for row in printed.values() for v in row)
+    for n in free:
+        np.testing.assert_allclose(ours[n], printed[n], rtol=0, atol=1e-6 * peak)
+    layers = np.array([x[d] for d in dm.layer_dofs(tip, "x")])
+    assert np.abs(layers).max() > 1e-3 * peak  # the layers differ: the mean matters
+
+    toml = tmp_path / "model.toml"
+    toml.write_text(f'[structure]\nkind = "matrices"\nmass = "export.mas"\n'
+                    f'stiffness = "export.sti"\n[[gaps]]\nnode = {tip}\ndirection = "z"\n'
+                    'clearance = 1e-6\n[gaps.law]\nkind = "hertz"\nstiffness = 1e9\n'
+                    '[solver]\ndt = 1e-6\nt_end = 1e-5\n', encoding="utf-8")
+    gap = load_model(toml).file_gaps[0]
+    assert list(gap.dofs) == dofs and list(gap.coefficients) == weights

@@ -60,7 +60,7 @@ CLI_SAMPLE = [
     "multi_five",
     "multi_matrices",
     "matrices_node_without_dof_map",
-    "matrices_load_massless",
+    "matrices_load_coupled_to_gap",
 ]
 
 

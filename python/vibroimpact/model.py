@@ -377,6 +377,11 @@ class Load:
         """The largest ``|F|`` of the load, N."""
         raise NotImplementedError
 
+    def force_and_rates(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                                     NDArray[np.float64]]:
+        """``F``, ``Ḟ`` and ``F̈`` (N, N/s, N/s²) at the times ``t`` (s)."""
+        raise NotImplementedError
+
     def to_spec(self) -> dict[str, Any]:
         raise NotImplementedError
 
@@ -394,6 +399,11 @@ class ConstantLoad(Load):
     @property
     def peak(self) -> float:
         return abs(float(self.amplitude))
+
+    def force_and_rates(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                                     NDArray[np.float64]]:
+        zero = np.zeros(np.shape(t))
+        return zero + float(self.amplitude), zero, zero.copy()
 
     def to_spec(self) -> dict[str, Any]:
         return {"kind": "constant", "dofs": list(self.dofs), "amplitude": float(self.amplitude)}
@@ -417,6 +427,13 @@ class HarmonicLoad(Load):
     @property
     def peak(self) -> float:
         return abs(float(self.amplitude))
+
+    def force_and_rates(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                                     NDArray[np.float64]]:
+        w = 2 * math.pi * float(self.frequency)
+        angle = w * np.asarray(t, dtype=float) + float(self.phase)
+        a = float(self.amplitude)
+        return a * np.sin(angle), a * w * np.cos(angle), -a * w * w * np.sin(angle)
 
     def to_spec(self) -> dict[str, Any]:
         return {
@@ -502,6 +519,17 @@ class TableLoad(Load):
     @property
     def peak(self) -> float:
         return abs(float(self.scale)) * max(abs(f) for f in self.force)
+
+    def force_and_rates(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                                     NDArray[np.float64]]:
+        """Piecewise linear: ``Ḟ`` is the slope of the segment ``t`` is in (0 outside the
+        table), ``F̈`` is 0 (its impulses at the table's corners are not represented)."""
+        time, force = np.asarray(self.time), float(self.scale) * np.asarray(self.force)
+        tt = np.asarray(t, dtype=float)
+        segment = np.clip(np.searchsorted(time, tt, side="right") - 1, 0, len(time) - 2)
+        slope = np.diff(force)[segment] / np.diff(time)[segment]
+        inside = (tt >= time[0]) & (tt < time[-1])
+        return np.interp(tt, time, force), np.where(inside, slope, 0.0), np.zeros(tt.shape)
 
     def to_spec(self) -> dict[str, Any]:
         return {

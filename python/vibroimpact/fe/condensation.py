@@ -16,9 +16,9 @@ from ``M`` (``C_s· = 0`` because ``M_s· = 0``). Any other damping on a massles
 row a first-order equation ``C_s· ẋ + ... = 0`` that a static relation cannot represent: the
 condensation then neglects the damping force on those rows (keeping ``Tᵀ C T``), which is an
 approximation; :attr:`StaticCondensation.damping_residual` measures it and a
-:class:`CondensationWarning` says so. A force or a contact on a massless DOF would change
-``x_s`` instantaneously; such DOFs cannot be condensed and are refused (give them mass or move
-the gap or load to a DOF with mass). Recorded histories of condensed DOFs are recovered from
+:class:`CondensationWarning` says so. A force or a contact on a massless DOF changes
+``x_s`` instantaneously, statically: see "Gaps on the null space" below (a massless DOF is
+one). Recorded histories of condensed DOFs are recovered from
 the retained ones (:class:`DofRecovery`).
 
 ``K_ss`` is factorised once (sparse LU with symmetric pivoting, which keeps ``K_ss``'s
@@ -50,8 +50,12 @@ is reduced to ``u_q = (Tᵀb)ᵀq`` and its law to the same law in series with `
 that is a function of the penetration, so a damped law there is refused), and
 :class:`DofRecovery` adds ``G b φ`` (and its time derivatives, from the law) to the
 recovered DOFs and ``c φ`` to the gap's penetration, which are then the full model's. Two
-such gaps would be coupled through ``bᵢᵀ G bⱼ`` (refused unless that vanishes); a load or an
-initial state must still have no part in the null space (``Zᵀ b = 0``).
+such gaps would be coupled through ``bᵢᵀ G bⱼ`` (refused unless that vanishes). A load
+``f F(t)`` acts on ``q`` as ``Tᵀf F(t)`` exactly (``TᵀKG = 0``, ``MG = 0``) and adds ``G f
+F(t)`` to ``x`` (and ``G f Ḟ``, ``G f F̈``: :class:`DofRecovery`); one coupled to such a gap
+(``bᵀ G f ≠ 0``) is refused. An initial state must have no part in the null space (``Zᵀx =
+0``, ``q = Rᵀx``) or be a state ``T q`` of the condensed model
+(:meth:`StaticCondensation.state_problem`).
 """
 
 from __future__ import annotations
@@ -145,27 +149,24 @@ class StaticCondensation:
             return np.zeros(self.full.n_dof)
         return np.asarray(self.null_space @ self.null_solve(zb))
 
-    def forcing_problem(self, vector: ArrayLike, what: str) -> str | None:
-        """Why ``what`` (``"a load on DOF 9 (node 5 direction 'x')"``) acting along ``vector``
-        (full DOFs) cannot be condensed, as the "expected ..." of an error line; None if it
-        can (no part in the null space of ``M``: massless DOFs are in it)."""
-        b = np.asarray(vector, dtype=float)
-        if np.any(b[self.condensed] != 0):
-            return (f"a DOF that carries mass ({what}, which is massless and condensed out "
-                    "statically; gaps may act there, loads and initial states not)")
-        part = self.null_part(b)
-        if part > NULL_PART_TOLERANCE:
-            return (f"DOFs with no part in the null space of the mass matrix ({what}: "
-                    f"{part:.2g} of it lies in the {self.null_space.shape[1]} massless modes or "
-                    "DOFs, where a prescribed force meets no inertia; gaps may act there, "
-                    "loads and initial states not: put them on a DOF with mass, or export "
-                    "fully integrated elements, e.g. C3D20, or a lumped mass)")
-        return None
-
-    def _checked(self, vector: NDArray[np.float64], what: str) -> None:
-        problem = self.forcing_problem(vector, what)
-        if problem is not None:
-            raise ModelError(f"dof: {what} is not valid; expected {problem}")
+    def state_problem(self, x: ArrayLike) -> str | None:
+        """Why the full state ``x`` cannot be condensed, as the "expected ..." of an error
+        line; None if it can: it has no part in the null space (:meth:`null_part`; the
+        massless part is then set from ``q = P x``), or it is a state ``x = T q`` of the
+        condensed model (a mode shape: checked by projection, ``‖x − T P x‖ ≤``
+        :data:`NULL_PART_TOLERANCE` ``‖x‖``)."""
+        v = np.asarray(x, dtype=float)
+        size = float(np.linalg.norm(v))
+        part = self.null_part(v)
+        if part <= NULL_PART_TOLERANCE:
+            return None
+        off = float(np.linalg.norm(v - self.transform @ (self.projection @ v))) / size
+        if off <= NULL_PART_TOLERANCE:
+            return None
+        return (f"values with no part in the null space of the mass matrix ({part:.2g} of them "
+                f"lie in its {self.null_space.shape[1]} massless modes or DOFs, whose state "
+                f"follows from the others), or a state x = T q of the condensed model such as "
+                f"a mode shape ({off:.2g} of them is not)")
 
     def _vector(self, dofs: Sequence[int], weights: Sequence[float]) -> NDArray[np.float64]:
         b = np.zeros(self.full.n_dof)
@@ -232,13 +233,24 @@ class StaticCondensation:
         """``load`` (on full DOFs) as loads on the reduced coordinates with the generalized
         force ``Tᵀf`` (:func:`weighted_loads`)."""
         b = self._vector(load.dofs, (1.0,) * len(load.dofs))
-        self._checked(b, "the load")
         return weighted_loads(load, np.asarray(self.transform.T @ b))
 
+    def load_response(self, load: Load) -> NDArray[np.float64] | None:
+        """``G f`` of ``load`` (full DOFs, per newton of ``F(t)``): the static response of the
+        massless part, which :class:`DofRecovery` adds times ``F(t)``; None if ``f`` has no
+        part in the null space."""
+        b = self._vector(load.dofs, (1.0,) * len(load.dofs))
+        if self.null_part(b) <= NULL_PART_TOLERANCE:
+            return None
+        return self.static_response(b)
+
     def reduce_state(self, x: ArrayLike) -> NDArray[np.float64]:
-        """The reduced state ``q = P x`` of a full state with no part in the null space."""
+        """The reduced state ``q = P x`` of a full state that :meth:`state_problem` accepts
+        (a :class:`ModelError` otherwise)."""
         v = np.asarray(x, dtype=float)
-        self._checked(v, "the state")
+        problem = self.state_problem(v)
+        if problem is not None:
+            raise ModelError(f"initial: the state is not valid; expected {problem}")
         return np.asarray(self.projection @ v)
 
     def reduced_index(self, dof: int) -> int:
@@ -260,11 +272,13 @@ class StaticCondensation:
             return np.asarray(self.transform @ x)
         return np.asarray((self.transform @ x.T).T)
 
-    def output(self, dofs: Sequence[int] | None = None, gaps: Sequence[Gap] = ()) -> DofRecovery:
+    def output(self, dofs: Sequence[int] | None = None, gaps: Sequence[Gap] = (),
+               loads: Sequence[Load] = ()) -> DofRecovery:
         """The :class:`DofRecovery` of a run that should report the full DOFs ``dofs`` (None:
-        every DOF, the condensed ones included); ``gaps``: the model's gaps on the full DOFs
-        (before :meth:`reduce_gaps`), whose contact forces move the massless modes."""
-        return DofRecovery(self, dofs, gaps)
+        every DOF, the condensed ones included); ``gaps``, ``loads``: the model's gaps and
+        loads on the full DOFs (before :meth:`reduce_gaps`, :meth:`reduce_load`), whose forces
+        move the massless modes."""
+        return DofRecovery(self, dofs, gaps, loads)
 
 
 @dataclass(frozen=True)
@@ -321,7 +335,7 @@ class DofRecovery:
     """
 
     def __init__(self, condensation: StaticCondensation, dofs: Sequence[int] | None,
-                 gaps: Sequence[Gap] = ()) -> None:
+                 gaps: Sequence[Gap] = (), loads: Sequence[Load] = ()) -> None:
         t = condensation.transform
         n = t.shape[0]
         self.labels = np.arange(n) if dofs is None else np.asarray(dofs, dtype=np.int64)
@@ -345,11 +359,30 @@ class DofRecovery:
                 i, row[self.record], condensation.static_response(b)[self.labels], c,
                 law.contact_stiffness, float(law.exponent), law.compliance + c,
                 {"positive": (1.0,), "negative": (-1.0,), "both": (1.0, -1.0)}[g.side]))
+        #: loads with a part in the massless modes and their static response ``G f``
+        self._loads: list[tuple[Load, NDArray[np.float64]]] = []
+        for i, load in enumerate(loads):
+            response = condensation.load_response(load)
+            if response is None:
+                continue
+            f = condensation._vector(load.dofs, (1.0,) * len(load.dofs))
+            for j, g in compliant:
+                cross = float(condensation._vector(g.dofs, g.coefficients or (1.0,) * len(g.dofs))
+                              @ response)
+                if abs(cross) > 1e-9 * math.sqrt(condensation.gap_compliance(g)
+                                                 * float(f @ response)):
+                    raise ModelError(
+                        f"loads[{i}].dof: {list(load.dofs)} is not valid; expected a load not "
+                        f"coupled to gaps[{j}] through the massless modes of the mass matrix "
+                        f"(bᵀ·G·f = {cross:.3e} m/N: its static response would move the gap); "
+                        "move one of them, or use fully integrated elements (C3D20)")
+            self._loads.append((load, response[self.labels]))
         retained = {int(d): k for k, d in enumerate(condensation.retained)}
         position = {int(d): j for j, d in enumerate(self.record)}
         #: column of ``record`` that a reported DOF is, -1 for a recovered (condensed) one
         self._direct = np.array([position[retained[int(d)]]
-                                 if int(d) in retained and not self._gaps else -1
+                                 if int(d) in retained and not (self._gaps or self._loads)
+                                 else -1
                                  for d in self.labels], dtype=np.int64)
         self._peak = np.zeros(len(self.labels))
         full_units = condensation.full.dof_units
@@ -375,6 +408,12 @@ class DofRecovery:
                     out[name] = out[name] + np.outer(term, gap.response)  # type: ignore[operator]
                 penetration[:, gap.index] -= gap.compliance * force[:, gap.index]
             out["gap_penetration"] = penetration
+        if self._loads:
+            time = np.asarray(raw["time"], dtype=float)
+            for load, response in self._loads:
+                terms = load.force_and_rates(time)
+                for name, term in zip(recorded, terms, strict=True):
+                    out[name] = out[name] + np.outer(term, response)  # type: ignore[operator]
         x = out["displacement"]
         assert isinstance(x, np.ndarray)
         if len(x):
@@ -387,7 +426,8 @@ class DofRecovery:
         if not np.array_equal(result.dofs, self.record):
             raise ModelError(f"dofs: {result.dofs.tolist()} is not valid; expected the run to "
                              f"record the DOFs {self.record.tolist()} of DofRecovery.record")
-        rows = self.rows({"displacement": result.displacement, "velocity": result.velocity,
+        rows = self.rows({"time": result.time, "displacement": result.displacement,
+                          "velocity": result.velocity,
                           "acceleration": result.acceleration,
                           "gap_force": result.gap_force,
                           "gap_penetration": result.gap_penetration})

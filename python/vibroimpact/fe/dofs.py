@@ -160,6 +160,26 @@ class DofMap:
         """The DOF indices of the layers of ``(node, direction)`` (empty if it has none)."""
         return list(self._layered.get((int(node), direction_name(direction)), []))
 
+    def shell_weights(self, node: int, direction: str | int) -> tuple[list[int], list[float]]:
+        """The DOFs and weights that make the shell node's displacement in ``direction`` from
+        its layers: CalculiX's mean through the thickness (its ``map3dto1d2d``, which gives
+        the shell node's results): ``1/6, 2/3, 1/6`` over the three layers of a corner node
+        (Simpson's rule on the quadratic field), ``1/2, 1/2`` over the two of a midside node
+        (a linear one); ``([index], [1.0])`` for a pair without layers. As a gap's
+        coefficients they make the gap act on the shell node (a force on it is spread over the
+        layers by the same weights)."""
+        layered = self.layer_dofs(node, direction)
+        if not layered:
+            return [self.index(node, direction)], [1.0]
+        weights = {2: [0.5, 0.5], 3: [1 / 6, 2 / 3, 1 / 6]}.get(len(layered))
+        if weights is None:
+            raise ModelError(
+                f"node: {node!r} is not valid with direction {direction_name(direction)!r}; "
+                f"expected 2 or 3 layers through the thickness (CalculiX's expanded shell), "
+                f"not {len(layered)} (DOFs {', '.join(map(str, layered))})"
+            )
+        return layered, weights
+
     def index(self, node: int, direction: str | int) -> int:
         """The DOF index of ``(node, direction)``; a :class:`ModelError` names what exists."""
         d = direction_name(direction)

@@ -230,6 +230,7 @@ def craig_bampton(
     k_ii = ks[interior][:, interior]
     k_ib = ks[interior][:, b].toarray()
     m_ii = ms[interior][:, interior]
+    lu = None
     if ni == 0:
         psi = np.zeros((0, len(b)))
     elif sparse:
@@ -249,8 +250,11 @@ def craig_bampton(
         raise ModelError(_singular_message(len(b)))
     if n_modes:
         if sparse and n_modes < ni - 1:
+            assert lu is not None  # shift-invert about 0 reuses the factor of K_ii
+            k_inv = spla.LinearOperator((ni, ni), matvec=lu.solve, dtype=float)
             lam, phi = spla.eigsh(
-                sp.csc_array(k_ii), k=n_modes, M=sp.csc_array(m_ii), sigma=0.0, which="LM"
+                sp.csc_array(k_ii), k=n_modes, M=sp.csc_array(m_ii), sigma=0.0, which="LM",
+                OPinv=k_inv,
             )
             order = np.argsort(lam)
             lam, phi = lam[order], phi[:, order]

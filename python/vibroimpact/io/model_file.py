@@ -37,7 +37,6 @@ from numpy.typing import NDArray
 
 from vibroimpact import contact, integrators
 from vibroimpact.errors import ModelError, SolverError
-from vibroimpact.fe.condensation import NULL_PART_TOLERANCE
 from vibroimpact.fe.damping import damping_from_table
 from vibroimpact.fe.dofs import DofMap, FEStructure
 from vibroimpact.fe.matrices import FORMATS, SUFFIXES, read_dof_map, read_matrix_files
@@ -1321,24 +1320,18 @@ def _node_dofs(
         return None
 
 
-def _on_mass(
-    ck: _Checker, p: str, dofs: tuple[int, ...], coefficients: Sequence[float] | None, what: str
-) -> bool:
-    """Whether ``what`` acting on ``dofs`` (of the file's matrices, with ``coefficients``) can
-    be condensed; records a mistake at ``p`` (the key that named the DOFs) if not: a massless
-    DOF, or a part in the null space of the mass matrix."""
-    cond = ck.context.get("condensation")
-    if cond is None:
-        return True
-    b = np.zeros(cond.full.n_dof)
-    np.add.at(b, list(dofs), list(coefficients or (1.0,) * len(dofs)))
-    massless = [d for d in dofs if d in set(cond.condensed.tolist())]
-    on = _dof_label(ck, massless[0] if massless else dofs[0])
-    problem = cond.forcing_problem(b, f"{what} on {on}")
-    if problem is not None:
-        ck.invalid(p, ck.raw.get(p), problem)
-        return False
-    return True
+def _shell_node(ck: _Checker, g: Mapping[str, Any]) -> tuple[list[int], list[float]] | None:
+    """The layers and weights of the gap's ``node``/``direction`` if CalculiX expanded it
+    (:meth:`~vibroimpact.fe.dofs.DofMap.shell_weights`), else None."""
+    dm = getattr(ck.context.get("fe"), "dof_map", None)
+    if dm is None or "node" not in g or "direction" not in g:
+        return None
+    try:
+        if not dm.layer_dofs(g["node"], g["direction"]):
+            return None
+        return dm.shell_weights(g["node"], g["direction"])
+    except _CAUGHT:
+        return None  # _node_dofs names the mistake
 
 
 def _dof_label(ck: _Checker, dof: int) -> str:
@@ -1348,19 +1341,18 @@ def _dof_label(ck: _Checker, dof: int) -> str:
     return f"DOF {dof}{at}"
 
 
-def _addressed_by(p: str, t: Mapping[str, Any]) -> str:
-    """The key of ``t`` that chose its DOFs (for error lines)."""
-    return next((f"{p}.{k}" for k in ("node", "nodes", "at") if k in t), f"{p}.dof")
-
-
 def _build_gap(ck: _Checker, i: int, g: Mapping[str, Any], n: int | None) -> Gap | None:
     gp = f"gaps[{i}]"
     if not ck.ok(gp):
         return None
     by_node = ck.context.get("structure.kind") in _WITH_NODES[1]
-    dofs: tuple[int, ...] = (_node_dofs(ck, gp, g, many=False) if by_node else g.get("dof")) or ()
-    _check_dofs(ck, f"{gp}.dof", dofs, n)
     coefficients = g.get("coefficients")
+    shell = _shell_node(ck, g) if by_node and coefficients is None else None
+    if shell is not None:  # a CalculiX shell node: the mean of its layers
+        dofs, coefficients = tuple(shell[0]), shell[1]
+    else:
+        dofs = (_node_dofs(ck, gp, g, many=False) if by_node else g.get("dof")) or ()
+    _check_dofs(ck, f"{gp}.dof", dofs, n)
     if coefficients is not None:
         if len(coefficients) != len(dofs):
             ck.invalid(
@@ -1429,8 +1421,6 @@ def _build_load(
     by_node = ck.context.get("structure.kind") in _WITH_NODES[1]
     dofs: tuple[int, ...] = (_node_dofs(ck, lp, ld, many=True) if by_node else ld.get("dof")) or ()
     _check_dofs(ck, f"{lp}.dof", dofs, n)
-    if ck.ok(lp) and dofs and not _on_mass(ck, _addressed_by(lp, ld), dofs, None, "a load"):
-        dofs = ()
     if not ck.ok(lp) or not dofs:
         return None
     dof = dofs if len(dofs) > 1 else dofs[0]
@@ -1446,7 +1436,10 @@ def _build_load(
             table: _Table = ld["file"]
             load = TableLoad(dof=dof, time=table.time, force=table.force, scale=ld["scale"])
         cond = ck.context.get("condensation")
-        return [load] if cond is None else cond.reduce_load(load)
+        if cond is None:
+            return [load]
+        ck.context.setdefault("file_loads", []).append(load)
+        return cond.reduce_load(load)
     except _CAUGHT as e:
         ck.add(lp, _reprefix(e, {"load.table": f"{lp}.file", "load": lp}, lp))
         return None
@@ -1552,25 +1545,17 @@ def _build_initial(
             continue
         x = np.asarray(values, dtype=float)
         cond = ck.context.get("condensation")
-        if cond is not None:  # a massless DOF's value follows from the others: give 0
+        problem = None if cond is None else cond.state_problem(x)
+        if problem is not None:
             moved = [int(d) for d in cond.condensed if x[d] != 0]
-            if moved:
-                d = moved[0]
-                ck.invalid(
-                    p, ck.raw.get(p), f"0 on the massless {_dof_label(ck, d)} (it is condensed "
-                    f"out statically, its value follows from the others), not {float(x[d])!r}",
-                )
-                out[key] = None
-                continue
-            part = cond.null_part(x)
-            if part > NULL_PART_TOLERANCE:
-                ck.invalid(
-                    p, ck.raw.get(p), f"values with no part in the null space of the mass matrix "
-                    f"({part:.2g} of them lie in its massless modes, whose state follows from "
-                    "the others)",
-                )
-                out[key] = None
-                continue
+            if moved:  # a massless DOF's value follows from the others: give 0
+                problem = (f"0 on the massless {_dof_label(ck, moved[0])} (it is condensed out "
+                           "statically, its value follows from the others), or there the "
+                           f"static value of the others, not {float(x[moved[0]])!r}")
+            ck.invalid(p, ck.raw.get(p), problem)
+            out[key] = None
+            continue
+        if cond is not None:
             x = cond.reduce_state(x)
         out[key] = x
     return out
@@ -1650,6 +1635,12 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
         except _CAUGHT as e:
             ck.add(str(e).split(":", 1)[0], str(e))
     loads = [_build_load(ck, i, ld, n) for i, ld in enumerate(top.get("loads", []))]
+    if "condensation" in ck.context and ck.ok("gaps") and ck.ok("loads"):
+        try:  # a load coupled to a gap through the massless modes
+            ck.context["condensation"].output([], ck.context.get("file_gaps", []),
+                                              ck.context.get("file_loads", []))
+        except _CAUGHT as e:
+            ck.add(str(e).split(":", 1)[0], str(e))
     dofs = _output_dofs(ck, top.get("output", {}), n)
     initial = _build_initial(ck, top.get("initial", {}), n)
     solver = top.get("solver", {})
@@ -1687,6 +1678,7 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
         beam=ck.context.get("beam"),
         condensation=ck.context.get("condensation"),
         file_gaps=tuple(ck.context.get("file_gaps", ())),
+        file_loads=tuple(ck.context.get("file_loads", ())),
     )
 
 
@@ -1722,6 +1714,8 @@ class ModelFile:
     #: The gaps on the file's DOFs (of a condensed model: :attr:`model` has them reduced),
     #: which :meth:`recovery` needs for the contact's part in the massless modes.
     file_gaps: tuple[Gap, ...] = ()
+    #: The loads on the file's DOFs, whose part in the massless modes :meth:`recovery` adds.
+    file_loads: tuple[Load, ...] = ()
 
     @property
     def run_dofs(self) -> list[int] | None:
@@ -1729,7 +1723,7 @@ class ModelFile:
         None for all) so that :meth:`recovery` can report :attr:`dofs`."""
         if self.condensation is None or self.dofs is None:
             return self.dofs
-        return self.condensation.output(self.dofs, self.file_gaps).record.tolist()
+        return self.condensation.output(self.dofs, self.file_gaps, self.file_loads).record.tolist()
 
     def recovery(self) -> DofRecovery | None:
         """A fresh :class:`~vibroimpact.fe.condensation.DofRecovery` that turns a run of
@@ -1737,7 +1731,7 @@ class ModelFile:
         the file's (no condensation)."""
         if self.condensation is None:
             return None
-        return self.condensation.output(self.dofs, self.file_gaps)
+        return self.condensation.output(self.dofs, self.file_gaps, self.file_loads)
 
     def simulate(self, *, throw: bool = True, progress: bool = False) -> Result:
         """Run the model with the file's solver and output settings
@@ -2020,11 +2014,11 @@ def render_reference() -> str:
         "(`vibroimpact.fe.condensation`, sparse). This is exact when the damping on the massless",
         "DOFs is zero, Rayleigh (`αM + βK`) or modal; any other damping acting on them is",
         "neglected in their (static) equations, with a `CondensationWarning`. `K_ss` must be",
-        "positive definite (the massless DOFs held by stiffness). A load on a massless DOF is",
-        "refused (a force there would move it instantaneously), and `[initial]` must be 0",
-        "there; a gap there has its `hertz` law in series with the DOF's static compliance (see",
-        "the next paragraph). DOF indices in the file (`dof`, `output.dofs`, the `[initial]`",
-        "lists) count",
+        "positive definite (the massless DOFs held by stiffness). A load on a massless DOF",
+        "moves it statically (see the next paragraph), and `[initial]` must be 0 there (or the",
+        "static value of the others); a gap there has its `hertz` law in series with the DOF's",
+        "static compliance (the next paragraph). DOF indices in the file (`dof`,",
+        "`output.dofs`, the `[initial]` lists) count",
         "the file's DOFs. The model that runs has the DOFs with mass only, in the same order",
         "(`ModelFile.condensation.retained` maps them back), but its results (`vibroimpact run`,",
         "`ModelFile.simulate`: the `dof` coordinate, the CSV columns `x8 [m]`, `x9 [rad]`, ...)",
@@ -2042,9 +2036,11 @@ def render_reference() -> str:
         "below -1e-10 of it is refused, naming it) is condensed the same way in the eigenvectors",
         "of `M`, `x = T q` with `T = R - Z (ZᵀKZ)⁻¹ ZᵀKR` (dense, up to 6,000 DOFs), so that the",
         "finite frequencies are exactly those of the FE program. The coordinates `q` are then",
-        "generalized: results are recovered on the file's DOFs as above, and a load or an",
-        "`[initial]` state must have no part in `Z` (a force there meets no inertia). Every",
-        "node of such elements has one. A gap there works: the massless modes answer its force",
+        "generalized: results are recovered on the file's DOFs as above; an `[initial]` state",
+        "must have no part in `Z` or be a state `T q` (a mode shape). Every node of such",
+        "elements has a part in `Z`. A load there works: it acts on `q` as `Tᵀf F(t)` and the",
+        "recovered DOFs include its static part `Z (ZᵀKZ)⁻¹ Zᵀ f F(t)` (exact); one that moves",
+        "a gap there statically is refused. A gap there works: the massless modes answer its force",
         "`φ` statically, `u = (Tᵀb)ᵀq + c φ` with `c = bᵀ Z (ZᵀKZ)⁻¹ Zᵀ b`, so its law (`hertz`",
         "only, any exponent) runs in series with a spring of compliance `c` (`law.compliance`),",
         "exactly, and the recovered DOFs and penetration include the contact's static part",
