@@ -1,7 +1,8 @@
 """Special points of continued branches beyond the one-DOF oscillator: the hollow shaft on its
 sliders (a planar beam, Newmark at fixed steps) through a fold with impacts at every slider on
 both sides of it, its multipliers against finite differences of the simulated map, and the
-symmetry-breaking pitchfork of the same symmetric shaft located as a branch point."""
+symmetry-breaking pitchfork of the same symmetric shaft located as a branch point; a
+Neimark–Sacker point of a two-mass chain with a stop, against simulation on either side of it."""
 
 from __future__ import annotations
 
@@ -106,3 +107,37 @@ def test_symmetry_breaking_pitchfork_of_the_shaft_is_a_branch_point() -> None:
         transient=100, method=vi.Newmark(), dt=1 / (past.value * STEPS))
     assert other.stable and other.impacts_per_period > 0
     assert abs(other.displacement[0] - other.displacement[4]) > 1e-2 * abs(other.displacement[0])
+
+
+def two_masses(frequency: float) -> vi.Model:
+    """Two unit masses in a chain (springs 1, 1), Rayleigh-like damping ``0.01 (M + K)``, a
+    Hertz stop (10 δ^1.5) 0.3 beyond the second mass, 0.2 cos(2πft) on the first."""
+    mass, stiffness = np.eye(2), np.array([[2.0, -1.0], [-1.0, 1.0]])
+    return vi.Model(
+        vi.Structure(mass=mass, stiffness=stiffness, damping=0.01 * (mass + stiffness)),
+        gaps=[vi.Gap(dof=1, clearance=0.3, side="positive",
+                     law=vi.contact.Hertz(stiffness=10.0, exponent=1.5))],
+        loads=[vi.HarmonicLoad(dof=0, amplitude=0.2, frequency=frequency, phase=np.pi / 2)])
+
+
+def test_neimark_sacker_point_of_a_two_mass_chain_with_a_stop() -> None:
+    """A complex pair of multipliers leaves the unit circle: located, it is on the circle;
+    in simulation a perturbation of the orbit dies out before the point and grows after it."""
+    branch = vi.continue_orbit(two_masses(0.124), FREQUENCY, 0.124, 0.13, transient=200,
+                               step=0.05, max_step=0.3, max_points=80)
+    ns = [s.point for s in branch.special_points if s.type == "neimark-sacker"]
+    assert len(ns) == 1
+    pair = ns[0].multipliers[:2]  # the largest pair: complex, on the circle
+    assert pair[0] == np.conj(pair[1]) and abs(pair[0].imag) > 0.1
+    assert np.max(np.abs(np.abs(pair) - 1)) < 1e-6
+    points = [p for p in branch.points if p.impacts_per_period > 0]
+    before = [p for p in points if p.arclength < ns[0].arclength][-1]
+    after = next(p for p in points if p.arclength > ns[0].arclength)
+    assert before.stable and not after.stable
+    assert after.multipliers[0].imag != 0 and np.all(np.abs(after.multipliers[:2]) > 1)
+    for point, decays in ((before, True), (after, False)):
+        shooting = vi.orbits.Shooting(two_masses(point.value))
+        start = point.state + 1e-6 * np.array([1.0, 0.0, 0.0, 0.0])
+        end = shooting.settle(start, 200)
+        distance = np.linalg.norm(end - point.state)
+        assert (distance < 1e-8) if decays else (distance > 1e-4)
