@@ -62,6 +62,10 @@ SWITCH_ATTEMPTS = 12
 #: Iterations locating a special point, and the arclength (scaled) it is located to.
 MAX_LOCATE_ITERATIONS = 40
 LOCATE_TOLERANCE = 1e-13
+#: A trial point of a special point's location is corrected to this fraction of the
+#: continuation's residual, or to the residual itself where the map is not that smooth (the
+#: Newmark family's converged steps: their own Newton's tolerance).
+LOCATE_RESIDUAL = 0.01
 #: A located zero's test function must be below this fraction of its values at the ends.
 LOCATED_FRACTION = 1e-3
 #: At a located fold, period-doubling or Neimark–Sacker point a multiplier must be this close to
@@ -433,12 +437,13 @@ class _Continuation:
         cache: dict[float, _Solution] = {}
 
         def test(s: float) -> float:
-            try:
-                cache[s] = self.step(sol, s, refine=refine, tol=0.01 * self.tol,
-                                     guard=False)[0]
-            except _StepFailed:
-                raise _LocateFailed from None
-            return float(cache[s].tests[kind][index])
+            for tol in (LOCATE_RESIDUAL * self.tol, self.tol):
+                try:
+                    cache[s] = self.step(sol, s, refine=refine, tol=tol, guard=False)[0]
+                    return float(cache[s].tests[kind][index])
+                except _StepFailed:
+                    pass  # the map's own noise may be above the tighter residual
+            raise _LocateFailed
 
         try:
             fa = test(1e-300) if refine else float(sol.tests[kind][index])

@@ -83,19 +83,29 @@ HOLLOW_SHAFT_DT = 2e-6
 HOLLOW_SHAFT_SLIDERS = ("start", "middle", "end")
 
 
-def hollow_shaft_beam(theory: str = "timoshenko", elements: int = 20) -> Any:
+def hollow_shaft_beam(theory: str = "timoshenko", elements: int = 20, *,
+                      damping: Any = None, mount_stiffness: float = 0.0) -> Any:
     """Case 3's tube as a planar beam (``vibroimpact.fe.Beam``): Ø190 mm × 5 mm wall ×
     1000 mm, E = 207 GPa, ν = 0.3, ρ = 34.41 g/cm³ (≈ 100 kg), free–free, ``elements`` equal
     elements of ``theory`` ``"timoshenko"`` (Cowper's thin-tube shear coefficient, rotary
-    inertia) or ``"euler-bernoulli"``; consistent mass (docs/paper-cases.md §Case 3)."""
-    from vibroimpact.fe import Beam, Material, Section
+    inertia) or ``"euler-bernoulli"``; consistent mass (docs/paper-cases.md §Case 3).
 
+    Not in the paper (the continuation's variant, docs/periodic-orbits.md): ``damping``
+    (``vibroimpact.fe.Rayleigh``, default undamped) and, with ``mount_stiffness`` > 0 (N/m),
+    a spring in x to ground at each end (the shaft on soft mounts: its rigid-body modes
+    become a resonance)."""
+    from vibroimpact.fe import Beam, Material, Section, Spring
+
+    springs = ([Spring(mount_stiffness, "x", node=end) for end in ("start", "end")]
+               if mount_stiffness > 0 else [])
     return Beam(
         length=1.0,
         elements=elements,
         section=Section.tube(outer_diameter=0.190, wall_thickness=0.005),
         material=Material(youngs_modulus=207e9, poisson=0.3, density=34410.0),
         theory=theory,
+        damping=damping,
+        springs=springs,
     )
 
 
@@ -107,16 +117,23 @@ def hollow_shaft_model(
     clearance: float = 0.003,
     load: bool = True,
     initial_velocity: Any = None,
+    initial_displacement: Any = None,
+    load_amplitude: float = 100.0,
+    load_frequency: float = 10.0,
+    damping: Any = None,
+    mount_stiffness: float = 0.0,
 ) -> Model:
     """Case 3 (paper §3.2, Figs. 14–17): the hollow shaft of :func:`hollow_shaft_beam` between
     sliders at both ends and the middle, ``clearance`` (m) on both sides in x (gaps named
     ``start``, ``middle``, ``end``), and with ``load`` the force F = 100 sin(20πt) N in x at
-    every node.
+    every node (``load_amplitude`` N, ``load_frequency`` Hz). ``damping``,
+    ``mount_stiffness``: as :func:`hollow_shaft_beam` (the paper's case has neither).
 
     Contact law (``law``, default Hertz): the paper does not give this case's contact
     stiffness, so we use the one Hertz stiffness it derives, eq. 4 with the case-1 steel
     ball-in-socket geometry, K = 1.509e11 N/m^1.5, exponent 1.5."""
-    beam = hollow_shaft_beam(theory, elements)
+    beam = hollow_shaft_beam(theory, elements, damping=damping,
+                             mount_stiffness=mount_stiffness)
     law = paper_law("hertz", 1.0) if law is None else law
     gaps = [
         beam.gap(law, node=name, direction="x", clearance=clearance, side="both", name=name)
@@ -125,6 +142,8 @@ def hollow_shaft_model(
     loads = []
     if load:
         loads.append(
-            beam.load(HarmonicLoad, nodes="all", direction="x", amplitude=100.0, frequency=10.0)
+            beam.load(HarmonicLoad, nodes="all", direction="x", amplitude=load_amplitude,
+                      frequency=load_frequency)
         )
-    return beam.model(gaps, loads, initial_velocity=initial_velocity)
+    return beam.model(gaps, loads, initial_displacement=initial_displacement,
+                      initial_velocity=initial_velocity)
