@@ -7,7 +7,8 @@
 //! steps: the derivative of each converged step of its discrete map,
 //! `integrators::newmark_variational`) carry `Φ` from the run's start; the first two compose
 //! it, at every located event where the vector field or the state jumps, with the saltation
-//! matrix ([`saltation`]). [`crate::simulate::simulate_with_sensitivity`] returns
+//! matrix ([`saltation`]; DOP853 to first order: it differentiates the landing condition of
+//! the step that ends on the switch, `integrators::dop853_variational`). [`crate::simulate::simulate_with_sensitivity`] returns
 //! it in [`crate::output::RunOutput::state_transition`].
 
 use nalgebra::{DMatrix, DVector};
