@@ -320,6 +320,27 @@ impl Load {
                 LoadHistory::Table { time, value } => interpolate(time, value, t),
             }
     }
+
+    /// `A · g'(t)` (a table's: the slope of the segment holding `t`, zero outside it).
+    pub fn rate(&self, t: f64) -> f64 {
+        self.amplitude
+            * match &self.history {
+                LoadHistory::Constant => 0.0,
+                LoadHistory::Harmonic { frequency, phase } => {
+                    let w = 2.0 * std::f64::consts::PI * frequency;
+                    w * (w * t + phase).cos()
+                }
+                LoadHistory::Table { time, value } => {
+                    let last = time.len() - 1;
+                    if t < time[0] || t >= time[last] {
+                        0.0
+                    } else {
+                        let i = time.partition_point(|&ti| ti <= t) - 1;
+                        (value[i + 1] - value[i]) / (time[i + 1] - time[i])
+                    }
+                }
+            }
+    }
 }
 
 /// Piecewise-linear interpolation, held constant outside the table.
@@ -369,6 +390,41 @@ mod tests {
         let t = 0.137;
         let expected = 3.0 * (2.0 * std::f64::consts::PI * 2.0 * t + 0.25).sin();
         assert!((load.value(t) - expected).abs() < 1e-14);
+    }
+
+    /// `rate` against a central difference of `value`, for a harmonic and a table load.
+    #[test]
+    fn rate_is_the_derivative_of_value() {
+        let harmonic = Load {
+            dofs: vec![0],
+            amplitude: 3.0,
+            history: LoadHistory::Harmonic {
+                frequency: 2.0,
+                phase: 0.25,
+            },
+        };
+        let table = Load {
+            dofs: vec![0],
+            amplitude: 2.0,
+            history: LoadHistory::Table {
+                time: vec![0.0, 1.0, 3.0],
+                value: vec![0.0, 10.0, 30.0],
+            },
+        };
+        let tau = 1e-6;
+        for (load, t) in [
+            (&harmonic, 0.137),
+            (&table, 0.5),
+            (&table, 2.0),
+            (&table, 4.0),
+        ] {
+            let fd = (load.value(t + tau) - load.value(t - tau)) / (2.0 * tau);
+            let got = load.rate(t);
+            assert!(
+                (got - fd).abs() < 1e-6 * fd.abs().max(1.0),
+                "{got} vs {fd} at {t}"
+            );
+        }
     }
 
     #[test]

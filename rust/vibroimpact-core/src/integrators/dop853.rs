@@ -55,6 +55,10 @@ const EVENT_SAMPLES: usize = 32;
 /// Landings on one event before the step is kept as it is.
 const MAX_LANDINGS: usize = 8;
 
+/// A switch this close to a step's end (in fractions of the step) is landed on to round-off
+/// when the state-transition matrix is carried (`landing_correction`).
+const LANDING_WINDOW: f64 = 1e-3;
+
 /// Models up to this many DOFs apply a dense `M⁻¹` instead of solving with `M`'s factor.
 const MAX_DENSE_INVERSE: usize = 32;
 
@@ -917,6 +921,26 @@ impl<'s> Dop853Steps<'s> {
     }
 }
 
+/// How much longer (s) a step of length `h` that ended at `end` must be to end on a wall's
+/// switch, if one lies within [`LANDING_WINDOW`] of the step's length from its end (at most
+/// `room` later), to first order in the wall's rate: `None` once it ends on it to round-off.
+fn landing_correction(
+    contacts: &[Contact],
+    end: &StepEnd,
+    t: f64,
+    h: f64,
+    room: f64,
+) -> Option<f64> {
+    contacts
+        .iter()
+        .zip(&end.walls)
+        .filter(|(c, [_, rate, _])| if c.active { *rate < 0.0 } else { *rate > 0.0 })
+        .map(|(_, [delta, rate, _])| -delta / rate)
+        .filter(|tau| tau.abs() < LANDING_WINDOW * h && *tau < room)
+        .filter(|tau| tau.abs() > 4.0 * f64::EPSILON * t.max(h))
+        .min_by(|a, b| a.total_cmp(b))
+}
+
 /// Integrates every contact in time (no step in `ζ`, whose duration depends on the state):
 /// what the state-transition matrix is carried along.
 fn in_time_only(contacts: &mut [Contact]) {
@@ -942,14 +966,7 @@ impl StepPolicy for Dop853Steps<'_> {
             let (switched, closed) =
                 switch_walls(sys, &mut self.contacts, &self.start, self.near_switch);
             if let (Some(var), Some(before), true) = (&mut self.variational, before, switched) {
-                var.switch(
-                    sys,
-                    &mut self.dynamics,
-                    &before,
-                    &self.contacts,
-                    &self.start,
-                    t0,
-                );
+                var.switch(sys, &before, &self.contacts, &self.start);
                 in_time_only(&mut self.contacts);
             }
             if switched {
@@ -1145,11 +1162,27 @@ impl StepPolicy for Dop853Steps<'_> {
                     continue;
                 }
             }
+            // the state-transition matrix differentiates the landing condition δ = 0 of a
+            // switch: the step that ends next to one is retaken to end on it to round-off
+            if let (Some(_), true) = (&self.variational, self.landings < MAX_LANDINGS) {
+                let room = match self.dt_fixed {
+                    Some(_) => target - duration,
+                    None => self.t_end - t0 - duration,
+                } - self.tol_t;
+                if let Some(tau) =
+                    landing_correction(&self.contacts, &self.end, t0 + duration, duration, room)
+                {
+                    run.stats.rejected_steps += 1;
+                    self.landing = Some((duration + tau, true));
+                    self.landings += 1;
+                    continue;
+                }
+            }
             self.landings = 0;
             self.near_switch = 2.0 * near;
             let landed = h_try < target * (1.0 - 1e-12);
             if let Some(var) = &mut self.variational {
-                var.step(sys, &self.stages, &self.contacts, &self.start, duration);
+                var.step(sys, &self.stages, &self.contacts, t0, &self.start, duration);
             }
             self.inside.scan(
                 sys,

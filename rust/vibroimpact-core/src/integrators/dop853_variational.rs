@@ -4,9 +4,19 @@
 //! with `J = [[0, I], [−M⁻¹(K + Σ F_δ bbᵀ), −M⁻¹(C + Σ F_δ̇ bbᵀ)]]` at the stage (the contact
 //! tangent of each active wall there), and `Φ₁ = Φ₀ + h Σ_i b_i dK_i`. A law that depends on
 //! the approach speed `v_imp` (fixed at the contact's onset) adds `∂F/∂v_imp · ∂v_imp/∂z₀`,
-//! the latter taken at the onset through the located switch. At each switch of a wall (its
-//! contact's onset or end, where a law such as Kelvin–Voigt's jumps by `c δ̇`) the saltation
-//! matrix `S = I + (f⁺ − f⁻) ∇δᵀ / δ̇` composes `Φ` (docs/periodic-orbits.md).
+//! the latter taken at the onset through the located switch.
+//!
+//! The step landed on a wall's switch (its contact's onset or end, `δ(z(t_s)) = 0`) ends at a
+//! time that depends on the initial state: `dt_s/dz₀ = −∇δᵀΦ/(∇δᵀf⁻)` with `f⁻` the vector
+//! field before the switch. [`Variational::switch`] keeps that row and moves `Φ` along `f⁻`
+//! onto the wall (`Φ ← Φ + f⁻ dt_s/dz₀`, so that `∇δᵀΦ = 0`); the step after it then starts on
+//! the wall at the perturbed time under the post-switch law (its stages carry `∂f/∂t · dt_s`,
+//! the loads' rate), and its end is brought back to the fixed time (`Φ ← Φ − f dt_s/dz₀`).
+//! To first order this is the saltation matrix `S = I + (f⁺ − f⁻) ∇δᵀ / δ̇` at the switch
+//! (Kelvin–Voigt's force jump `c δ̇` included), but no stage differentiates across the wall:
+//! the first stage after it sits on the wall with `∇δᵀ dY = 0`, where a linear spring's or
+//! Kelvin–Voigt's slope jumps and a power law's of exponent < 1 is infinite, none of which
+//! then enters (docs/periodic-orbits.md).
 //!
 //! The step sizes are those the error control chose; the steps land on every switch, so the
 //! derivative is that of the integrated flow to the method's tolerance. Contacts are then
@@ -15,10 +25,10 @@
 
 use nalgebra::{DMatrix, DVector, RowDVector};
 
-use super::super::dop853_tableau::{A, B, STAGES};
-use super::{dot, Contact, Dynamics, Stages, StepEnd, K};
+use super::super::dop853_tableau::{A, B, C, STAGES};
+use super::{dot, Contact, Stages, StepEnd, K};
 use crate::contact::{ContactLaw, MIN_IMPACT_SPEED};
-use crate::sensitivity::{saltation_update, StateTransition};
+use crate::sensitivity::StateTransition;
 use crate::system::System;
 
 /// Relative step of the central difference of a law's force in its approach speed.
@@ -38,6 +48,12 @@ pub(super) struct Variational {
     impact_speed: Vec<Option<RowDVector<f64>>>,
     /// The stages' `dK_i`, `2n × 2n`.
     dk: Vec<DMatrix<f64>>,
+    /// The stages' derivatives in the step's length, `2n`.
+    dk_h: Vec<DVector<f64>>,
+    /// The last step's `d(end)/dh` (`None` before the first step).
+    rate_of_end: Option<DVector<f64>>,
+    /// `dt_s/dz₀` of the switch the next step starts from (`None`: no switch there).
+    time_shift: Option<RowDVector<f64>>,
 }
 
 impl Variational {
@@ -87,109 +103,180 @@ impl Variational {
             m_inv_rows,
             impact_speed: vec![None; sys.walls.len()],
             dk: vec![DMatrix::zeros(2 * n, 2 * n); STAGES],
+            dk_h: vec![DVector::zeros(2 * n); STAGES],
+            rate_of_end: None,
+            time_shift: None,
         }
     }
 
-    /// Composes `Φ` with the accepted step of length `h` in time from `start`, whose stage
-    /// values `stages` holds, under the contact set `contacts`.
+    /// Composes `Φ` with the accepted step of length `h` in time from `start` at `t0`, whose
+    /// stage values `stages` holds, under the contact set `contacts`, and keeps the derivative
+    /// of its end in its length.
     pub(super) fn step(
         &mut self,
         sys: &System,
         stages: &Stages,
         contacts: &[Contact],
+        t0: f64,
         start: &StepEnd,
         h: f64,
     ) {
         let n = self.n;
+        let time_shift = self.time_shift.take();
         let (mut xs, mut vs) = (vec![0.0; n], vec![0.0; n]);
+        let stage = |i: usize| {
+            let mut k = DVector::zeros(2 * n);
+            for d in 0..n {
+                k[d] = stages.kx[d * K + i];
+                k[n + d] = stages.kv[d * K + i];
+            }
+            k
+        };
+        let mut rate_of_end = DVector::zeros(2 * n);
         for (i, a_i) in A.iter().enumerate() {
             let mut dy = self.phi.matrix.clone();
+            let mut dy_h = DVector::zeros(2 * n);
             for (j, &a) in a_i.iter().enumerate() {
                 if a != 0.0 {
                     dy += &self.dk[j] * (h * a);
+                    dy_h += (stage(j) + &self.dk_h[j] * h) * a;
                 }
             }
             for d in 0..n {
                 xs[d] = start.x[d] + h * dot(a_i, &stages.kx[d * K..(d + 1) * K]);
                 vs[d] = start.v[d] + h * dot(a_i, &stages.kv[d * K..(d + 1) * K]);
             }
-            let dx = dy.rows(0, n);
-            let dv = dy.rows(n, n);
-            let mut bottom = &self.minus_k * dx + &self.minus_c * dv;
-            for (j, (wall, c)) in sys.walls.iter().zip(contacts).enumerate() {
-                if !c.active {
-                    continue;
-                }
-                let row = &self.rows[j];
-                let raw = row.dot(&DVector::from_column_slice(&xs)) - wall.clearance;
-                let rate = row.dot(&DVector::from_column_slice(&vs));
-                let (f_delta, f_rate, f_speed) = tangent(sys, j, c, raw, rate);
-                let mut along = (row.transpose() * dx) * f_delta + (row.transpose() * dv) * f_rate;
-                if let (Some(grad), true) = (&self.impact_speed[j], f_speed != 0.0) {
-                    along += grad * f_speed;
-                }
-                bottom -= &self.m_inv_rows[j] * along;
+            let tangents: Vec<Option<(f64, f64, f64)>> = sys
+                .walls
+                .iter()
+                .zip(contacts)
+                .enumerate()
+                .map(|(j, (wall, c))| {
+                    c.active.then(|| {
+                        let row = &self.rows[j];
+                        let raw = row.dot(&DVector::from_column_slice(&xs)) - wall.clearance;
+                        let rate = row.dot(&DVector::from_column_slice(&vs));
+                        tangent(sys, j, c, raw, rate)
+                    })
+                })
+                .collect();
+            let loads =
+                (time_shift.is_some() || C[i] != 0.0).then(|| load_rate(sys, t0 + C[i] * h));
+            let mut bottom = self.apply_jacobian(&tangents, &dy, true);
+            if let (Some(shift), Some(loads)) = (&time_shift, &loads) {
+                bottom += loads * shift;
+            }
+            let mut bottom_h = self.apply_jacobian(
+                &tangents,
+                &DMatrix::from_column_slice(2 * n, 1, dy_h.as_slice()),
+                false,
+            );
+            if let Some(loads) = &loads {
+                bottom_h += loads * C[i];
             }
             let dk = &mut self.dk[i];
-            dk.rows_mut(0, n).copy_from(&dv);
+            dk.rows_mut(0, n).copy_from(&dy.rows(n, n));
             dk.rows_mut(n, n).copy_from(&bottom);
+            let dk_h = &mut self.dk_h[i];
+            dk_h.rows_mut(0, n).copy_from(&dy_h.rows(n, n));
+            dk_h.rows_mut(n, n).copy_from(&bottom_h.column(0));
+            if B[i] != 0.0 {
+                rate_of_end += (stage(i) + &self.dk_h[i] * h) * B[i];
+            }
         }
         for (b, dk) in B.iter().zip(&self.dk) {
             if *b != 0.0 {
                 self.phi.matrix += dk * (h * b);
             }
         }
+        if let Some(shift) = &time_shift {
+            // back to the step's nominal end: its length shortened by the switch's delay
+            self.phi.matrix -= &rate_of_end * shift;
+        }
+        self.rate_of_end = Some(rate_of_end);
     }
 
-    /// Composes `Φ` with the saltation matrix of every wall that switched at `start` (time
-    /// `t`) from the contact set `before` to `after`, one wall at a time, and keeps the
-    /// derivative of each new contact's approach speed.
+    /// The acceleration rows `−M⁻¹(K dx + C dv + Σ (F_δ bbᵀdx + F_δ̇ bbᵀdv))` of `J dy` for a
+    /// stage with the active walls' `tangents` (and, with `impact_speed`, the term of a law's
+    /// approach speed).
+    fn apply_jacobian(
+        &self,
+        tangents: &[Option<(f64, f64, f64)>],
+        dy: &DMatrix<f64>,
+        impact_speed: bool,
+    ) -> DMatrix<f64> {
+        let n = self.n;
+        let dx = dy.rows(0, n);
+        let dv = dy.rows(n, n);
+        let mut bottom = &self.minus_k * dx + &self.minus_c * dv;
+        for (j, t) in tangents.iter().enumerate() {
+            let Some((f_delta, f_rate, f_speed)) = *t else {
+                continue;
+            };
+            let row = &self.rows[j];
+            let mut along = (row.transpose() * dx) * f_delta + (row.transpose() * dv) * f_rate;
+            if let (Some(grad), true) = (&self.impact_speed[j], impact_speed && f_speed != 0.0) {
+                along += grad * f_speed;
+            }
+            bottom -= &self.m_inv_rows[j] * along;
+        }
+        bottom
+    }
+
+    /// Moves `Φ` onto every wall that switched at `start` (the end of the step landed on it)
+    /// from the contact set `before` to `after`, keeping the switch time's derivative for the
+    /// next step (see the module doc) and that of each new contact's approach speed. A grazing
+    /// switch (`δ̇ = 0`) has no derivative and is passed over.
     pub(super) fn switch(
         &mut self,
         sys: &System,
-        dynamics: &mut Dynamics,
         before: &[Contact],
         after: &[Contact],
         start: &StepEnd,
-        t: f64,
     ) {
         let n = self.n;
-        let mut current = before.to_vec();
-        let mut a = vec![0.0; n];
         for j in 0..after.len() {
             if before[j].active == after[j].active {
-                current[j] = after[j];
                 continue;
             }
-            dynamics.accel(&current, None, t, &start.x, &start.v, &mut a);
-            let a_minus = DVector::from_column_slice(&a);
-            current[j] = after[j];
-            dynamics.accel(&current, None, t, &start.x, &start.v, &mut a);
-            let a_plus = DVector::from_column_slice(&a);
-            let v = DVector::from_column_slice(&start.v);
             let row = &self.rows[j];
-            let rate = row.dot(&v);
-            let mut grad = DVector::zeros(2 * n);
-            grad.rows_mut(0, n).copy_from(row);
-            let mut f_minus = DVector::zeros(2 * n);
-            f_minus.rows_mut(0, n).copy_from(&v);
-            let mut f_plus = f_minus.clone();
-            f_minus.rows_mut(n, n).copy_from(&a_minus);
-            f_plus.rows_mut(n, n).copy_from(&a_plus);
+            let rate = row.dot(&DVector::from_column_slice(&start.v));
             self.impact_speed[j] = None;
+            // the landed step's end moves along d(end)/dh (≈ f⁻) with its length
+            let Some(f_minus) = &self.rate_of_end else {
+                continue;
+            };
+            let transversal = row.dot(&f_minus.rows(0, n));
+            if transversal == 0.0 || !transversal.is_finite() {
+                continue;
+            }
+            // dt_s/dz₀ from δ(z(t_s)) = 0, and Φ of the state at the perturbed switch time
+            let shift = (row.transpose() * self.phi.matrix.rows(0, n)) * (-1.0 / transversal);
+            self.phi.matrix += f_minus * &shift;
             let law = &sys.gaps[sys.walls[j].gap].law;
             if after[j].active && law.uses_impact_speed() && rate > MIN_IMPACT_SPEED {
-                // v_imp = δ̇ at the onset: d/dz₀ of δ̇(z(t*)) with t*(z₀) from δ(z(t*)) = 0
-                let phi = &self.phi.matrix;
-                let d_rate = row.transpose() * phi.rows(n, n);
-                let d_delta = row.transpose() * phi.rows(0, n);
-                self.impact_speed[j] = Some(d_rate - d_delta * (row.dot(&a_minus) / rate));
+                // v_imp = δ̇ at the onset, whose state Φ now is
+                self.impact_speed[j] = Some(row.transpose() * self.phi.matrix.rows(n, n));
             }
-            if let Some(u) = saltation_update(None, &f_minus, &f_plus, &grad) {
-                self.phi.compose_event(None, &u, &grad);
-            }
+            self.time_shift = Some(match self.time_shift.take() {
+                Some(earlier) => earlier + shift,
+                None => shift,
+            });
         }
     }
+}
+
+/// `M⁻¹ ∂F_ext/∂t` at `t`: the loads' rate, what a step started at a perturbed time carries.
+fn load_rate(sys: &System, t: f64) -> DVector<f64> {
+    let mut rate = vec![0.0; sys.n_dof()];
+    for load in &sys.loads {
+        let g = load.rate(t);
+        for &d in &load.dofs {
+            rate[d] += g;
+        }
+    }
+    sys.structure.solve_mass(&mut rate);
+    DVector::from_vec(rate)
 }
 
 /// Wall `j`'s `∂F/∂δ`, `∂F/∂δ̇` and `∂F/∂v_imp` at the raw penetration `raw` and rate `rate`
