@@ -6,15 +6,12 @@ periodic orbit in one parameter, with stability and special points
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import sys
 from pathlib import Path
 from typing import Any
 
 from vibroimpact.continuation import Branch, continue_orbit
 from vibroimpact.errors import ModelError
-from vibroimpact.io import results_file
 from vibroimpact.io.model_file import load_model
 from vibroimpact.sweeps.grid import canonical_path
 
@@ -100,7 +97,7 @@ def _print(branch: Branch, name: str) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Run ``vibroimpact continue``."""
-    from vibroimpact.cli.orbit import netcdf_output
+    from vibroimpact.cli.orbit import netcdf_output, write_result
 
     out = netcdf_output(args.output)
     path, start, end = parse_range(args.param)
@@ -108,15 +105,6 @@ def main(args: argparse.Namespace) -> int:
     branch = continue_orbit(mf.model, path, start, end, period=args.period,
                             transient=args.transient, method=mf.method,
                             max_points=args.max_points, switch=args.switch)
-    if out is not None:
-        try:
-            results_file.save(branch.to_dataset(), out)
-        except OSError as err:
-            raise ModelError(f"-o: cannot write {str(err.filename or out)!r}: "
-                             f"{err.strerror}") from None
-    if args.json:
-        json.dump(branch.summary(), sys.stdout)
-        sys.stdout.write("\n")
-    else:
+    if not write_result(branch.to_dataset(), branch.summary(), out, args.json):
         _print(branch, Path(args.model).name)
     return 0

@@ -73,6 +73,22 @@ def netcdf_output(output: str | None) -> Path | None:
     return path
 
 
+def write_result(dataset: Any, summary: dict[str, Any], out: Path | None,
+                 as_json: bool) -> bool:
+    """Save ``dataset`` to the checked ``-o`` path (if any) and print ``summary`` as one JSON
+    line when ``--json``; False if the caller still has to print its text summary."""
+    if out is not None:
+        try:
+            results_file.save(dataset, out)
+        except OSError as err:
+            raise ModelError(f"-o: cannot write {str(err.filename or out)!r}: "
+                             f"{err.strerror}") from None
+    if as_json:
+        json.dump(summary, sys.stdout)
+        sys.stdout.write("\n")
+    return as_json
+
+
 def _print(orbit: PeriodicOrbit, name: str) -> None:
     s = orbit.summary()
     print(f"{name}: periodic orbit of {orbit.shooting.periods} forcing period(s), "
@@ -93,15 +109,6 @@ def main(args: argparse.Namespace) -> int:
     mf = load_model(args.model)
     orbit = periodic_orbit(mf.model, period=args.period, transient=args.transient,
                            method=mf.method)
-    if out is not None:
-        try:
-            results_file.save(orbit.to_dataset(), out)
-        except OSError as err:
-            raise ModelError(f"-o: cannot write {str(err.filename or out)!r}: "
-                             f"{err.strerror}") from None
-    if args.json:
-        json.dump(orbit.summary(), sys.stdout)
-        sys.stdout.write("\n")
-    else:
+    if not write_result(orbit.to_dataset(), orbit.summary(), out, args.json):
         _print(orbit, Path(args.model).name)
     return 0
