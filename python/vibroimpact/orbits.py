@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from vibroimpact import _core
 from vibroimpact.errors import ModelError, SolverError
 from vibroimpact.integrators import Adaptive, Dop853, EventDriven, Integrator
-from vibroimpact.model import ConstantLoad, HarmonicLoad, Model, TableLoad
+from vibroimpact.model import ConstantLoad, HarmonicLoad, Model, TableLoad, spec_load_frequency
 from vibroimpact.result import ImpactTable, Result
 from vibroimpact.simulate import _run_core, check_run
 from vibroimpact.sweeps.grid import apply, canonical_path
@@ -54,6 +54,10 @@ def forcing_period(model: Model) -> float:
     Raises :class:`ModelError` if there is no harmonic load, if a load is a table (not
     periodic) or if two frequencies are not commensurate (their ratio is not a fraction with a
     denominator up to 64, to 1e-12)."""
+    st = model.structure
+    if st.spin_profile != "constant":
+        raise ModelError(f"structure.spin_profile: {st.spin_profile!r} (a run-up) is not "
+                         "periodic; expected spin_profile = 'constant' for a periodic orbit")
     frequencies = []
     for i, load in enumerate(model.applied_loads):
         if isinstance(load, TableLoad):
@@ -150,11 +154,13 @@ class Shooting:
         """This problem for the model with the number at ``path`` (the paths of ``sweep
         --param``, set by :func:`vibroimpact.sweeps.apply`) equal to ``value``. A load's
         frequency moves the forcing period, hence the section's period and the steps, which
-        stay the same fraction of it. The core checks the value at the first :meth:`flow`
+        stay the same fraction of it; so does a rotor's spin speed (``structure.spin_speed``:
+        the unbalance's period ``2π/Ω``, its ``Ω²`` force and the gyroscopic ``Ω G``). The
+        core checks the value at the first :meth:`flow`
         (:class:`ModelError` naming the field)."""
         spec = apply(self.spec, path, value)
-        period = _common_period(tuple(float(ld["frequency"]) for ld in spec["loads"]
-                                      if ld["kind"] == "harmonic" and ld["frequency"] > 0))
+        period = _common_period(tuple(
+            f for i in range(len(spec["loads"])) if (f := spec_load_frequency(spec, i)) > 0))
         shooting = copy.copy(self)
         shooting._model, shooting.spec = None, spec
         shooting.parameter = (canonical_path(path), float(value))

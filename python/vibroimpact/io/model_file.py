@@ -285,6 +285,7 @@ _MATRICES = ("kind", ("matrices",))
 _BEAM = ("kind", ("beam",))
 _JEFFCOTT = ("kind", ("jeffcott",))
 _SPINNING = ("kind", ("jeffcott", "matrices", "beam"))
+_RUN_UP = ("spin_profile", ("linear",))
 # keys of [[gaps]] and [[loads]] that depend on the structure (see _Checker.context)
 _ON_BEAM = ("structure.kind", ("beam",))
 _WITHOUT_NODES = ("structure.kind", ("sdof", "jeffcott"))
@@ -319,6 +320,15 @@ SCHEMA: tuple[Field, ...] = (
     Field("structure.spin_speed", "number", "spin speed Ω of a rotor (its gyroscopic forces "
           "Ω G x' and unbalance loads turn with it)", unit="rad/s", default=0.0,
           when=_SPINNING),
+    Field("structure.spin_profile", "string", "the spin speed over time: constant, or a "
+          "linear run-up (or run-down) from spin_speed to spin_speed_end over run_up_time, "
+          "then held (docs/rotors.md)", default="constant", choices=("constant", "linear"),
+          when=_SPINNING),
+    Field("structure.spin_speed_end", "number", "the speed a run-up ends at", unit="rad/s",
+          default=None, when=_RUN_UP, required_when=_RUN_UP),
+    Field("structure.run_up_time", "number", "the duration of a run-up", unit="s",
+          default=None, minimum=0, minimum_inclusive=False, when=_RUN_UP,
+          required_when=_RUN_UP),
     Field("structure.gyroscopic", "matrix", "gyroscopic matrix G of a rotor (M x'' + (C + Ω G) "
           "x' + K x = F)", unit="kg·m^2", default_text="none",
           rule="same shape as mass, skew-symmetric", when=_MATRICES),
@@ -1624,6 +1634,13 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
         ck.context["structure.kind"] = kind
     top = ck.table("", "", doc)
     structure = _build_structure(ck, top["structure"]) if "structure" in top else None
+    if structure is not None and top["structure"].get("spin_profile") == "linear":
+        try:
+            structure = structure.run_up(top["structure"]["spin_speed_end"],
+                                         top["structure"]["run_up_time"])
+        except _CAUGHT as e:
+            ck.add("structure", _reprefix(e, {}, "structure"))
+            structure = None
     if "fe" in ck.context:  # matrices: DOF indices in the file count the file's DOFs
         n: int | None = ck.context["fe"].n_dof
     else:

@@ -53,7 +53,7 @@ from vibroimpact import _core
 from vibroimpact.errors import Interrupted, ModelError, require
 from vibroimpact.integrators import Integrator, Newmark
 from vibroimpact.io.results_file import atomic_write, netcdf_engine
-from vibroimpact.model import Model
+from vibroimpact.model import Model, spec_load_frequency
 from vibroimpact.result import DOF_UNIT_DESCRIPTION, dof_variable_units
 from vibroimpact.sweeps.grid import Param, apply
 
@@ -243,20 +243,23 @@ class _Plan:
         return spec
 
     def period(self, spec: dict[str, Any]) -> float:
+        """The forcing period (s) the sweep counts: load ``period_load``'s, else the first
+        periodic load's (:func:`~vibroimpact.model.spec_load_frequency`: a harmonic load, or
+        an unbalance at the spin speed: ``2π/Ω``)."""
         loads = spec.get("loads", [])
         if self.period_load is not None:
-            ld = loads[self.period_load]
-            f = ld.get("frequency") if ld.get("kind") == "harmonic" else None
-            if not f or f <= 0:
+            f = spec_load_frequency(spec, self.period_load)
+            if f <= 0:
                 raise ModelError(f"--period-load: load {self.period_load} is not a harmonic "
-                                 "load with a frequency > 0; expected the load whose period "
-                                 "the sweep samples at")
-            return 1.0 / float(f)
-        for ld in loads:
-            if ld.get("kind") == "harmonic" and ld.get("frequency", 0) > 0:
-                return 1.0 / float(ld["frequency"])
-        raise ModelError("loads: no harmonic load with a frequency > 0; expected one, since "
-                         "--transient and --periods count periods of the first harmonic load")
+                                 "load (or an unbalance) with a frequency > 0; expected the "
+                                 "load whose period the sweep samples at")
+            return 1.0 / f
+        for i in range(len(loads)):
+            if (f := spec_load_frequency(spec, i)) > 0:
+                return 1.0 / f
+        raise ModelError("loads: no harmonic load (or unbalance at a constant spin speed) with "
+                         "a frequency > 0; expected one, since --transient and --periods count "
+                         "periods of the first such load")
 
     def job_spec(self, j: int, start: tuple[np.ndarray, np.ndarray] | None = None
                  ) -> dict[str, Any]:

@@ -452,7 +452,7 @@ impl Account {
             let mut d = st.damping.increment_form(&s0.x, &s1.x, &s0.v, &s1.v);
             if let Some(g) = &st.gyroscopic {
                 // the gyroscopic forces Ω G x' (in `damping`) do no work
-                d -= st.spin_speed * g.increment_form(&s0.x, &s1.x, &s0.v, &s1.v);
+                d -= st.spin.start * g.increment_form(&s0.x, &s1.x, &s0.v, &s1.v);
             }
             self.damping_dissipated += 0.5 * d;
         }

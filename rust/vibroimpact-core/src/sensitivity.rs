@@ -116,6 +116,12 @@ pub(crate) fn check_supported(
         );
     }
     let n = sys.n_dof();
+    if !sys.structure.spin.is_constant() {
+        return invalid(
+            "structure.spin_profile: a run-up has no state-transition matrix (it is not \
+             periodic); expected spin_profile = 'constant'",
+        );
+    }
     if newmark && n > MAX_TRANSITION_DOFS {
         return invalid(format!(
             "structure: {n} DOFs is more than the Newmark family's state-transition matrix \

@@ -127,6 +127,15 @@ fn run_watched<'o>(
     }
     // Rigid gaps (massless bar) are for the impulsive methods only, and they take no others.
     method.check_laws(sys)?;
+    // a run-up's gyroscopic forces Ω(t) G change the implicit methods' effective matrix
+    if sys.structure.varying_gyroscopic().is_some() && !matches!(method, Method::Dop853) {
+        return invalid(format!(
+            "structure.spin_profile: a run-up of a rotor with gyroscopic forces is not available \
+             with method '{}' (its effective matrix would change with Ω(t)); expected \
+             solver.method = 'dop853'",
+            method.name()
+        ));
+    }
     if method.is_impulsive() && adaptive.is_some() {
         return invalid(format!(
             "solver.adaptive: true is not available for method '{}'; expected false",

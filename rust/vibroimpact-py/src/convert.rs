@@ -16,7 +16,7 @@ use vibroimpact_core::contact::{law_entry, Law, ParameterValue, ParameterValues,
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::linalg::Csr;
 use vibroimpact_core::simulate::{Method, RunSettings};
-use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
+use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory, SpinProfile};
 use vibroimpact_core::system::System;
 
 pub(crate) struct Job {
@@ -167,7 +167,9 @@ fn gap(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Gap> {
     })
 }
 
-fn load(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Load> {
+/// The core's loads of a spec's load `i`: one, or an unbalance's two (x and y) at the
+/// structure's spin profile.
+fn load(d: &Bound<'_, PyDict>, i: usize, spin: SpinProfile) -> PyResult<Vec<Load>> {
     let ctx = format!("loads[{i}]");
     let kind: String = item(d, "kind", &ctx)?;
     let history = match kind.as_str() {
@@ -180,17 +182,23 @@ fn load(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Load> {
             time: item(d, "time", &ctx)?,
             value: item(d, "value", &ctx)?,
         },
+        "unbalance" => {
+            let dofs: [usize; 2] = item(d, "dofs", &ctx)?;
+            let magnitude: f64 = item(d, "magnitude", &ctx)?;
+            return Ok(Load::unbalance(dofs, magnitude, item(d, "phase", &ctx)?, spin).into());
+        }
         other => {
             return Err(ModelError::new_err(format!(
-                "{ctx}.kind: '{other}' is not valid; expected constant, harmonic or table"
+                "{ctx}.kind: '{other}' is not valid; expected constant, harmonic, table or \
+                 unbalance"
             )))
         }
     };
-    Ok(Load {
+    Ok(vec![Load {
         dofs: item(d, "dofs", &ctx)?,
         amplitude: item(d, "amplitude", &ctx)?,
         history,
-    })
+    }])
 }
 
 /// A model's structure, gaps and loads as the core's `System`, built once by
@@ -222,9 +230,28 @@ fn system(spec: &Bound<'_, PyDict>) -> PyResult<System> {
         _ => None,
     };
     let spin_speed: f64 = opt(spec, "spin_speed", "structure")?.unwrap_or(0.0);
-    let structure = structure
+    let mut structure = structure
         .spinning(gyroscopic, spin_speed)
         .map_err(to_py_err)?;
+    // a run-up (`spin_profile = "linear"`)
+    let profile: Option<String> = opt(spec, "spin_profile", "structure")?;
+    match profile.as_deref() {
+        None | Some("constant") => {}
+        Some("linear") => {
+            structure = structure
+                .run_up(
+                    item(spec, "spin_speed_end", "structure")?,
+                    item(spec, "run_up_time", "structure")?,
+                )
+                .map_err(to_py_err)?;
+        }
+        Some(other) => {
+            return Err(ModelError::new_err(format!(
+                "structure.spin_profile: '{other}' is not valid; expected constant or linear"
+            )))
+        }
+    }
+    let spin = structure.spin;
     let gaps_list: Bound<'_, PyList> = item(spec, "gaps", "model")?;
     let gaps = gaps_list
         .iter()
@@ -235,8 +262,9 @@ fn system(spec: &Bound<'_, PyDict>) -> PyResult<System> {
     let loads = loads_list
         .iter()
         .enumerate()
-        .map(|(i, l)| load(l.cast::<PyDict>()?, i))
-        .collect::<PyResult<Vec<_>>>()?;
+        .map(|(i, l)| load(l.cast::<PyDict>()?, i, spin))
+        .collect::<PyResult<Vec<_>>>()?
+        .concat();
     System::new(structure, gaps, loads).map_err(to_py_err)
 }
 

@@ -101,7 +101,8 @@ struct LoadOscillator {
 }
 
 impl LoadOscillator {
-    /// `None` if a load is a table (not the output of a finite linear oscillator).
+    /// `None` if a load is a table or a run-up's unbalance (not the output of a finite linear
+    /// oscillator).
     fn new(sys: &System) -> Option<Self> {
         let mut states = Vec::new();
         let mut m = 0;
@@ -115,7 +116,7 @@ impl LoadOscillator {
                     states.push((m, Some((2.0 * std::f64::consts::PI * frequency, *phase))));
                     m += 2;
                 }
-                LoadHistory::Table { .. } => return None,
+                LoadHistory::Table { .. } | LoadHistory::Unbalance { .. } => return None,
             }
         }
         let mut output = DMatrix::zeros(sys.loads.len(), m);

@@ -127,7 +127,7 @@ impl<'s> Dynamics<'s> {
         }
     }
 
-    /// `a = M⁻¹ (F(t) − C v − K x − Σ φ_g b_gᵀ)` with the forces of the active walls; returns
+    /// `a = M⁻¹ (F(t) − (C + Ω(t) G) v − K x − Σ φ_g b_gᵀ)` with the forces of the active walls; returns
     /// the power of the loads, of the damping and of the contact forces' dissipative part
     /// (the integrands of the energy account, docs/conventions.md). `root`: a wall whose
     /// penetration is given (`ζ²` of a [`Clock::Root`] step) instead of taken from `x`.
@@ -194,6 +194,10 @@ impl<'s> Dynamics<'s> {
                 *fi -= ci;
                 damping += ci * vi;
             }
+        }
+        if let Some(g) = st.varying_gyroscopic() {
+            // a run-up: `damping` holds Ω(0) G; the rest of Ω(t) G x' (no power: G = −Gᵀ)
+            g.mul_add(-(st.spin.speed(t) - st.spin.start), v, f);
         }
         if self.has_stiffness {
             st.stiffness.mul_add(-1.0, x, f);
