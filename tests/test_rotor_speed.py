@@ -5,13 +5,19 @@ closed-form unbalance response and rub-onset speed."""
 
 from __future__ import annotations
 
+import json
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 import scipy.integrate
 import vibroimpact as vi
 from vibroimpact import rotor
+from vibroimpact.cli import main as cli_main
+from vibroimpact.io import results_file
 from vibroimpact.sweeps import Param, Sweep, run_sweep
 
 M, K, C, ME = 10.0, 1e6, 200.0, 1e-3  # kg, N/m, N·s/m, kg·m
@@ -133,13 +139,112 @@ def test_sweep_over_spin_speed_gives_the_unbalance_amplitudes() -> None:
         z).max()
 
 
+def test_waterfall_of_a_speed_sweep_is_the_forward_synchronous_whirl(tmp_path: Path) -> None:
+    speeds = np.linspace(200.0, 450.0, 4)
+    z0 = rotor.unbalance_response(_model(200.0), [200.0])[0]
+    model = _model(200.0, initial_displacement=z0.real,
+                   initial_velocity=(1j * 200.0 * z0).real)
+    # fixed steps: a whole number between samples, which land on step ends
+    sweep = Sweep(model, [Param("structure.spin_speed", speeds)], dt=5e-5,
+                  method=vi.Dop853(adaptive=None), transient=250, periods=4,
+                  continuation="up", samples_per_period=16)
+    out = tmp_path / "speeds.nc"
+    ds = run_sweep(sweep, output=out, progress=False)
+    assert ds.sizes["sample"] == 64 and ds.attrs["samples_per_period"] == 16
+    w = rotor.waterfall(ds)
+    z = rotor.unbalance_response(model, speeds)
+    for k, speed in enumerate(speeds):
+        s = rotor.FullSpectrum(w.frequency[k], w.amplitude[k], np.zeros_like(w.amplitude[k]))
+        # a circular forward orbit x + iy = Z e^{iΩt}: one line at +Ω/2π of radius |Z|
+        assert s.at(speed / (2 * np.pi)) == pytest.approx(abs(z[k, 0]), rel=1e-9)
+        assert s.at(-speed / (2 * np.pi)) < 1e-9 * abs(z[k, 0])
+    assert cli_main(["plot", str(out), "--kind", "waterfall", "-o",
+                        str(tmp_path / "w.png")]) == 0
+    with pytest.raises(vi.ModelError, match="--samples-per-period"):
+        rotor.waterfall(run_sweep(Sweep(model, [Param("structure.spin_speed", speeds)],
+                                        dt=1e-4, transient=1, periods=2), progress=False))
+
+
+def test_orbit_plot_and_cli_paths_over_spin_speed(tmp_path: Path) -> None:
+    model_file = tmp_path / "jeffcott.toml"
+    model_file.write_text(JEFFCOTT_FILE)
+    result = tmp_path / "run.nc"
+    assert cli_main(["run", str(model_file), "-o", str(result), "--quiet"]) == 0
+    assert cli_main(["plot", str(result), "--kind", "orbit", "--dof", "0", "--dof", "1",
+                        "--clearance", "1e-3", "--center", "0", "1e-5",
+                        "-o", str(tmp_path / "o.svg")]) == 0
+    ax = vi.plotting.plot(results_file.load(result), "orbit", clearance=1e-3).axes[0]
+    assert "[m]" in ax.get_xlabel() and "[m]" in ax.get_ylabel()
+    x, y = ax.get_lines()[1].get_data()  # the clearance circle
+    assert np.hypot(x, y) == pytest.approx(1e-3, rel=1e-12)
+    for bad, field in ((["--dof", "0"], "--dof"), (["--clearance", "-1"], "--clearance")):
+        p = subprocess.run([sys.executable, "-m", "vibroimpact", "plot", str(result), "--kind",
+                            "orbit", *bad, "-o", str(tmp_path / "x.png")],
+                           capture_output=True, text=True, timeout=120)
+        assert p.returncode == 2 and field in p.stderr and len(p.stderr.splitlines()) == 1
+    # continue and sweep on the command line, over the spin speed
+    branch = tmp_path / "branch.nc"
+    p = subprocess.run([sys.executable, "-m", "vibroimpact", "continue", str(model_file),
+                        "--param", "structure.spin_speed=290:312", "--json", "-o", str(branch)],
+                       capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    grazing = [s["value"] for s in json.loads(p.stdout)["special_points"]
+               if s["type"] == "grazing"]
+    free = vi.Model(vi.Structure.jeffcott(mass=M, stiffness=K, damping=C),
+                    loads=[vi.UnbalanceLoad(dof=[0, 1], magnitude=ME)])
+    assert grazing == pytest.approx(rotor.rub_onset_speeds(free, [0, 1], 1e-3, (100.0, 310.0)),
+                                    rel=1e-9)
+    p = subprocess.run([sys.executable, "-m", "vibroimpact", "sweep", str(model_file),
+                        "--param", "structure.spin_speed=200:400:3", "--transient", "5",
+                        "--periods", "2", "--samples-per-period", "8", "--quiet",
+                        "-o", str(tmp_path / "s.nc")], capture_output=True, text=True,
+                       timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert results_file_sizes(tmp_path / "s.nc") == 16
+
+
+def results_file_sizes(path: Path) -> int:
+    import xarray as xr
+
+    with xr.open_dataset(path) as ds:
+        return int(ds.sizes["sample"])
+
+
+JEFFCOTT_FILE = """
+[structure]
+kind = "jeffcott"
+mass = 10.0
+stiffness = 1e6
+damping = 200.0
+spin_speed = 250.0
+
+[[gaps]]
+dof = 0
+clearance = 1e-3
+side = "positive"
+[gaps.law]
+kind = "hertz"
+stiffness = 1e9
+
+[[loads]]
+kind = "unbalance"
+dof = [0, 1]
+magnitude = 1e-3
+
+[solver]
+method = "dop853"
+dt = 1e-4
+t_end = 0.1
+"""
+
+
 def test_spin_speed_paths_are_refused_in_one_line() -> None:
     plain = vi.Model(vi.Structure.sdof(mass=1.0, stiffness=1.0),
                      loads=[vi.HarmonicLoad(dof=0, amplitude=1.0, frequency=1.0)])
-    with pytest.raises(vi.ModelError, match="structure.spin_speed_end"):
+    with pytest.raises(vi.ModelError, match=r"structure\.spin_speed_end"):
         vi.sweeps.apply(_model().to_spec(), "structure.spin_speed_end", 1.0)
     assert "structure.spin_speed" in vi.sweeps.numeric_paths(_model().to_spec())
     assert "structure.spin_speed" not in vi.sweeps.numeric_paths(plain.to_spec())
     spun = _model().structure.run_up(400.0, 0.5)
-    with pytest.raises(vi.ModelError, match="structure.spin_profile.*not periodic"):
+    with pytest.raises(vi.ModelError, match=r"structure\.spin_profile.*not periodic"):
         vi.periodic_orbit(vi.Model(spun, loads=_model().loads))

@@ -38,16 +38,19 @@ __all__ = [
     "Campbell",
     "FullSpectrum",
     "PerRevolution",
+    "Waterfall",
     "campbell",
     "from_ross",
     "full_spectrum",
     "orbit_radius",
     "per_revolution",
     "plot_campbell",
+    "plot_waterfall",
     "revolution_times",
     "rub_onset_speeds",
     "translation_pairs",
     "unbalance_response",
+    "waterfall",
 ]
 
 #: A mode whose x and y DOFs move less than this fraction of its whole shape (an axial or
@@ -269,6 +272,75 @@ def full_spectrum(x: ArrayLike, y: ArrayLike, dt: float) -> FullSpectrum:
     z = np.fft.fftshift(np.fft.fft(xa + 1j * ya)) / xa.size
     f = np.fft.fftshift(np.fft.fftfreq(xa.size, dt))
     return FullSpectrum(f, np.abs(z), np.angle(z))
+
+
+@dataclass(frozen=True)
+class Waterfall:
+    """Full spectra over a speed sweep: at each ``speeds`` (rad/s; the swept
+    ``structure.spin_speed``) the lines ``frequency`` (Hz, signed: > 0 forward whirl, < 0
+    backward; rows: speeds) and their ``amplitude`` (m, radius of each circular whirl)."""
+
+    speeds: NDArray[np.float64]
+    frequency: NDArray[np.float64]
+    amplitude: NDArray[np.float64]
+
+
+def waterfall(sweep: Any, dofs: Sequence[int] | None = None) -> Waterfall:
+    """The :func:`full_spectrum` of each point of a sweep over ``structure.spin_speed`` (a
+    Dataset or file of :func:`vibroimpact.sweeps.run_sweep` / ``vibroimpact sweep``, run with
+    ``samples_per_period`` > 1: its samples are the orbit every ``T / N``) at the sampled
+    DOFs ``dofs = [ix, iy]`` (default the first two)."""
+    from vibroimpact.sweeps.plot import sweep_dataset
+
+    ds = sweep_dataset(sweep)
+    path = "structure.spin_speed"
+    require(path in ds.dims and len(ds.dims) > 0 and "direction" not in ds.dims
+            and sum(d not in ("sample", "dof", "gap", "impact", "model_dof") for d in ds.dims)
+            == 1, "sweep", f"parameters {ds.attrs.get('params', '')}",
+            "a sweep over structure.spin_speed alone (one direction)")
+    per_period = int(ds.attrs.get("samples_per_period", 1))
+    require(per_period >= 4, "--samples-per-period", per_period,
+            "a sweep run with --samples-per-period of at least 4 (a spectrum per speed)")
+    sampled = [int(d) for d in ds["dof"].values]
+    ix, iy = (sampled[:2] if dofs is None else [int(d) for d in dofs])
+    for d in (ix, iy):
+        require(d in sampled, "--dof", d, f"one of the sampled DOFs {sampled}")
+    x = ds["poincare_displacement"].sel(dof=ix).values
+    y = ds["poincare_displacement"].sel(dof=iy).values
+    periods = ds["forcing_period"].values
+    freqs, amps = [], []
+    for k in range(x.shape[0]):
+        s = full_spectrum(x[k], y[k], float(periods[k]) / per_period)
+        freqs.append(s.frequency)
+        amps.append(s.amplitude)
+    return Waterfall(np.asarray(ds[path].values, dtype=float), np.array(freqs), np.array(amps))
+
+
+def plot_waterfall(sweep: Any, dofs: Sequence[int] | None = None, path: Any = None,
+                   title: str | None = None) -> Any:
+    """The full-spectrum waterfall of a speed sweep (:func:`waterfall`): each speed's
+    spectrum as a line raised by its speed (rad/s, vertical axis) against the whirl frequency
+    (Hz, horizontal: backward < 0 < forward), scaled so that the largest line spans the
+    speed step, with the ±1× lines ``f = ±Ω / 2π``."""
+    from vibroimpact.plotting import new_figure, save_figure
+
+    w = waterfall(sweep, dofs)
+    fig, ax = new_figure(height=5.0)
+    step = float(np.ptp(w.speeds)) / max(len(w.speeds) - 1, 1) or 1.0
+    scale = step / max(float(w.amplitude.max()), np.finfo(float).tiny)
+    for speed, f, a in zip(w.speeds, w.frequency, w.amplitude, strict=True):
+        ax.plot(f, speed + scale * a, color="C0", lw=0.8)
+    for sign, text in ((1, "+1x (forward)"), (-1, "-1x (backward)")):
+        ax.plot(sign * w.speeds / (2 * math.pi), w.speeds, "k--", lw=0.6, alpha=0.6,
+                label=text)
+    ax.set_xlabel("whirl frequency [Hz] (< 0: backward, > 0: forward)")
+    ax.set_ylabel(f"spin speed [rad/s] (lines: amplitude, {step / scale:.3g} m per step)")
+    ax.legend(fontsize="small", loc="upper right")
+    ax.grid(True, alpha=0.3)
+    ax.set_title(title or "full-spectrum waterfall")
+    if path is not None:
+        save_figure(fig, path)
+    return fig
 
 
 def revolution_times(structure: Structure, t_end: float, t_start: float = 0.0,
