@@ -51,7 +51,7 @@ use super::lcp::solve_lcp;
 use super::moreau_jean::check_initial;
 use super::{fill_gaps, Rigidity};
 use crate::driver::{Run, StepPolicy};
-use crate::error::{invalid, SimError};
+use crate::error::SimError;
 use crate::gap::ImpactRecord;
 use crate::integrators::expm::{duhamel, expm, expm_action};
 use crate::interpolation::QuinticSegment;
@@ -71,21 +71,6 @@ pub struct EventDriven {
     pub chatter_fraction: f64,
     /// Events allowed in one step before every further impact in it is made plastic.
     pub max_events_per_step: usize,
-}
-
-impl EventDriven {
-    pub fn validate(&self) -> Result<(), SimError> {
-        if !(self.chatter_fraction >= 0.0 && self.chatter_fraction < 1.0) {
-            return invalid(format!(
-                "solver.chatter_fraction: {} is not valid; expected 0 <= chatter_fraction < 1",
-                self.chatter_fraction
-            ));
-        }
-        if self.max_events_per_step == 0 {
-            return invalid("solver.max_events_per_step: 0 is not valid; expected an integer >= 1");
-        }
-        Ok(())
-    }
 }
 
 /// Constant and harmonic loads as the output of a linear oscillator: `F_l(t) = (P w(t))_l`,
