@@ -93,7 +93,7 @@ pub(crate) fn check_supported(
     method: Method,
     adaptive: bool,
 ) -> Result<(), SimError> {
-    let newmark = matches!(method, Method::NewmarkFamily(_));
+    let newmark = method.newmark_family().is_some();
     if !(newmark || matches!(method, Method::Dop853 | Method::EventDriven(_))) {
         return invalid(format!(
             "solver.method: '{}' does not compute the state-transition matrix; expected \

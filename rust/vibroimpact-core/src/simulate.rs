@@ -16,6 +16,7 @@ use crate::integrators::dop853::{Dop853Steps, Steps};
 use crate::integrators::{
     BatheStepper, NewmarkStepper, NewmarkTransition, NewtonSettings, PreciseStepper, Stepper,
 };
+use crate::method_catalog;
 use crate::step_control::{AdaptiveSteps, FixedSteps, StepControl};
 use crate::system::System;
 
@@ -136,23 +137,15 @@ fn run_watched<'o>(
             method.name()
         ));
     }
-    if method.is_impulsive() && adaptive.is_some() {
-        return invalid(format!(
-            "solver.adaptive: true is not available for method '{}'; expected false",
-            method.name()
-        ));
-    }
+    method_catalog::entry_of(&method).check_adaptive(adaptive.is_some())?;
     // Fixed steps: dt is shortened so that t_end is a whole number of steps. Adaptive steps:
     // the cached sizes are dt_max / 2^k, with dt_max likewise a whole fraction of t_end.
     let explicit = matches!(method, Method::Dop853);
     let control = match adaptive {
         Some(a) if !explicit => {
-            let Method::NewmarkFamily(scheme) = method else {
-                return invalid(
-                    "solver.adaptive: true is not valid for this method; expected adaptive = false \
-                     (adaptive stepping is available for the Newmark family)",
-                );
-            };
+            let scheme = method
+                .newmark_family()
+                .expect("the implicit methods that step adaptively are the Newmark family's");
             Some(StepControl::new(a, scheme, t_end, dt)?)
         }
         _ => None,
@@ -235,8 +228,8 @@ fn run_watched<'o>(
                                 n_steps,
                                 newton.max_step_cuts,
                             );
-                            match method {
-                                Method::NewmarkFamily(scheme) if sensitivity => {
+                            match method.newmark_family() {
+                                Some(scheme) if sensitivity => {
                                     let transition = NewmarkTransition::new(sys, scheme, &run.cur)?;
                                     run.drive(sys, &mut policy.with_derivative(transition), every)
                                 }
@@ -263,7 +256,7 @@ fn stepper(
     h0: f64,
 ) -> Result<Box<dyn Stepper>, SimError> {
     Ok(match method {
-        Method::NewmarkFamily(scheme) => {
+        Method::Newmark(scheme) | Method::GeneralizedAlpha(scheme) | Method::Hht(scheme) => {
             let mut s = NewmarkStepper::new(sys, scheme, newton)?;
             s.prepare(sys, h0)?;
             Box::new(s)
@@ -359,7 +352,7 @@ mod tests {
     #[test]
     fn streamed_blocks_are_the_whole_run() {
         let sys = sdof();
-        let method = Method::NewmarkFamily(NewmarkFamily::average_acceleration());
+        let method = Method::Newmark(NewmarkFamily::average_acceleration());
         let adaptive = Adaptive {
             rtol: 1e-4,
             atol: 1e-9,
@@ -434,7 +427,7 @@ mod tests {
     #[test]
     fn events_name_the_step_cuts_and_each_contact() {
         let sys = sdof();
-        let method = Method::NewmarkFamily(NewmarkFamily::average_acceleration());
+        let method = Method::Newmark(NewmarkFamily::average_acceleration());
         // three Newton iterations are too few for some contact steps of 20 µs: cuts
         let s = settings(2e-5, None, 3);
         let mut sink = Collect {

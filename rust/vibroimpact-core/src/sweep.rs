@@ -564,7 +564,7 @@ mod tests {
     fn job(frequency: f64, clearance: f64) -> SweepJob {
         SweepJob {
             system: oscillator(frequency, clearance),
-            method: Method::NewmarkFamily(NewmarkFamily::average_acceleration()),
+            method: Method::Newmark(NewmarkFamily::average_acceleration()),
             settings: RunSettings {
                 t_end: 1.0,
                 dt: 1e-3,

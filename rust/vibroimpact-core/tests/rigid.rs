@@ -329,7 +329,7 @@ fn rigid_and_force_laws_are_refused_by_the_other_methods() {
     let rigid = bouncing(0.5, None);
     let err = simulate(
         &rigid,
-        Method::NewmarkFamily(NewmarkFamily::average_acceleration()),
+        Method::Newmark(NewmarkFamily::average_acceleration()),
         &settings(0.1, 1e-3),
         DVector::from_element(1, 1.0),
         DVector::zeros(1),

@@ -65,7 +65,7 @@ fn substitution_time<'py>(
     solves: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     let job = convert::job_from_spec(spec, None)?;
-    let vibroimpact_core::simulate::Method::NewmarkFamily(scheme) = job.method else {
+    let Some(scheme) = job.method.newmark_family() else {
         return Err(ModelError::new_err(
             "solver.method: expected a Newmark-family method for the substitution floor",
         ));

@@ -57,28 +57,6 @@ impl NewmarkFamily {
             alpha_f: 0.0,
         }
     }
-
-    pub fn validate(&self) -> Result<(), SimError> {
-        if !(self.gamma.is_finite() && self.gamma >= 0.5) {
-            return invalid(format!(
-                "solver.gamma: {} is not valid; expected gamma >= 0.5 (paper eq. 16)",
-                self.gamma
-            ));
-        }
-        if !(self.beta.is_finite() && self.beta > 0.0) {
-            return invalid(format!(
-                "solver.beta: {} is not valid; expected beta > 0 (an implicit scheme)",
-                self.beta
-            ));
-        }
-        if !(self.alpha_f >= 0.0 && self.alpha_f < 1.0 && self.alpha_m < 1.0) {
-            return invalid(format!(
-                "solver: alpha_m = {}, alpha_f = {} are not valid; expected alpha_m < 1 and 0 <= alpha_f < 1",
-                self.alpha_m, self.alpha_f
-            ));
-        }
-        Ok(())
-    }
 }
 
 /// What a step of one size needs, computed once per size (never per step).

@@ -292,7 +292,7 @@ mod tests {
             DVector::from_column_slice(&z0[..3]),
             DVector::from_column_slice(&z0[3..]),
         );
-        let method = Method::NewmarkFamily(scheme);
+        let method = Method::Newmark(scheme);
         let out = simulate_with_sensitivity(sys, method, &settings, x0, v0, None).unwrap();
         assert!(out.error.is_none(), "{:?}", out.error);
         let rows = &out.rows;
