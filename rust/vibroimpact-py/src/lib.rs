@@ -3,6 +3,7 @@
 //! the GIL released, and returns numpy arrays.
 
 mod convert;
+mod factor;
 mod method;
 mod orbit;
 mod running;
@@ -501,6 +502,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<running::Running>()?;
     m.add_function(wrap_pyfunction!(convert::compile_system, m)?)?;
     m.add_class::<convert::CompiledSystem>()?;
+    m.add_class::<factor::CholeskyFactor>()?;
     m.add_function(wrap_pyfunction!(expm, m)?)?;
     m.add_function(wrap_pyfunction!(substitution_time, m)?)?;
     m.add_function(wrap_pyfunction!(request_interrupt, m)?)?;
