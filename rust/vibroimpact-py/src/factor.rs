@@ -3,7 +3,7 @@
 //! of its fixed-interface modes), chosen by the same cost model as a run's factor.
 
 use numpy::ndarray::{Array1, Array2};
-use numpy::{IntoPyArray, PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
+use numpy::{IntoPyArray, PyArrayDyn, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 
 use crate::{convert, ModelError};
