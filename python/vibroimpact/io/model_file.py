@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 
 from vibroimpact import contact, integrators
 from vibroimpact.errors import ModelError, SolverError
+from vibroimpact.fe.condensation import weighted_loads
 from vibroimpact.fe.damping import damping_from_table
 from vibroimpact.fe.dofs import DofMap, FEStructure
 from vibroimpact.fe.matrices import FORMATS, SUFFIXES, read_dof_map, read_matrix_files
@@ -1344,6 +1345,27 @@ def _shell_node(ck: _Checker, g: Mapping[str, Any]) -> tuple[list[int], list[flo
         return None  # _node_dofs names the mistake
 
 
+def _shell_load(ck: _Checker, ld: Mapping[str, Any], n: int | None
+                ) -> NDArray[np.float64] | None:
+    """The weights per DOF of a load by ``nodes``/``direction`` with a node that CalculiX
+    expanded into layers (:meth:`~vibroimpact.fe.dofs.DofMap.shell_load_weights`: how ccx
+    spreads a ``*CLOAD`` on it), else None."""
+    dm = getattr(ck.context.get("fe"), "dof_map", None)
+    nodes, direction = ld.get("nodes"), ld.get("direction")
+    if dm is None or direction is None or isinstance(nodes, str) or nodes is None or "dof" in ld:
+        return None  # _node_dofs checks what is given
+    try:
+        if not any(dm.layer_dofs(node, direction) for node in nodes):
+            return None
+        w = np.zeros(len(dm.nodes))
+        for node in nodes:
+            dofs, weights = dm.shell_load_weights(node, direction)
+            w[dofs] += weights
+        return w
+    except _CAUGHT:
+        return None  # _node_dofs names the mistake
+
+
 def _dof_label(ck: _Checker, dof: int) -> str:
     dm = ck.context["fe"].dof_map
     layer = "" if dm is None or not dm.layers[dof] else f" layer {dm.layers[dof]}"
@@ -1429,7 +1451,12 @@ def _build_load(
     if ld["kind"] == "unbalance":
         return _build_unbalance(ck, lp, ld, n)
     by_node = ck.context.get("structure.kind") in _WITH_NODES[1]
-    dofs: tuple[int, ...] = (_node_dofs(ck, lp, ld, many=True) if by_node else ld.get("dof")) or ()
+    shell = _shell_load(ck, ld, n) if by_node else None
+    dofs: tuple[int, ...]
+    if shell is not None:
+        dofs = tuple(int(j) for j in np.flatnonzero(shell))
+    else:
+        dofs = (_node_dofs(ck, lp, ld, many=True) if by_node else ld.get("dof")) or ()
     _check_dofs(ck, f"{lp}.dof", dofs, n)
     if not ck.ok(lp) or not dofs:
         return None
@@ -1445,11 +1472,12 @@ def _build_load(
         else:
             table: _Table = ld["file"]
             load = TableLoad(dof=dof, time=table.time, force=table.force, scale=ld["scale"])
+        loads = [load] if shell is None else weighted_loads(load, shell)
         cond = ck.context.get("condensation")
         if cond is None:
-            return [load]
-        ck.context.setdefault("file_loads", []).append(load)
-        return cond.reduce_load(load)
+            return list(loads)
+        ck.context.setdefault("file_loads", []).extend(loads)
+        return [r for one in loads for r in cond.reduce_load(one)]
     except _CAUGHT as e:
         ck.add(lp, _reprefix(e, {"load.table": f"{lp}.file", "load": lp}, lp))
         return None

@@ -214,7 +214,7 @@ fn run_watched<'o>(
                 max_step_cuts: max_levels,
                 ..newton
             };
-            match stepper(sys, method, cut_newton, h0) {
+            match stepper(sys, method, cut_newton, h0, (t_end / h0).round() as usize) {
                 // A singular tangent is a solver failure at t = 0: the initial state is the result.
                 Err(e @ SimError::SingularTangent { .. }) => Some(e),
                 Err(e) => return Err(e),
@@ -248,16 +248,19 @@ fn run_watched<'o>(
     Ok(run.finish(sys, error, h0, started, impacts))
 }
 
-/// The stepper of an implicit or precise `method`, its operators prepared for steps of `h0`.
+/// The stepper of an implicit or precise `method`, its operators prepared for steps of `h0`
+/// and chosen for a run of about `steps` of them (adaptive runs: at least that many).
 fn stepper(
     sys: &System,
     method: Method,
     newton: NewtonSettings,
     h0: f64,
+    steps: usize,
 ) -> Result<Box<dyn Stepper>, SimError> {
     Ok(match method {
         Method::Newmark(scheme) | Method::GeneralizedAlpha(scheme) | Method::Hht(scheme) => {
             let mut s = NewmarkStepper::new(sys, scheme, newton)?;
+            s.expect_steps(steps);
             s.prepare(sys, h0)?;
             Box::new(s)
         }

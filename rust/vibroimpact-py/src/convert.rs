@@ -88,7 +88,13 @@ fn matrix(d: &Bound<'_, PyDict>, key: &str) -> PyResult<Matrix> {
         let (r, c) = a.dim();
         return Ok(Matrix::Dense(DMatrix::from_fn(r, c, |i, j| a[[i, j]])));
     }
-    let bad = |what: String| ModelError::new_err(format!("structure.{key}: {what}"));
+    csr(&obj, &format!("structure.{key}")).map(Matrix::Sparse)
+}
+
+/// A SciPy sparse matrix (CSR, or anything with `indptr`, `indices`, `data`, `shape` of a
+/// CSR array) read without densifying; errors name `field`.
+pub(crate) fn csr(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Csr> {
+    let bad = |what: String| ModelError::new_err(format!("{field}: {what}"));
     let (rows, cols): (usize, usize) = obj.getattr("shape")?.extract()?;
     if rows != cols {
         return Err(bad(format!(
@@ -107,9 +113,7 @@ fn matrix(d: &Bound<'_, PyDict>, key: &str) -> PyResult<Matrix> {
     let data = obj.getattr("data")?.call_method1("astype", ("float64",))?;
     let data: PyReadonlyArray1<f64> = data.extract().map_err(|e| bad(format!("data: {e}")))?;
     let data = data.as_array().to_vec();
-    Csr::from_parts(rows, row_start, indices, data)
-        .map(Matrix::Sparse)
-        .map_err(bad)
+    Csr::from_parts(rows, row_start, indices, data).map_err(bad)
 }
 
 fn vector<'py>(d: &Bound<'py, PyDict>, key: impl Key<'py>) -> PyResult<DVector<f64>> {
