@@ -2,7 +2,8 @@
 the rigid stop's period-1 branch and multipliers against the closed form, a fold of a Hertz
 stop's branch (its multiplier at 1, the branch turning there), a supercritical
 period-doubling whose period-2 orbit (``switch``) is stable in simulation, a grazing against
-the linear response's closed form, the parameter column against a difference of another step,
+the linear response's closed form, the core's parameter column against central differences of
+the map (and the fallback difference against a difference of another step),
 and the command line's JSON, file and one-line errors."""
 
 from __future__ import annotations
@@ -88,12 +89,32 @@ def test_parameter_column_matches_a_difference_of_another_step() -> None:
     assert np.max(np.abs(column)) > 1.0
 
 
+@pytest.mark.parametrize("path, value", [(FREQUENCY, 1.1 / (2 * np.pi)),
+                                         ("loads.0.amplitude", 1.0), ("loads.0.phase", 1.5),
+                                         ("gaps.0.clearance", 0.5)])
+def test_core_parameter_column_equals_the_difference_of_the_map(path: str,
+                                                                value: float) -> None:
+    """DOP853's column ``∂P/∂p`` (carried beside ``Φ``) is the central difference of the
+    simulated map, the forcing period moving with a frequency; a law's stiffness has none."""
+    model = oscillator(vi.contact.Hertz(stiffness=1e4, exponent=1.5), 1.1, 0.5)
+    orbit = vi.periodic_orbit(model, transient=30)
+    raw = orbit.shooting.at(path, value).flow(orbit.state)[2]
+    assert raw["parameter_column_note"] == ""
+    fd = parameter_column(orbit.shooting, orbit.state, path, value, abs(value))
+    assert np.max(np.abs(raw["parameter_column"] - fd)) < 1e-6 * np.max(np.abs(fd))
+    assert np.max(np.abs(fd)) > 0.1
+    other = orbit.shooting.at("gaps.0.law.stiffness", 1e4).flow(orbit.state)[2]
+    assert other["parameter_column"] is None
+    assert "'gaps.0.law.stiffness' has no exact column" in other["parameter_column_note"]
+
+
 def test_fold_of_a_hertz_stop_branch() -> None:
     model = oscillator(vi.contact.Hertz(stiffness=10.0, exponent=1.5), 0.8, 0.5)
     branch = vi.continue_orbit(model, FREQUENCY, 0.8 / (2 * np.pi), 2.5 / (2 * np.pi),
                                transient=100, step=0.05, max_step=0.5, max_points=300)
     folds = [s for s in branch.special_points if s.type == "fold"]
     assert len(folds) == 2
+    assert branch.parameter_column == "exact"
     values = np.array([p.value for p in branch.points])
     arclength = np.array([p.arclength for p in branch.points])
     for fold, turn in zip(folds, (np.max, np.min), strict=True):
@@ -164,6 +185,7 @@ def test_rigid_branch_stops_at_its_grazing_against_the_closed_form() -> None:
     assert abs(grazing.value - expected) < 1e-9 * expected
     assert abs(grazing.wall_margins[0]) < 1e-8
     assert branch.stopped.startswith(f"stopped at the grazing of a rigid stop at {FREQUENCY} = ")
+    assert branch.parameter_column.startswith("central difference: method 'event-driven'")
     assert branch.points[-1].value == pytest.approx(expected, rel=1e-5)
     assert len(branch.points) < 100  # it ended there, not at max_points or the range's end
 

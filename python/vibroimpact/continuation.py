@@ -4,8 +4,10 @@ and special points (docs/periodic-orbits.md, Continuation).
 The unknowns are ``y = (z, p)``: the state on the section and the parameter (any number a
 sweep can set: :func:`vibroimpact.sweeps.apply`). Each point solves ``P^N(z; p) − z = 0`` plus
 the arclength condition ``t·(y − y_pred) = 0`` by Newton with the Jacobian
-``[Φ − I, ∂P^N/∂p]``: ``Φ`` from the core's state-transition matrix, the parameter column by a
-central difference of the simulated map (not exact; see :func:`parameter_column`). The
+``[Φ − I, ∂P^N/∂p]``: ``Φ`` from the core's state-transition matrix, the parameter column from
+the core too where it carries it (DOP853 and the Newmark family, for a load's amplitude,
+frequency or phase and a gap's clearance), else by a central difference of the simulated map
+(:func:`parameter_column`; :attr:`Branch.parameter_column` says which). The
 unknowns are scaled (the state by its largest component at the start, the parameter by the
 range) so that the arclength weighs both. The tangent comes from the bordered system with the
 previous tangent as its last row, which keeps its orientation through a fold.
@@ -147,6 +149,9 @@ class Branch:
     #: Why the branch ended before the range's end or ``max_points`` (empty otherwise): at a
     #: rigid stop's grazing.
     stopped: str = ""
+    #: How ``∂P^N/∂p`` was taken: ``"exact"`` (the core's column, beside ``Φ``) or
+    #: ``"central difference: <why the core has no column>"``.
+    parameter_column: str = "exact"
 
     def summary(self) -> dict[str, Any]:
         """The JSON of ``vibroimpact continue --json``: ``parameter`` (the path), ``points``
@@ -162,9 +167,10 @@ class Branch:
         ``state`` (point, component: the section's displacements then velocities),
         ``multiplier_real``/``_imag`` (point, multiplier), ``impact_speed_max`` (point, gap),
         the coordinate ``dof_unit`` (dof) and the attribute ``kind = "vibroimpact-branch"``; the
-        special points along dimension ``special`` (and the attribute ``stopped``: why the
-        branch ended early, if it did): ``special_type``, ``special_value``,
-        ``special_arclength``, ``special_multiplier_real``/``_imag``."""
+        special points along dimension ``special`` (and the attributes ``stopped``: why the
+        branch ended early, if it did, and ``parameter_column``: how ``∂P/∂p`` was taken):
+        ``special_type``, ``special_value``, ``special_arclength``,
+        ``special_multiplier_real``/``_imag``."""
         pts, sps = self.points, self.special_points
         n_mult = pts[0].multipliers.size
         multipliers = np.array([p.multipliers for p in pts])
@@ -192,7 +198,8 @@ class Branch:
             },
             coords={"arclength": ("point", [p.arclength for p in pts]),
                     **({"dof_unit": ("dof", list(self.dof_units))} if self.dof_units else {})},
-            attrs={"parameter": self.parameter, "kind": BRANCH_KIND, "stopped": self.stopped},
+            attrs={"parameter": self.parameter, "kind": BRANCH_KIND, "stopped": self.stopped,
+                   "parameter_column": self.parameter_column},
         )
         return ds
 
@@ -207,8 +214,8 @@ def parameter_column(shooting: Shooting, z: NDArray[np.float64], path: str, valu
     """``∂P^N/∂p`` at ``(z, value)`` by the central difference
     ``(P^N(z; p + h) − P^N(z; p − h)) / 2h`` of the simulated map, ``h = relative_step ·
     max(|p|, scale)``: an approximation (error ``O(h²)`` plus rounding ``O(ε/h)``, about 1e-10
-    relative where the map is smooth), not the exact derivative, which the core does not carry
-    for a parameter. When ``p`` is a load's frequency each side runs its own forcing period."""
+    relative where the map is smooth), for a parameter or method whose column the core does not
+    carry. When ``p`` is a load's frequency each side runs its own forcing period."""
     h = relative_step * max(abs(value), scale)
     up, down = (shooting.at(path, value + sign * h) for sign in (1, -1))
     return (up.state_at(z, up.duration) - down.state_at(z, down.duration)) / (2 * h)
@@ -246,7 +253,12 @@ class _Continuation:
     def at(self, value: float) -> Shooting:
         return self.shooting.at(self.path, value)
 
-    def column(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
+    def column(self, y: NDArray[np.float64], raw: dict[str, Any]) -> NDArray[np.float64]:
+        """``∂P^N/∂p`` at ``y``: the core's column in its output ``raw`` of the flow from
+        there, else the central difference."""
+        exact = raw["parameter_column"]
+        if exact is not None:
+            return np.asarray(exact, dtype=float)
         return parameter_column(self.shooting, y[:-1], self.path, float(y[-1]), self.scale)
 
     def correct(self, u0: NDArray[np.float64], row: NDArray[np.float64], target: float,
@@ -254,9 +266,10 @@ class _Continuation:
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any],
                            NDArray[np.float64], int]:
         """Newton on ``P^N(z; p) − z = 0`` and ``row · u = target`` (scaled ``u``) from
-        ``u0``, with the parameter column ``column`` kept while the residual falls fast
-        (a chord in that column), taken again at the iterate where it does not. Returns
-        ``u``, ``Φ``, the core's output there, the last column and the iterations."""
+        ``u0``, with the core's parameter column at each iterate, or without one the central
+        difference ``column`` kept while the residual falls fast (a chord in that column),
+        taken again at the iterate where it does not. Returns ``u``, ``Φ``, the core's output
+        there, the last column (the core's: at ``u``) and the iterations."""
         tol = self.tol if tol is None else tol
         w, n = self.weights, self.shooting.n_state
         u = u0.copy()
@@ -265,6 +278,8 @@ class _Continuation:
             y = u / w
             try:
                 end, phi, raw = self.at(float(y[-1])).flow(y[:-1])
+                if raw["parameter_column"] is not None:
+                    column = np.asarray(raw["parameter_column"], dtype=float)
                 residual = end - y[:-1]
                 norm = float(np.linalg.norm(residual))
                 if norm <= tol * max(float(np.linalg.norm(y[:-1])), 1e-300) and iteration > 0:
@@ -272,7 +287,7 @@ class _Continuation:
                 if iteration == MAX_CORRECTOR_ITERATIONS:
                     break
                 if norm > SLOW_CONTRACTION * previous:  # the kept column is too far off
-                    column = self.column(y)
+                    column = self.column(y, raw)
             except (ModelError, SolverError) as e:
                 raise _StepFailed(str(e)) from None
             previous = norm
@@ -421,7 +436,7 @@ class _Continuation:
         try:
             point = self.point(u, phi, raw, sol.point.arclength + moved, refine)
             if column is sol.column:
-                column = self.column(u / self.weights)
+                column = self.column(u / self.weights, raw)
         except (ModelError, SolverError) as e:
             raise _StepFailed(str(e)) from None
         new = _Solution(point=point, u=u, column=column)
@@ -551,7 +566,9 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
     row = np.zeros(u.size)
     row[-1] = 1.0
     _, phi, raw = first.flow(z)
-    sol = _Solution(point=run.point(u, phi, raw, 0.0), u=u, column=run.column(u / run.weights))
+    note = raw["parameter_column_note"]
+    sol = _Solution(point=run.point(u, phi, raw, 0.0), u=u,
+                    column=run.column(u / run.weights, raw))
     sol.tangent = run.tangent(phi, sol.column, np.sign(end - start) * row)
     sol.tests = run.tests(sol)
     points, specials = [sol.point], []
@@ -607,7 +624,8 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
             ds *= SHRINK
     specials.sort(key=lambda s: s.point.arclength)
     return Branch(parameter=path, points=tuple(points), special_points=tuple(specials),
-                  dof_units=tuple(model.structure.dof_units), stopped=stop)
+                  dof_units=tuple(model.structure.dof_units), stopped=stop,
+                  parameter_column=f"central difference: {note}" if note else "exact")
 
 
 #: A rigid wall's grazing test function (its distance, or minus the impact speed) this small
@@ -664,7 +682,7 @@ def _switch(run: _Continuation, pd: SpecialPoint, ds: float) -> tuple[_Continuat
     at = doubled.at(float(y[-1]))
     _, phi, raw = at.flow(y[:-1])
     sol = _Solution(point=doubled.point(u, phi, raw, point.arclength), u=u,
-                    column=doubled.column(y), tangent=direction)
+                    column=doubled.column(y, raw), tangent=direction)
     for _ in range(SWITCH_ATTEMPTS):
         try:
             # the period-2 branch leaves at a right angle: its first correction is large

@@ -311,14 +311,19 @@ impl Load {
     /// `A · g(t)`.
     #[inline]
     pub fn value(&self, t: f64) -> f64 {
-        self.amplitude
-            * match &self.history {
-                LoadHistory::Constant => 1.0,
-                LoadHistory::Harmonic { frequency, phase } => {
-                    (2.0 * std::f64::consts::PI * frequency * t + phase).sin()
-                }
-                LoadHistory::Table { time, value } => interpolate(time, value, t),
+        self.amplitude * self.shape(t)
+    }
+
+    /// `g(t)`.
+    #[inline]
+    pub fn shape(&self, t: f64) -> f64 {
+        match &self.history {
+            LoadHistory::Constant => 1.0,
+            LoadHistory::Harmonic { frequency, phase } => {
+                (2.0 * std::f64::consts::PI * frequency * t + phase).sin()
             }
+            LoadHistory::Table { time, value } => interpolate(time, value, t),
+        }
     }
 
     /// `A · g'(t)` (a table's: the slope of the segment holding `t`, zero outside it).
