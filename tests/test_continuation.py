@@ -9,6 +9,7 @@ and the command line's JSON, file and one-line errors."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -190,36 +191,12 @@ def test_rigid_branch_stops_at_its_grazing_against_the_closed_form() -> None:
     assert len(branch.points) < 100  # it ended there, not at max_points or the range's end
 
 
-MODEL_FILE = """
-schema_version = 1
-[structure]
-kind = "sdof"
-mass = 1.0
-stiffness = 1.0
-damping = 0.1
-[[gaps]]
-dof = 0
-clearance = 0.2
-side = "positive"
-[gaps.law]
-kind = "rigid"
-restitution = 0.8
-[[loads]]
-kind = "harmonic"
-dof = 0
-amplitude = 1.0
-frequency = {frequency!r}
-phase = 1.5707963267948966
-[solver]
-method = "event-driven"
-dt = 0.01
-t_end = 10.0
-"""
+#: The rigid impact oscillator at w = 2 (``d = 0.2``, ``r = 0.8``, ``ζ = 0.05``).
+RIGID_MODEL = Path(__file__).resolve().parents[1] / "examples/models/impact_oscillator_rigid.toml"
 
 
 def test_cli_continue_json_and_netcdf(tmp_path, capsys) -> None:
-    path = tmp_path / "oscillator.toml"
-    path.write_text(MODEL_FILE.format(frequency=2.0 / (2 * np.pi)))
+    path = RIGID_MODEL
     out = tmp_path / "branch.nc"
     end = 2.3 / (2 * np.pi)
     args = ["continue", str(path), "--param", f"{FREQUENCY}={2.0 / (2 * np.pi)!r}:{end!r}",
@@ -255,8 +232,7 @@ def test_cli_continue_json_and_netcdf(tmp_path, capsys) -> None:
                                  "number 'stiffness'"),
 ])
 def test_cli_continue_bad_input_is_one_line(tmp_path, capsys, param, message) -> None:
-    path = tmp_path / "oscillator.toml"
-    path.write_text(MODEL_FILE.format(frequency=0.3))
+    path = RIGID_MODEL
     out = tmp_path / "branch.nc"
     assert main(["continue", str(path), "--param", param, "-o", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
