@@ -191,6 +191,34 @@ def test_rigid_branch_stops_at_its_grazing_against_the_closed_form() -> None:
     assert len(branch.points) < 100  # it ended there, not at max_points or the range's end
 
 
+def test_rigid_branch_continues_through_its_grazing_onto_the_linear_response() -> None:
+    """The example's rigid stop (d = 0.2): past its period-doubling the unstable period-1
+    branch loses its impact speed; the grazing is located where the free response's amplitude
+    |H(w)| equals the clearance, and the branch goes on clear of the stop, where each orbit is
+    the linear response (its state on the section and its multipliers ``eig e^{AT}``)."""
+    model = vi.load_model(RIGID_MODEL).model
+    d = float(model.gaps[0].clearance)
+    end = 2.7 / (2 * np.pi)
+    branch = vi.continue_orbit(model, FREQUENCY, 2.0 / (2 * np.pi), end, transient=100)
+    assert [s.type for s in branch.special_points] == ["period-doubling", "grazing"]
+    b = 2 - 4 * ZETA**2  # |H(w)| = d above the resonance
+    expected = np.sqrt((b + np.sqrt(b**2 - 4 * (1 - 1 / d**2))) / 2) / (2 * np.pi)
+    grazing = branch.special_points[-1].point
+    assert abs(grazing.value - expected) < 1e-10 * expected
+    assert abs(grazing.wall_margins[0]) < 1e-10
+    assert branch.stopped == "" and branch.points[-1].value == pytest.approx(end, rel=1e-12)
+    beyond = [p for p in branch.points if p.value > expected]
+    assert len(beyond) >= 5
+    for p in branch.points:
+        assert p.impacts_per_period == (0 if p.value > expected else 1)
+    for p in beyond:
+        w = 2 * np.pi * p.value
+        assert np.max(np.abs(p.state - particular(w, 0.0))) < 1e-10
+        free = np.linalg.eigvals(scipy.linalg.expm(A * 2 * np.pi / w))
+        assert np.max(np.abs(np.sort_complex(p.multipliers) - np.sort_complex(free))) < 1e-10
+        assert p.stable and p.wall_margins[0] > 0
+
+
 #: The rigid impact oscillator at w = 2 (``d = 0.2``, ``r = 0.8``, ``ζ = 0.05``).
 RIGID_MODEL = Path(__file__).resolve().parents[1] / "examples/models/impact_oscillator_rigid.toml"
 

@@ -21,7 +21,8 @@ Illinois (regula falsi) iteration on the arclength from the first point:
 * ``neimark-sacker``: ``Π_{i<j} (μ_i μ_j − 1)`` with a complex pair on the unit circle there;
 * ``grazing``, per wall: the smallest distance to the wall over the orbit while nothing
   touches it, minus the largest penetration (compliant laws) or the smallest impact speed
-  (rigid stops) while something does.
+  (rigid stops) while something does. A rigid stop's impact speed falling to zero is
+  continued through onto the orbit clear of the stop (:func:`_through_grazing`).
 """
 
 from __future__ import annotations
@@ -147,7 +148,7 @@ class Branch:
     #: The displacement unit of each DOF (``m`` or ``rad``; the model's).
     dof_units: tuple[str, ...] = ()
     #: Why the branch ended before the range's end or ``max_points`` (empty otherwise): at a
-    #: rigid stop's grazing.
+    #: rigid stop's grazing with no orbit clear of the stop past it.
     stopped: str = ""
     #: How ``∂P^N/∂p`` was taken: ``"exact"`` (the core's column, beside ``Φ``) or
     #: ``"central difference: <why the core has no column>"``.
@@ -580,6 +581,13 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
         except _StepFailed as e:
             ds *= SHRINK
             if ds < min_step:
+                through = (_through_grazing(run, points, sol, low, high)
+                           if len(points) > 1 else None)
+                if through is not None:
+                    specials.append(through[0])
+                    points.append(through[1].point)
+                    sol, ds = through[1], float(step)
+                    continue
                 grazing = _rigid_grazing(run, points, sol)
                 if grazing is None:
                     raise SolverError(f"continuation: the step fell below {min_step:g} at "
@@ -587,8 +595,8 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
                                       f"points ({e})") from None
                 specials.append(grazing)
                 stop = (f"stopped at the grazing of a rigid stop at {path} = "
-                        f"{grazing.point.value:.9g}: an impact at zero speed has no "
-                        "derivative, so the branch is not continued through it")
+                        f"{grazing.point.value:.9g}: no orbit clear of the stop was found "
+                        "past it")
                 break
             continue
         value = new.point.value
@@ -615,6 +623,11 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
             points.append(specials[-1].point)
             run, new = _switch(run, specials[-1], ds)
         points.append(new.point)
+        through = None if last else _through_grazing(run, points, new, low, high)
+        if through is not None:  # a rigid stop's grazing ahead: past it, clear of the stop
+            specials.append(through[0])
+            points.append(through[1].point)
+            new = through[1]
         sol = new
         if last:
             break
@@ -631,6 +644,106 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
 #: A rigid wall's grazing test function (its distance, or minus the impact speed) this small
 #: against the wall's clearance (at least 1) at a branch's last point is a grazing at hand.
 GRAZING_END = 1e-3
+#: A rigid wall's impact speed falling below this fraction of its largest along the branch is
+#: a grazing at hand too: near it the multipliers grow as the inverse of the speed, Newton
+#: slows and the steps shrink, so that the branch would crawl there.
+GRAZING_FRACTION = 1e-3
+#: Tries, each twice as far past the estimated grazing, of an orbit clear of the stop.
+THROUGH_ATTEMPTS = 20
+#: The clearance of the gap taken away to find the orbit clear of its stop.
+FAR = 1e12
+
+
+def _rigid_wall_grazing(run: _Continuation,
+                        points: list[BranchPoint]) -> tuple[int, float] | None:
+    """The rigid wall (index in ``run.walls``) whose impact speed falls to zero ahead of the
+    last of ``points`` (below ``GRAZING_END`` or ``GRAZING_FRACTION`` of its largest on them),
+    and the parameter value where the secant of its speed through the last two vanishes; None
+    if there is none."""
+    previous, last = points[-2], points[-1]
+    for i, (g, _) in enumerate(run.walls):
+        gap = run.shooting.model.gaps[g]
+        fa, fb = float(previous.wall_margins[i]), float(last.wall_margins[i])
+        if not (gap.law.impulsive and fa < fb < 0):
+            continue
+        largest = max(-float(p.wall_margins[i]) for p in points)
+        near = GRAZING_END * max(abs(float(gap.clearance)), 1.0)
+        if -fb < near or -fb < GRAZING_FRACTION * largest:
+            return i, last.value - fb * (last.value - previous.value) / (fb - fa)
+    return None
+
+
+def _through_grazing(run: _Continuation, points: list[BranchPoint], sol: _Solution,
+                     low: float, high: float) -> tuple[SpecialPoint, _Solution] | None:
+    """The grazing of a rigid stop that the branch ``points`` reaches after its last, ``sol``
+    (at least two points), and the first point past it, on the branch clear of the stop; None
+    if there is no grazing at hand (:func:`_rigid_wall_grazing`) or no such orbit in
+    ``[low, high]``.
+
+    Clear of the stop, the orbit is that of the model whose gap is moved away (clearance
+    ``FAR``: nothing impacts there, so nothing at zero speed either), and its distance to the
+    wall is smooth in the parameter: its zero, bracketed between the last point and the first
+    value past the secant's estimate where the distance is positive and located by the
+    Illinois iteration, is the grazing, and the orbit there is the grazing orbit (its
+    multipliers those of the flow clear of the stop). The first point past it is that orbit,
+    corrected on the model itself, at the bracket's far end."""
+    found = _rigid_wall_grazing(run, points)
+    if found is None:
+        return None
+    wall, estimate = found
+    g = run.walls[wall][0]
+    row = np.zeros(sol.u.size)
+    row[-1] = 1.0
+
+    def clear(value: float) -> tuple[float, NDArray[np.float64], BranchPoint]:
+        away = run.at(value).at(f"gaps.{g}.clearance", FAR)
+        z = solve_orbit(away, sol.point.state, run.tol).state
+        _, phi, raw = away.flow(z)
+        u = np.append(z, value) * run.weights
+        point = run.point(u, phi, raw, sol.point.arclength, refine=True)
+        return float(point.wall_margins[wall]), u, point
+
+    a, b = sol.point.value, estimate
+    try:
+        fa = clear(a)[0]
+        step = b - a
+        for _ in range(THROUGH_ATTEMPTS):
+            fb, u_far, _ = clear(b)
+            if fb > 0:
+                break
+            b += step
+            step *= 2
+        else:
+            return None
+        if not (fa < 0 < fb and low <= b <= high):
+            return None
+        cache: dict[float, tuple[NDArray[np.float64], BranchPoint]] = {}
+
+        def margin(value: float) -> float:
+            f, u, point = clear(value)
+            cache[value] = (u, point)
+            return f
+
+        at = _illinois(margin, a, fa, b, fb, LOCATE_TOLERANCE * run.scale,
+                       MAX_LOCATE_ITERATIONS)
+        if at not in cache:
+            margin(at)
+        u_grazing, grazing = cache[at]
+        grazing = replace(grazing, arclength=sol.point.arclength
+                          + float(np.linalg.norm(u_grazing - sol.u)))
+        u, phi, raw, column, _ = run.correct(u_far, row, u_far[-1], sol.column)
+        moved = float(np.linalg.norm(u - u_grazing))
+        point = run.point(u, phi, raw, grazing.arclength + moved)
+        if point.wall_margins[wall] <= 0:  # the correction went back onto the stop
+            return None
+        if column is sol.column:
+            column = run.column(u / run.weights, raw)
+    except (_StepFailed, _LocateFailed, ModelError, SolverError):
+        return None
+    new = _Solution(point=point, u=u, column=column)
+    new.tangent = run.tangent(phi, column, (u - u_grazing) / moved)
+    new.tests = run.tests(new)
+    return SpecialPoint("grazing", grazing), new
 
 
 def _rigid_grazing(run: _Continuation, points: list[BranchPoint],
