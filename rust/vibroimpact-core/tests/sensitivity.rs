@@ -158,6 +158,26 @@ fn methods_without_a_state_transition_are_refused() {
     )
     .unwrap_err();
     assert!(err.to_string().contains("solver.method"), "{err}");
+    // DOP853 at fixed steps: refused with its reason
+    let fixed = RunSettings {
+        adaptive: None,
+        ..settings(Method::Dop853)
+    };
+    let err = simulate_with_sensitivity(
+        &sys,
+        Method::Dop853,
+        &fixed,
+        DVector::zeros(1),
+        DVector::zeros(1),
+        None,
+        None,
+    )
+    .unwrap_err();
+    assert!(
+        err.to_string()
+            .starts_with("solver.adaptive: false is not valid for DOP853's"),
+        "{err}"
+    );
 }
 
 /// The oscillator with one of its numbers changed: `(parameter path, value)`; with the run's
