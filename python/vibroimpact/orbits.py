@@ -226,10 +226,14 @@ class Shooting:
 
     def flow(self, z: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64],
                                                     dict[str, Any]]:
-        """``P^N(z)``, ``∂P^N/∂z`` and the core's output of the run (its time histories)."""
+        """``P^N(z)``, ``∂P^N/∂z`` and the core's output of the run (its time histories; with
+        the parameter of :meth:`at`, its ``parameter_column`` ``∂P^N/∂p`` where the core
+        carries it, else None and ``parameter_column_note`` says why)."""
         n = self.n_dof
         spec = dict(self._spec, x0=np.ascontiguousarray(z[:n]),
                     v0=np.ascontiguousarray(z[n:]))
+        if self.parameter is not None:
+            spec["sensitivity_parameter"] = self.parameter[0]
         raw = _core.flow_map(spec)
         if raw["error"] is not None:
             raise SolverError(f"periodic orbit: the run from the section state failed: "

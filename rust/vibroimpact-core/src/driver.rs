@@ -81,6 +81,8 @@ pub(crate) struct Run<'o> {
     events: bool,
     /// The policy is to carry the state-transition matrix (`crate::sensitivity`).
     pub wants_sensitivity: bool,
+    /// With it, the parameter whose column `∂z/∂p` it carries too.
+    pub sensitivity_parameter: Option<crate::sensitivity::Parameter>,
     /// It, at the end of the last advance.
     state_transition: Option<StateTransition>,
 }
@@ -114,6 +116,7 @@ impl<'o> Run<'o> {
             contact: None,
             events: false,
             wants_sensitivity: false,
+            sensitivity_parameter: None,
             state_transition: None,
         })
     }

@@ -17,6 +17,7 @@ use crate::integrators::{
     BatheStepper, NewmarkStepper, NewmarkTransition, NewtonSettings, PreciseStepper, Stepper,
 };
 use crate::method_catalog;
+use crate::sensitivity::Parameter;
 use crate::step_control::{AdaptiveSteps, FixedSteps, StepControl};
 use crate::system::System;
 
@@ -47,23 +48,41 @@ pub fn simulate_observed(
     v0: DVector<f64>,
     observer: Option<&mut dyn StepObserver>,
 ) -> Result<RunOutput, SimError> {
-    run_watched(sys, method, settings, x0, v0, observer, None, false)
+    run_watched(sys, method, settings, x0, v0, observer, None, None)
 }
 
 /// [`simulate_observed`], carrying the state-transition matrix `∂(x, v)(t_end)/∂(x₀, v₀)`
 /// along (`RunOutput::state_transition`; `crate::sensitivity`): DOP853, the event-driven
 /// method and the Newmark family at fixed steps, refused before the run for the others
-/// (`sensitivity::check_supported`).
+/// (`sensitivity::check_supported`); with `parameter`, its column `∂z(t_end)/∂p` beside it
+/// (DOP853 and the Newmark family: `sensitivity::parameter_for`).
 pub fn simulate_with_sensitivity(
     sys: &System,
     method: Method,
     settings: &RunSettings,
     x0: DVector<f64>,
     v0: DVector<f64>,
+    parameter: Option<Parameter>,
     observer: Option<&mut dyn StepObserver>,
 ) -> Result<RunOutput, SimError> {
     crate::sensitivity::check_supported(sys, method, settings.adaptive.is_some())?;
-    run_watched(sys, method, settings, x0, v0, observer, None, true)
+    if parameter.is_some() && !crate::sensitivity::carries_parameter(method) {
+        return invalid(format!(
+            "solver.method: '{}' does not carry a parameter's column; expected 'dop853' or the \
+             Newmark family",
+            method.name()
+        ));
+    }
+    run_watched(
+        sys,
+        method,
+        settings,
+        x0,
+        v0,
+        observer,
+        None,
+        Some(parameter),
+    )
 }
 
 /// [`simulate`], with `sink` taking the recorded rows in blocks of `sink.chunk_rows()` as they
@@ -79,7 +98,7 @@ pub fn simulate_streamed(
     v0: DVector<f64>,
     sink: &mut dyn Sink,
 ) -> Result<RunOutput, SimError> {
-    run_watched(sys, method, settings, x0, v0, None, Some(sink), false)
+    run_watched(sys, method, settings, x0, v0, None, Some(sink), None)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -91,7 +110,7 @@ fn run_watched<'o>(
     v0: DVector<f64>,
     observer: Option<&'o mut dyn StepObserver>,
     sink: Option<&'o mut dyn Sink>,
-    sensitivity: bool,
+    sensitivity: Option<Option<Parameter>>,
 ) -> Result<RunOutput, SimError> {
     let started = Instant::now();
     let RunSettings {
@@ -183,7 +202,8 @@ fn run_watched<'o>(
     };
     let mut run = Run::new(sys, x0, v0, record_dofs.clone(), n_rec)?;
     run.observer = observer;
-    run.wants_sensitivity = sensitivity;
+    run.wants_sensitivity = sensitivity.is_some();
+    run.sensitivity_parameter = sensitivity.flatten();
     if let Some(sink) = sink {
         run.watch(sink);
     }
@@ -229,8 +249,13 @@ fn run_watched<'o>(
                                 newton.max_step_cuts,
                             );
                             match method.newmark_family() {
-                                Some(scheme) if sensitivity => {
-                                    let transition = NewmarkTransition::new(sys, scheme, &run.cur)?;
+                                Some(scheme) if run.wants_sensitivity => {
+                                    let transition = NewmarkTransition::new(
+                                        sys,
+                                        scheme,
+                                        &run.cur,
+                                        run.sensitivity_parameter,
+                                    )?;
                                     run.drive(sys, &mut policy.with_derivative(transition), every)
                                 }
                                 _ => run.drive(sys, &mut policy, every),

@@ -466,22 +466,27 @@ impl Load {
     /// `A · g(t)`.
     #[inline]
     pub fn value(&self, t: f64) -> f64 {
-        self.amplitude
-            * match &self.history {
-                LoadHistory::Constant => 1.0,
-                LoadHistory::Harmonic { frequency, phase } => {
-                    (2.0 * std::f64::consts::PI * frequency * t + phase).sin()
-                }
-                LoadHistory::Table { time, value } => interpolate(time, value, t),
-                LoadHistory::Unbalance { axis, phase, spin } => {
-                    let (w, dw) = (spin.speed(t), spin.acceleration(t));
-                    let (sin, cos) = (spin.angle(t) + phase).sin_cos();
-                    match axis {
-                        Axis::X => w * w * cos + dw * sin,
-                        Axis::Y => w * w * sin - dw * cos,
-                    }
+        self.amplitude * self.shape(t)
+    }
+
+    /// `g(t)`.
+    #[inline]
+    pub fn shape(&self, t: f64) -> f64 {
+        match &self.history {
+            LoadHistory::Constant => 1.0,
+            LoadHistory::Harmonic { frequency, phase } => {
+                (2.0 * std::f64::consts::PI * frequency * t + phase).sin()
+            }
+            LoadHistory::Unbalance { axis, phase, spin } => {
+                let (w, dw) = (spin.speed(t), spin.acceleration(t));
+                let (sin, cos) = (spin.angle(t) + phase).sin_cos();
+                match axis {
+                    Axis::X => w * w * cos + dw * sin,
+                    Axis::Y => w * w * sin - dw * cos,
                 }
             }
+            LoadHistory::Table { time, value } => interpolate(time, value, t),
+        }
     }
 
     /// `A · g'(t)` (a table's: the slope of the segment holding `t`, zero outside it).

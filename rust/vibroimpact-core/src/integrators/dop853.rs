@@ -864,7 +864,9 @@ impl<'s> Dop853Steps<'s> {
                 in_time: !smooth_in_root(&sys.gaps[wall.gap].law),
             })
             .collect();
-        let variational = run.wants_sensitivity.then(|| Variational::new(sys));
+        let variational = run
+            .wants_sensitivity
+            .then(|| Variational::new(sys, run.sensitivity_parameter));
         if variational.is_some() {
             in_time_only(&mut contacts);
         }

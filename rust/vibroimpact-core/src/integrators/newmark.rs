@@ -21,6 +21,30 @@ use crate::linalg::{axpy, inverse_permutation, DenseMatVec, StackedRows};
 use crate::structure::MAX_DENSE_DOFS;
 use crate::system::{State, System};
 
+/// The schemes the tests run: Newmark-β (average acceleration), HHT-α (`α_f = 0.1`) and
+/// generalized-α (`α_m`, `α_f` ≠ 0).
+#[cfg(test)]
+pub(crate) const TEST_SCHEMES: [NewmarkFamily; 3] = [
+    NewmarkFamily {
+        beta: 0.25,
+        gamma: 0.5,
+        alpha_m: 0.0,
+        alpha_f: 0.0,
+    },
+    NewmarkFamily {
+        beta: 0.3025,
+        gamma: 0.6,
+        alpha_m: 0.0,
+        alpha_f: 0.1,
+    },
+    NewmarkFamily {
+        beta: 0.3086,
+        gamma: 0.6111,
+        alpha_m: 0.3333,
+        alpha_f: 0.4444,
+    },
+];
+
 /// Parameters of a Newmark-family scheme.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NewmarkFamily {
@@ -726,21 +750,7 @@ mod tests {
     #[test]
     fn dense_banded_and_sparse_predictors_agree() {
         let sys = chain();
-        for scheme in [
-            NewmarkFamily::average_acceleration(),
-            NewmarkFamily {
-                beta: 0.3025,
-                gamma: 0.6,
-                alpha_m: 0.0,
-                alpha_f: 0.1,
-            },
-            NewmarkFamily {
-                beta: 0.3086,
-                gamma: 0.6111,
-                alpha_m: 0.3333,
-                alpha_f: 0.4444,
-            },
-        ] {
+        for scheme in TEST_SCHEMES {
             let (dense, contacts) = run(&sys, scheme, PredictorChoice::Dense);
             assert!(contacts > 100, "{contacts} contact steps");
             // max |a − b| / max |a|
