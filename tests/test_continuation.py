@@ -277,3 +277,20 @@ def test_bad_arguments_of_the_api() -> None:
     hertz = oscillator(vi.contact.Hertz(stiffness=1e4, exponent=1.5), 1.1, 0.5)
     with pytest.raises(vi.ModelError, match=r"^solver.method: 'bathe' does not compute"):
         vi.continue_orbit(hertz, FREQUENCY, 0.17, 0.2, method=vi.Bathe())
+
+
+def test_parameter_column_counts_a_load_after_an_unbalance_as_the_model_does() -> None:
+    """The core holds an unbalance as two loads (x and y): the path ``loads.1`` of the
+    model must reach the core's third load, not the unbalance's y half."""
+    st = vi.Structure.jeffcott(mass=10.0, stiffness=1e6, damping=200.0, spin_speed=250.0)
+    model = vi.Model(st, loads=[vi.UnbalanceLoad(dof=[0, 1], magnitude=1e-3, phase=0.4),
+                                vi.ConstantLoad(dof=1, amplitude=50.0)])
+    orbit = vi.periodic_orbit(model, transient=0)
+    raw = orbit.shooting.at("loads.1.amplitude", 50.0).flow(orbit.state)[2]
+    assert raw["parameter_column_note"] == ""
+    fd = parameter_column(orbit.shooting, orbit.state, "loads.1.amplitude", 50.0, 50.0)
+    assert np.max(np.abs(fd)) > 0
+    assert np.max(np.abs(raw["parameter_column"] - fd)) < 1e-6 * np.max(np.abs(fd))
+    own = orbit.shooting.at("loads.0.magnitude", 1e-3).flow(orbit.state)[2]
+    assert own["parameter_column"] is None
+    assert "an unbalance's column is not carried" in own["parameter_column_note"]

@@ -112,6 +112,20 @@ def default_method(model: Model) -> Integrator:
     return Dop853(adaptive=Adaptive(rtol=1e-12, atol=1e-15))
 
 
+
+def _core_load_path(spec: dict[str, Any], path: str) -> tuple[str | None, str]:
+    """The core's spelling of the model path ``path`` (the core holds an unbalance as two
+    loads, x and y, so a later load's index moves by one per unbalance before it), or None
+    and why the core carries no column for it (an unbalance's own numbers)."""
+    parts = path.split(".")
+    if parts[0] != "loads" or len(parts) < 3 or not parts[1].isdigit():
+        return path, ""
+    k, loads = int(parts[1]), spec["loads"]
+    if k < len(loads) and loads[k]["kind"] == "unbalance":
+        return None, f"'{path}': an unbalance's column is not carried"
+    core = sum(2 if load["kind"] == "unbalance" else 1 for load in loads[:k])
+    return ".".join(["loads", str(core), *parts[2:]]), ""
+
 class Shooting:
     """The stroboscopic map ``P^N`` of ``model`` over ``period`` forcing periods and its
     state-transition matrix, integrated by ``method`` (default :func:`default_method`; one that
@@ -232,9 +246,13 @@ class Shooting:
         n = self.n_dof
         spec = dict(self._spec, x0=np.ascontiguousarray(z[:n]),
                     v0=np.ascontiguousarray(z[n:]))
-        if self.parameter is not None:
-            spec["sensitivity_parameter"] = self.parameter[0]
+        core_path, refused = (None, "") if self.parameter is None else _core_load_path(
+            self.spec, self.parameter[0])
+        if core_path is not None:
+            spec["sensitivity_parameter"] = core_path
         raw = _core.flow_map(spec)
+        if refused:
+            raw["parameter_column"], raw["parameter_column_note"] = None, refused
         if raw["error"] is not None:
             raise SolverError(f"periodic orbit: the run from the section state failed: "
                               f"{raw['error']}")

@@ -205,37 +205,6 @@ fn load(d: &Bound<'_, PyDict>, i: usize, spin: SpinProfile) -> PyResult<Vec<Load
     }])
 }
 
-/// The core's spelling of a spec's path: a load's index counts an unbalance before it twice
-/// (the core holds its x and y loads, [`load`]); an unbalance's own numbers have no core path.
-pub(crate) fn core_path(spec: &Bound<'_, PyDict>, path: &str) -> PyResult<Result<String, String>> {
-    let parts: Vec<&str> = path.split('.').collect();
-    let Some(k) = (parts.first() == Some(&"loads"))
-        .then(|| parts.get(1).and_then(|p| p.parse::<usize>().ok()))
-        .flatten()
-    else {
-        return Ok(Ok(path.to_owned()));
-    };
-    let loads: Vec<Bound<'_, PyDict>> = item(spec, "loads", "model")?;
-    let unbalance = |d: &Bound<'_, PyDict>| -> PyResult<bool> {
-        Ok(item::<String>(d, "kind", "loads")? == "unbalance")
-    };
-    if loads.get(k).map(unbalance).transpose()? == Some(true) {
-        return Ok(Err(format!(
-            "'{path}': an unbalance's column is not carried"
-        )));
-    }
-    let mut core = 0;
-    for d in loads.iter().take(k) {
-        core += if unbalance(d)? { 2 } else { 1 };
-    }
-    let rest: Vec<&str> = parts[2..].to_vec();
-    Ok(Ok(["loads".to_owned(), core.to_string()]
-        .into_iter()
-        .chain(rest.into_iter().map(str::to_owned))
-        .collect::<Vec<_>>()
-        .join(".")))
-}
-
 /// A model's structure, gaps and loads as the core's `System`, built once by
 /// `compile_system` and given to `start` in place of them (`spec["system"]`): what
 /// `vibroimpact.Model` keeps for its runs when nothing in it can change.

@@ -61,12 +61,7 @@ pub(crate) fn flow_map<'py>(
         .filter(|p| !p.is_none())
         .map(|p| p.extract())
         .transpose()?;
-    let parameter = match path {
-        Some(p) => {
-            Some(convert::core_path(spec, &p)?.and_then(|p| parameter_for(&system, method, &p)))
-        }
-        None => None,
-    };
+    let parameter = path.map(|p| parameter_for(&system, method, &p));
     let n_gaps = system.gaps.len();
     let mut extremes = Extremes {
         low: x0.iter().copied().collect(),
