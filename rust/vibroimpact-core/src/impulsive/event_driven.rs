@@ -13,9 +13,10 @@
 //!   a step (locating an event) is `exp(Ã τ) z̃` by its Taylor series (`expm::expm_action`:
 //!   a few mat-vecs, to round-off), the exponential where that series is not safe (stiff
 //!   modes); a wall whose quintic (below) is bounded below zero on the step is not sampled;
-//! * with a table load, the loads are interpolated by the quadratic through the step's ends
-//!   and middle (exact for linear pieces that the step does not straddle, third order
-//!   otherwise) through the Duhamel matrices, computed anew for each trial instant.
+//! * with a table load (linear between its breakpoints), a flight is split at the
+//!   breakpoints inside it and each piece integrated exactly: `exp(A_S η)` and the Duhamel
+//!   matrices of the line through the piece's ends (`expm::duhamel`), cached for a full step
+//!   without a breakpoint, computed anew for the other pieces and each trial instant.
 //!
 //! Events, located in each step on a quintic Hermite interpolant of every free wall's
 //! penetration (`δ, δ̇, δ̈` at both ends, 32 samples) and of every stuck wall's force
@@ -45,7 +46,8 @@
 //! Limitations: an excursion into a wall shorter than a sample spacing (`dt/32`) that the
 //! quintic interpolant does not show is missed (choose `dt` below the shortest flight of
 //! interest); the exponential costs `O((2n + 2k)³)` per wall set (with a table load, per
-//! trial instant too; small and reduced models).
+//! trial instant and per piece of a step that holds a breakpoint too; small and reduced
+//! models).
 
 use nalgebra::{DMatrix, DVector};
 
@@ -144,8 +146,8 @@ enum Flow {
         a: DMatrix<f64>,
         full: Option<DMatrix<f64>>,
     },
-    /// Table loads: the cached `exp(A_S dt)` and the Duhamel matrices of the quadratic.
-    Quadratic {
+    /// Table loads: the cached `exp(A_S dt)` and the Duhamel matrices of a line over the step.
+    Piecewise {
         full: Option<(DMatrix<f64>, Vec<DMatrix<f64>>)>,
     },
 }
@@ -220,7 +222,7 @@ impl Mode {
                 }
                 (Flow::Autonomous { a: aug, full: None }, Some(rates))
             }
-            None => (Flow::Quadratic { full: None }, None),
+            None => (Flow::Piecewise { full: None }, None),
         };
         Self {
             a,
@@ -235,16 +237,17 @@ impl Mode {
         }
     }
 
+    /// `exp(A_S η)` and the Duhamel matrices `D_0`, `D_1` of a load linear over `η`.
     fn operator(&self, eta: f64) -> (DMatrix<f64>, Vec<DMatrix<f64>>) {
-        duhamel(&self.a, eta, &self.b, 2)
+        duhamel(&self.a, eta, &self.b, 1)
     }
 
     /// Caches the propagator of the full step `h0`.
     fn prepare(&mut self, h0: f64) {
         match &mut self.flow {
             Flow::Autonomous { a, full } if full.is_none() => *full = Some(expm(&(&*a * h0))),
-            Flow::Quadratic { full } if full.is_none() => {
-                *full = Some(duhamel(&self.a, h0, &self.b, 2));
+            Flow::Piecewise { full } if full.is_none() => {
+                *full = Some(duhamel(&self.a, h0, &self.b, 1));
             }
             _ => {}
         }
@@ -259,7 +262,7 @@ impl Mode {
                 .expect("prepared")
                 .view((0, 0), (n2, n2))
                 .into_owned(),
-            Flow::Quadratic { full } => full.as_ref().expect("prepared").0.clone(),
+            Flow::Piecewise { full } => full.as_ref().expect("prepared").0.clone(),
         }
     }
 
@@ -383,6 +386,23 @@ fn cubic(p: [f64; 4], s: f64) -> f64 {
         + p[3] * (s3 - s2)
 }
 
+/// The breakpoints of the table loads strictly inside the flight from `t` of length `eta`
+/// (not within round-off of its ends), in increasing order: between them every load is
+/// linear in time.
+fn breakpoints(sys: &System, t: f64, eta: f64) -> Vec<f64> {
+    let (lo, hi) = (t + 1e-12 * eta, t + eta * (1.0 - 1e-12));
+    let mut cuts: Vec<f64> = Vec::new();
+    for load in &sys.loads {
+        if let LoadHistory::Table { time, .. } = &load.history {
+            let first = time.partition_point(|&s| s <= lo);
+            cuts.extend(time[first..].iter().take_while(|&&s| s < hi));
+        }
+    }
+    cuts.sort_by(f64::total_cmp);
+    cuts.dedup();
+    cuts
+}
+
 /// An upper bound of [`quintic`] on `[0, 1]`, with room for its round-off: the weights of the
 /// end values are in `[0, 1]` and sum to 1, the others are below `16/81` (those of the
 /// first derivatives) and `0.01728` (the second) in magnitude.
@@ -436,30 +456,30 @@ impl Driver<'_> {
                 rates = mode.rates.as_ref().map(|r| r * &z1);
                 z1
             }
-            Flow::Quadratic { full: cached } => {
-                let fresh;
-                let (phi, d) = if full {
-                    let f = cached.as_ref().expect("prepared");
-                    (&f.0, &f.1)
-                } else {
-                    fresh = mode.operator(eta);
-                    (&fresh.0, &fresh.1)
-                };
+            Flow::Piecewise { full: cached } => {
                 let mut z = DVector::zeros(2 * n);
                 z.rows_mut(0, n).copy_from(&p.x);
                 z.rows_mut(n, n).copy_from(&p.v);
-                let mut z1 = phi * z;
-                let nl = sys.loads.len();
-                if nl > 0 {
-                    let val = |s: f64| {
-                        DVector::from_iterator(nl, sys.loads.iter().map(|l| l.value(p.t + s * eta)))
+                let loads = |t: f64| {
+                    DVector::from_iterator(sys.loads.len(), sys.loads.iter().map(|l| l.value(t)))
+                };
+                let cuts = breakpoints(sys, p.t, eta);
+                let mut start = p.t;
+                let mut l0 = loads(start);
+                for end in cuts.iter().copied().chain([p.t + eta]) {
+                    let fresh;
+                    let (phi, d) = if full && cuts.is_empty() {
+                        let f = cached.as_ref().expect("prepared");
+                        (&f.0, &f.1)
+                    } else {
+                        fresh = mode.operator(end - start);
+                        (&fresh.0, &fresh.1)
                     };
-                    let (l0, lh, l1) = (val(0.0), val(0.5), val(1.0));
-                    let c1 = &l0 * -3.0 + &lh * 4.0 - &l1;
-                    let c2 = &l0 * 2.0 - &lh * 4.0 + &l1 * 2.0;
-                    z1 += &d[0] * l0 + &d[1] * c1 + &d[2] * c2;
+                    let l1 = loads(end);
+                    z = phi * z + &d[0] * &l0 + &d[1] * (&l1 - &l0);
+                    (start, l0) = (end, l1);
                 }
-                z1
+                z
             }
         };
         let mut x = z1.rows(0, n).into_owned();
