@@ -294,9 +294,8 @@ def waterfall(sweep: Any, dofs: Sequence[int] | None = None) -> Waterfall:
 
     ds = sweep_dataset(sweep)
     path = "structure.spin_speed"
-    require(path in ds.dims and len(ds.dims) > 0 and "direction" not in ds.dims
-            and sum(d not in ("sample", "dof", "gap", "impact", "model_dof") for d in ds.dims)
-            == 1, "sweep", f"parameters {ds.attrs.get('params', '')}",
+    grid = [d for d in ds["failed"].dims]  # the swept parameters (and a direction)
+    require(grid == [path], "sweep", f"dimensions {grid}",
             "a sweep over structure.spin_speed alone (one direction)")
     per_period = int(ds.attrs.get("samples_per_period", 1))
     require(per_period >= 4, "--samples-per-period", per_period,

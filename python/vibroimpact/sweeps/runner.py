@@ -100,7 +100,7 @@ class Sweep:
       and no ``dt_max``, the largest step is a sixteenth of the forcing period.
     - ``transient``, ``periods``: forcing periods discarded, then sampled; each point runs
       ``(transient + periods) T`` with ``T`` the period of load ``period_load`` (default: the
-      first harmonic load).
+      first harmonic load, or unbalance at the spin speed: ``T = 2π/Ω``).
     - ``dofs``: sampled DOFs (default all when at most 8, else the gaps' DOFs).
     - ``continuation``: ``none``, ``up``, ``down`` or ``both`` (see the module doc).
     - ``max_impacts``: impacts kept per gap and point (speeds and phases; default
