@@ -51,7 +51,7 @@ pub(crate) fn flow_map<'py>(
         x0,
         v0,
     } = convert::job_from_spec(spec, None)?;
-    let n_gaps = system.gaps.len();
+    let n_gaps = system.n_gaps;
     let mut extremes = Extremes {
         low: x0.iter().copied().collect(),
         high: x0.iter().copied().collect(),
