@@ -148,6 +148,8 @@ def test_bad_input_gives_one_line() -> None:
         vi.simulate(model, t_end=1e-3, dt=1e-5, method=vi.integrators.PreciseIntegration())
     with pytest.raises(ModelError, match=r"^gaps\[0\]\.law\.kind: 'hertz' is a force law"):
         vi.simulate(model, t_end=1e-3, dt=1e-5, method=vi.integrators.MoreauJean())
+    with pytest.raises(ModelError, match=r"^gaps\[0\]\.kind: 'radial' has no state-transition "):
+        vi.periodic_orbit(model, transient=2)
 
 
 def test_model_file_radial_gap(tmp_path: Path) -> None:
