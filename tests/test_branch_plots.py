@@ -15,17 +15,14 @@ from vibroimpact.cli import main
 from vibroimpact.plotting.branch import branch_values, plot_branch
 
 FREQUENCY = "loads.0.frequency"
+#: The rigid impact oscillator at w = 2 (``d = 0.2``, ``r = 0.8``, ``ζ = 0.05``).
+RIGID_MODEL = Path(__file__).resolve().parents[1] / "examples/models/impact_oscillator_rigid.toml"
 
 
 @pytest.fixture(scope="module")
 def branch_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """The rigid stop's period-1 branch through its period-doubling (unstable beyond it)."""
-    model = vi.Model(
-        vi.Structure.sdof(mass=1.0, stiffness=1.0, damping=0.1),
-        gaps=[vi.Gap(dof=0, clearance=0.2, side="positive",
-                     law=vi.contact.Rigid(restitution=0.8))],
-        loads=[vi.HarmonicLoad(dof=0, amplitude=1.0, frequency=2.0 / (2 * np.pi),
-                               phase=np.pi / 2)])
+    model = vi.load_model(RIGID_MODEL).model
     branch = vi.continue_orbit(model, FREQUENCY, 2.0 / (2 * np.pi), 2.3 / (2 * np.pi),
                                transient=100, max_points=40)
     path = tmp_path_factory.mktemp("branch") / "branch.nc"
@@ -77,9 +74,7 @@ def test_sweep_under_the_branch(tmp_path: Path, branch_file) -> None:
     from vibroimpact.sweeps import Param, Sweep, run_sweep
 
     ds = vi.io.results_file.load(branch_file)
-    model_path = tmp_path / "oscillator.toml"
-    model_path.write_text(RIGID_MODEL)
-    sweep = run_sweep(Sweep(vi.load_model(model_path).model,
+    sweep = run_sweep(Sweep(vi.load_model(RIGID_MODEL).model,
                             [Param(FREQUENCY, np.linspace(0.32, 0.36, 5))], dt=0.02,
                             method=vi.EventDriven(), transient=100, periods=4),
                       progress=False)
@@ -102,33 +97,6 @@ def test_multipliers_in_the_complex_plane_with_the_unit_circle(branch_file) -> N
     # coloured by the parameter: each multiplier's colour value is its point's parameter
     assert np.array_equal(points.get_array(),
                           np.repeat(ds["parameter"].values, ds.sizes["multiplier"]))
-
-
-RIGID_MODEL = """
-schema_version = 1
-[structure]
-kind = "sdof"
-mass = 1.0
-stiffness = 1.0
-damping = 0.1
-[[gaps]]
-dof = 0
-clearance = 0.2
-side = "positive"
-[gaps.law]
-kind = "rigid"
-restitution = 0.8
-[[loads]]
-kind = "harmonic"
-dof = 0
-amplitude = 1.0
-frequency = 0.3183098861837907
-phase = 1.5707963267948966
-[solver]
-method = "event-driven"
-dt = 0.01
-t_end = 10.0
-"""
 
 
 def test_plot_command_draws_a_branch_file(tmp_path: Path, branch_file) -> None:

@@ -283,29 +283,47 @@ def test_a_load_and_a_mode_shape_on_the_massless_modes_equal_the_full_singular_m
     assert np.abs(without - x).max() > 1e-4 * scale  # the static part matters here
 
 
+def _plate_static(tmp_path: Path, tip_index: int, direction: int
+                  ) -> tuple[FEStructure, dict[int, list[float]], list[int], int, float]:
+    """A 4 × 2 S8R plate (supported at x = 0 and in z at x = 12.5 mm) exported by ccx, and
+    ccx's own ``*STATIC`` displacements at every free node for a 1 N load in ``direction``
+    (1-3) on the ``tip_index``-th node of the tip edge: (fe, printed, free nodes, the loaded
+    node, the printed peak)."""
+    model = shell_mesh(4, 2)
+    xyz = {int(a[0]): float(a[1]) for a in (line.split(",") for line in
+                                            model.split("*ELEMENT")[0].splitlines()[1:])}
+    support = [n for n, x in xyz.items() if abs(x - 0.0125) < 1e-9]
+    free = [n for n, x in xyz.items() if x > 0.013]
+    tip = [n for n, x in xyz.items() if abs(x - 0.1) < 1e-9][tip_index]
+    model += ("*NSET, NSET=SUPPORT\n" + "\n".join(map(str, support))
+              + "\n*NSET, NSET=FREE\n" + "\n".join(map(str, free)) + "\n"
+              "*BOUNDARY\nFIXED, 1, 3\nSUPPORT, 3, 3\n")
+    job = run_ccx(tmp_path, "export", model + "*STEP\n" + EXPORT_STEP + "*END STEP\n")
+    static = run_ccx(tmp_path, "static", model + f"*STEP\n*STATIC\n*CLOAD\n{tip}, {direction}, "
+                     "1.0\n*NODE PRINT, NSET=FREE\nU\n*END STEP\n")
+    printed = {int(p[0]): [float(v) for v in p[1:]] for p in
+               (line.split() for line in static.with_suffix(".dat").read_text().splitlines())
+               if len(p) == 4 and p[0].isdigit()}
+    assert sorted(printed) == sorted(free)
+    peak = max(abs(v) for row in printed.values() for v in row)
+    return read_calculix(job), printed, free, tip, peak
+
+
+def _shell_nodes(fe: FEStructure, x: np.ndarray, nodes: list[int]) -> dict[int, list[float]]:
+    """Each shell node's x, y, z displacement: the mean of its layers (shell_weights)."""
+    dm = fe.dof_map
+    assert dm is not None
+    return {n: [float(np.dot(x[d], w)) for d, w in (dm.shell_weights(n, c) for c in "xyz")]
+            for n in nodes}
+
+
 def test_a_shell_node_is_the_mean_of_its_layers(tmp_path: Path) -> None:
     """CalculiX's own ``*STATIC`` result at every free node of an S8R plate (4 × 2 shells,
     supported at x = 0 and in z at x = 12.5 mm, a 1 N z load at the midside node of the tip
     edge) equals ``DofMap.shell_weights`` applied to the solve with the exported stiffness,
     the load spread over the layers by the same weights, to 1e-6 of the peak (CalculiX
     prints 7 digits); a model file's gap by that node acts on those weights."""
-    model = shell_mesh(4, 2)
-    xyz = {int(a[0]): float(a[1]) for a in (line.split(",") for line in
-                                            model.split("*ELEMENT")[0].splitlines()[1:])}
-    support = [n for n, x in xyz.items() if abs(x - 0.0125) < 1e-9]
-    free = [n for n, x in xyz.items() if x > 0.013]
-    tip = [n for n, x in xyz.items() if abs(x - 0.1) < 1e-9][1]  # midside, 2 layers
-    model += ("*NSET, NSET=SUPPORT\n" + "\n".join(map(str, support))
-              + "\n*NSET, NSET=FREE\n" + "\n".join(map(str, free)) + "\n"
-              "*BOUNDARY\nFIXED, 1, 3\nSUPPORT, 3, 3\n")
-    job = run_ccx(tmp_path, "export", model + "*STEP\n" + EXPORT_STEP + "*END STEP\n")
-    static = run_ccx(tmp_path, "static", model + f"*STEP\n*STATIC\n*CLOAD\n{tip}, 3, 1.0\n"
-                     "*NODE PRINT, NSET=FREE\nU\n*END STEP\n")
-    printed = {int(p[0]): [float(v) for v in p[1:]] for p in
-               (line.split() for line in static.with_suffix(".dat").read_text().splitlines())
-               if len(p) == 4 and p[0].isdigit()}
-    assert sorted(printed) == sorted(free)
-    fe = read_calculix(job)
+    fe, printed, free, tip, peak = _plate_static(tmp_path, 1, 3)  # midside, 2 layers
     dm = fe.dof_map
     assert dm is not None
     dofs, weights = dm.shell_weights(tip, "z")
@@ -313,10 +331,8 @@ def test_a_shell_node_is_the_mean_of_its_layers(tmp_path: Path) -> None:
     f = np.zeros(fe.n_dof)
     f[dofs] = weights
     x = scipy.sparse.linalg.spsolve(fe.stiffness.tocsc(), f)
-    ours = {n: [float(np.dot(x[d], w)) for d, w in (dm.shell_weights(n, c) for c in "xyz")]
-            for n in free}
+    ours = _shell_nodes(fe, x, free)
     assert {len(dm.layer_dofs(n, "x")) for n in free} == {2, 3}  # midside and corner nodes
-    peak = max(abs(v) for row in printed.values() for v in row)
     for n in free:
         np.testing.assert_allclose(ours[n], printed[n], rtol=0, atol=1e-6 * peak)
     layers = np.array([x[d] for d in dm.layer_dofs(tip, "x")])
@@ -329,3 +345,42 @@ def test_a_shell_node_is_the_mean_of_its_layers(tmp_path: Path) -> None:
                     '[solver]\ndt = 1e-6\nt_end = 1e-5\n', encoding="utf-8")
     gap = load_model(toml).file_gaps[0]
     assert list(gap.dofs) == dofs and list(gap.coefficients) == weights
+
+
+@pytest.mark.parametrize("direction", [1, 3])
+def test_a_load_on_a_shell_corner_is_spread_as_calculix_spreads_it(
+        tmp_path: Path, direction: int) -> None:
+    """A 1 N ``*CLOAD`` on a corner node of the S8R plate's tip (3 layers), in x (in-plane)
+    and z (bending): ccx ties the loaded node to its layers by ``2u = −u₁ + 4u₂ − u₃`` (its
+    gen3dforc), so the force does work on them as −1/2, 2, −1/2
+    (``DofMap.shell_load_weights``), and the solve with the exported stiffness gives ccx's
+    own displacement at every free node to 1e-6 of the peak (measured 1e-7 and 3e-7), where
+    the mean's weights 1/6, 2/3, 1/6 are 8e-6 and 9e-4 off. A model file's load by
+    ``nodes = [corner]`` is spread the same way (its loads' weights sum to these)."""
+    fe, printed, free, tip, peak = _plate_static(tmp_path, 0, direction)
+    dm = fe.dof_map
+    assert dm is not None
+    c = "xyz"[direction - 1]
+    dofs, weights = dm.shell_load_weights(tip, c)
+    assert weights == [-0.5, 2.0, -0.5]
+
+    def worst(w: list[float]) -> float:
+        f = np.zeros(fe.n_dof)
+        f[dofs] = w
+        ours = _shell_nodes(fe, scipy.sparse.linalg.spsolve(fe.stiffness.tocsc(), f), free)
+        return max(abs(a - b) for n in free for a, b in zip(ours[n], printed[n], strict=True))
+
+    assert worst(weights) < 1e-6 * peak
+    assert worst(dm.shell_weights(tip, c)[1]) > 5e-6 * peak  # the mean's weights are not it
+
+    toml = tmp_path / "model.toml"
+    toml.write_text(f'[structure]\nkind = "matrices"\nmass = "export.mas"\n'
+                    f'stiffness = "export.sti"\n[[loads]]\nkind = "constant"\n'
+                    f'nodes = [{tip}]\ndirection = "{c}"\namplitude = 1.0\n'
+                    '[solver]\ndt = 1e-6\nt_end = 1e-5\n', encoding="utf-8")
+    spread = np.zeros(fe.n_dof)
+    for ld in load_model(toml).file_loads:
+        spread[list(ld.dofs)] += ld.amplitude
+    expected = np.zeros(fe.n_dof)
+    expected[dofs] = weights
+    np.testing.assert_array_equal(spread, expected)

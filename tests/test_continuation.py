@@ -2,12 +2,14 @@
 the rigid stop's period-1 branch and multipliers against the closed form, a fold of a Hertz
 stop's branch (its multiplier at 1, the branch turning there), a supercritical
 period-doubling whose period-2 orbit (``switch``) is stable in simulation, a grazing against
-the linear response's closed form, the parameter column against a difference of another step,
+the linear response's closed form, the core's parameter column against central differences of
+the map (and the fallback difference against a difference of another step),
 and the command line's JSON, file and one-line errors."""
 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -88,12 +90,32 @@ def test_parameter_column_matches_a_difference_of_another_step() -> None:
     assert np.max(np.abs(column)) > 1.0
 
 
+@pytest.mark.parametrize("path, value", [(FREQUENCY, 1.1 / (2 * np.pi)),
+                                         ("loads.0.amplitude", 1.0), ("loads.0.phase", 1.5),
+                                         ("gaps.0.clearance", 0.5)])
+def test_core_parameter_column_equals_the_difference_of_the_map(path: str,
+                                                                value: float) -> None:
+    """DOP853's column ``∂P/∂p`` (carried beside ``Φ``) is the central difference of the
+    simulated map, the forcing period moving with a frequency; a law's stiffness has none."""
+    model = oscillator(vi.contact.Hertz(stiffness=1e4, exponent=1.5), 1.1, 0.5)
+    orbit = vi.periodic_orbit(model, transient=30)
+    raw = orbit.shooting.at(path, value).flow(orbit.state)[2]
+    assert raw["parameter_column_note"] == ""
+    fd = parameter_column(orbit.shooting, orbit.state, path, value, abs(value))
+    assert np.max(np.abs(raw["parameter_column"] - fd)) < 1e-6 * np.max(np.abs(fd))
+    assert np.max(np.abs(fd)) > 0.1
+    other = orbit.shooting.at("gaps.0.law.stiffness", 1e4).flow(orbit.state)[2]
+    assert other["parameter_column"] is None
+    assert "'gaps.0.law.stiffness' has no exact column" in other["parameter_column_note"]
+
+
 def test_fold_of_a_hertz_stop_branch() -> None:
     model = oscillator(vi.contact.Hertz(stiffness=10.0, exponent=1.5), 0.8, 0.5)
     branch = vi.continue_orbit(model, FREQUENCY, 0.8 / (2 * np.pi), 2.5 / (2 * np.pi),
                                transient=100, step=0.05, max_step=0.5, max_points=300)
     folds = [s for s in branch.special_points if s.type == "fold"]
     assert len(folds) == 2
+    assert branch.parameter_column == "exact"
     values = np.array([p.value for p in branch.points])
     arclength = np.array([p.arclength for p in branch.points])
     for fold, turn in zip(folds, (np.max, np.min), strict=True):
@@ -164,40 +186,45 @@ def test_rigid_branch_stops_at_its_grazing_against_the_closed_form() -> None:
     assert abs(grazing.value - expected) < 1e-9 * expected
     assert abs(grazing.wall_margins[0]) < 1e-8
     assert branch.stopped.startswith(f"stopped at the grazing of a rigid stop at {FREQUENCY} = ")
+    assert branch.parameter_column.startswith("central difference: method 'event-driven'")
     assert branch.points[-1].value == pytest.approx(expected, rel=1e-5)
     assert len(branch.points) < 100  # it ended there, not at max_points or the range's end
 
 
-MODEL_FILE = """
-schema_version = 1
-[structure]
-kind = "sdof"
-mass = 1.0
-stiffness = 1.0
-damping = 0.1
-[[gaps]]
-dof = 0
-clearance = 0.2
-side = "positive"
-[gaps.law]
-kind = "rigid"
-restitution = 0.8
-[[loads]]
-kind = "harmonic"
-dof = 0
-amplitude = 1.0
-frequency = {frequency!r}
-phase = 1.5707963267948966
-[solver]
-method = "event-driven"
-dt = 0.01
-t_end = 10.0
-"""
+def test_rigid_branch_continues_through_its_grazing_onto_the_linear_response() -> None:
+    """The example's rigid stop (d = 0.2): past its period-doubling the unstable period-1
+    branch loses its impact speed; the grazing is located where the free response's amplitude
+    |H(w)| equals the clearance, and the branch goes on clear of the stop, where each orbit is
+    the linear response (its state on the section and its multipliers ``eig e^{AT}``)."""
+    model = vi.load_model(RIGID_MODEL).model
+    d = float(model.gaps[0].clearance)
+    end = 2.7 / (2 * np.pi)
+    branch = vi.continue_orbit(model, FREQUENCY, 2.0 / (2 * np.pi), end, transient=100)
+    assert [s.type for s in branch.special_points] == ["period-doubling", "grazing"]
+    b = 2 - 4 * ZETA**2  # |H(w)| = d above the resonance
+    expected = np.sqrt((b + np.sqrt(b**2 - 4 * (1 - 1 / d**2))) / 2) / (2 * np.pi)
+    grazing = branch.special_points[-1].point
+    assert abs(grazing.value - expected) < 1e-10 * expected
+    assert abs(grazing.wall_margins[0]) < 1e-10
+    assert branch.stopped == "" and branch.points[-1].value == pytest.approx(end, rel=1e-12)
+    beyond = [p for p in branch.points if p.value > expected]
+    assert len(beyond) >= 5
+    for p in branch.points:
+        assert p.impacts_per_period == (0 if p.value > expected else 1)
+    for p in beyond:
+        w = 2 * np.pi * p.value
+        assert np.max(np.abs(p.state - particular(w, 0.0))) < 1e-10
+        free = np.linalg.eigvals(scipy.linalg.expm(A * 2 * np.pi / w))
+        assert np.max(np.abs(np.sort_complex(p.multipliers) - np.sort_complex(free))) < 1e-10
+        assert p.stable and p.wall_margins[0] > 0
+
+
+#: The rigid impact oscillator at w = 2 (``d = 0.2``, ``r = 0.8``, ``ζ = 0.05``).
+RIGID_MODEL = Path(__file__).resolve().parents[1] / "examples/models/impact_oscillator_rigid.toml"
 
 
 def test_cli_continue_json_and_netcdf(tmp_path, capsys) -> None:
-    path = tmp_path / "oscillator.toml"
-    path.write_text(MODEL_FILE.format(frequency=2.0 / (2 * np.pi)))
+    path = RIGID_MODEL
     out = tmp_path / "branch.nc"
     end = 2.3 / (2 * np.pi)
     args = ["continue", str(path), "--param", f"{FREQUENCY}={2.0 / (2 * np.pi)!r}:{end!r}",
@@ -233,8 +260,7 @@ def test_cli_continue_json_and_netcdf(tmp_path, capsys) -> None:
                                  "number 'stiffness'"),
 ])
 def test_cli_continue_bad_input_is_one_line(tmp_path, capsys, param, message) -> None:
-    path = tmp_path / "oscillator.toml"
-    path.write_text(MODEL_FILE.format(frequency=0.3))
+    path = RIGID_MODEL
     out = tmp_path / "branch.nc"
     assert main(["continue", str(path), "--param", param, "-o", str(out)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
@@ -251,3 +277,20 @@ def test_bad_arguments_of_the_api() -> None:
     hertz = oscillator(vi.contact.Hertz(stiffness=1e4, exponent=1.5), 1.1, 0.5)
     with pytest.raises(vi.ModelError, match=r"^solver.method: 'bathe' does not compute"):
         vi.continue_orbit(hertz, FREQUENCY, 0.17, 0.2, method=vi.Bathe())
+
+
+def test_parameter_column_counts_a_load_after_an_unbalance_as_the_model_does() -> None:
+    """The core holds an unbalance as two loads (x and y): the path ``loads.1`` of the
+    model must reach the core's third load, not the unbalance's y half."""
+    st = vi.Structure.jeffcott(mass=10.0, stiffness=1e6, damping=200.0, spin_speed=250.0)
+    model = vi.Model(st, loads=[vi.UnbalanceLoad(dof=[0, 1], magnitude=1e-3, phase=0.4),
+                                vi.ConstantLoad(dof=1, amplitude=50.0)])
+    orbit = vi.periodic_orbit(model, transient=0)
+    raw = orbit.shooting.at("loads.1.amplitude", 50.0).flow(orbit.state)[2]
+    assert raw["parameter_column_note"] == ""
+    fd = parameter_column(orbit.shooting, orbit.state, "loads.1.amplitude", 50.0, 50.0)
+    assert np.max(np.abs(fd)) > 0
+    assert np.max(np.abs(raw["parameter_column"] - fd)) < 1e-6 * np.max(np.abs(fd))
+    own = orbit.shooting.at("loads.0.magnitude", 1e-3).flow(orbit.state)[2]
+    assert own["parameter_column"] is None
+    assert "an unbalance's column is not carried" in own["parameter_column_note"]

@@ -5,6 +5,7 @@ annular rub and its rotating-frame stability, and one-line refusals of bad input
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from pathlib import Path
 
@@ -17,7 +18,7 @@ from vibroimpact.model import UnbalanceLoad
 
 ROOT = Path(__file__).resolve().parents[1]
 
-# The rubbing rotor of the benchmark (examples/models/jeffcott_rub.toml): 1 kg on 1e4 N/m
+# The rubbing rotor of the benchmark (examples/models/jeffcott_seal_rub.toml): 1 kg on 1e4 N/m
 # (critical speed 100 rad/s), 150 rad/s, unbalance 1e-4 kg·m (free whirl radius 0.179 mm) in
 # a 0.1 mm seal, a linear stator of 1e6 N/m.
 _P = RubRotor()
@@ -150,16 +151,25 @@ def test_bad_input_gives_one_line() -> None:
         vi.simulate(model, t_end=1e-3, dt=1e-5, method=vi.integrators.MoreauJean())
     with pytest.raises(ModelError, match=r"^gaps\[0\]\.kind: 'radial' has no state-transition "):
         vi.periodic_orbit(model, transient=2)
+    # the sliding speed R Ω of a run-up is not followed yet: refused, not run at Ω(0)
+    rubbing = rotor(1.0, friction=0.1, radius=0.01, friction_law="regularised",
+                    regularisation_speed=0.05)
+    running_up = dataclasses.replace(rubbing, structure=rubbing.structure.run_up(300.0, 0.1))
+    with pytest.raises(ModelError, match=r"^gaps\[0\]\.friction: 0.1 on a radial gap during a "
+                                         r"run-up is not available yet"):
+        vi.simulate(running_up, t_end=1e-3, dt=1e-5, method=vi.Dop853())
+    vi.simulate(dataclasses.replace(model, structure=model.structure.run_up(300.0, 0.1)),
+                t_end=1e-3, dt=1e-5, method=vi.Dop853())  # frictionless: runs
 
 
 def test_model_file_radial_gap(tmp_path: Path) -> None:
-    """examples/models/jeffcott_rub.toml runs as the same model built in Python; a bad field
+    """examples/models/jeffcott_seal_rub.toml runs as the same model built in Python; a bad field
     is one line naming it."""
-    mf = vi.load_model(ROOT / "examples" / "models" / "jeffcott_rub.toml")
+    mf = vi.load_model(ROOT / "examples" / "models" / "jeffcott_seal_rub.toml")
     gap = mf.model.gaps[0]
     assert isinstance(gap, vi.RadialGap) and gap.dofs == (0, 1) and gap.friction == 0.05
     assert gap.friction_law == "regularised" and gap.regularisation_speed == 0.05
-    text = (ROOT / "examples" / "models" / "jeffcott_rub.toml").read_text()
+    text = (ROOT / "examples" / "models" / "jeffcott_seal_rub.toml").read_text()
     for old, new, line in (
         ("friction = 0.05\n", "friction = 0.05\nside = \"both\"\n", "gaps[0].side"),
         ("dof = [0, 1]\nclearance", "dof = [0, 1]\ndirections = [\"x\", \"y\"]\nclearance",

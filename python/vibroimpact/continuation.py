@@ -4,8 +4,10 @@ and special points (docs/periodic-orbits.md, Continuation).
 The unknowns are ``y = (z, p)``: the state on the section and the parameter (any number a
 sweep can set: :func:`vibroimpact.sweeps.apply`). Each point solves ``P^N(z; p) − z = 0`` plus
 the arclength condition ``t·(y − y_pred) = 0`` by Newton with the Jacobian
-``[Φ − I, ∂P^N/∂p]``: ``Φ`` from the core's state-transition matrix, the parameter column by a
-central difference of the simulated map (not exact; see :func:`parameter_column`). The
+``[Φ − I, ∂P^N/∂p]``: ``Φ`` from the core's state-transition matrix, the parameter column from
+the core too where it carries it (DOP853 and the Newmark family, for a load's amplitude,
+frequency or phase and a gap's clearance), else by a central difference of the simulated map
+(:func:`parameter_column`; :attr:`Branch.parameter_column` says which). The
 unknowns are scaled (the state by its largest component at the start, the parameter by the
 range) so that the arclength weighs both. The tangent comes from the bordered system with the
 previous tangent as its last row, which keeps its orientation through a fold.
@@ -19,7 +21,8 @@ Illinois (regula falsi) iteration on the arclength from the first point:
 * ``neimark-sacker``: ``Π_{i<j} (μ_i μ_j − 1)`` with a complex pair on the unit circle there;
 * ``grazing``, per wall: the smallest distance to the wall over the orbit while nothing
   touches it, minus the largest penetration (compliant laws) or the smallest impact speed
-  (rigid stops) while something does.
+  (rigid stops) while something does. A rigid stop's impact speed falling to zero is
+  continued through onto the orbit clear of the stop (:func:`_through_grazing`).
 """
 
 from __future__ import annotations
@@ -145,8 +148,11 @@ class Branch:
     #: The displacement unit of each DOF (``m`` or ``rad``; the model's).
     dof_units: tuple[str, ...] = ()
     #: Why the branch ended before the range's end or ``max_points`` (empty otherwise): at a
-    #: rigid stop's grazing.
+    #: rigid stop's grazing with no orbit clear of the stop past it.
     stopped: str = ""
+    #: How ``∂P^N/∂p`` was taken: ``"exact"`` (the core's column, beside ``Φ``) or
+    #: ``"central difference: <why the core has no column>"``.
+    parameter_column: str = "exact"
 
     def summary(self) -> dict[str, Any]:
         """The JSON of ``vibroimpact continue --json``: ``parameter`` (the path), ``points``
@@ -162,9 +168,10 @@ class Branch:
         ``state`` (point, component: the section's displacements then velocities),
         ``multiplier_real``/``_imag`` (point, multiplier), ``impact_speed_max`` (point, gap),
         the coordinate ``dof_unit`` (dof) and the attribute ``kind = "vibroimpact-branch"``; the
-        special points along dimension ``special`` (and the attribute ``stopped``: why the
-        branch ended early, if it did): ``special_type``, ``special_value``,
-        ``special_arclength``, ``special_multiplier_real``/``_imag``."""
+        special points along dimension ``special`` (and the attributes ``stopped``: why the
+        branch ended early, if it did, and ``parameter_column``: how ``∂P/∂p`` was taken):
+        ``special_type``, ``special_value``, ``special_arclength``,
+        ``special_multiplier_real``/``_imag``."""
         pts, sps = self.points, self.special_points
         n_mult = pts[0].multipliers.size
         multipliers = np.array([p.multipliers for p in pts])
@@ -192,7 +199,8 @@ class Branch:
             },
             coords={"arclength": ("point", [p.arclength for p in pts]),
                     **({"dof_unit": ("dof", list(self.dof_units))} if self.dof_units else {})},
-            attrs={"parameter": self.parameter, "kind": BRANCH_KIND, "stopped": self.stopped},
+            attrs={"parameter": self.parameter, "kind": BRANCH_KIND, "stopped": self.stopped,
+                   "parameter_column": self.parameter_column},
         )
         return ds
 
@@ -207,8 +215,8 @@ def parameter_column(shooting: Shooting, z: NDArray[np.float64], path: str, valu
     """``∂P^N/∂p`` at ``(z, value)`` by the central difference
     ``(P^N(z; p + h) − P^N(z; p − h)) / 2h`` of the simulated map, ``h = relative_step ·
     max(|p|, scale)``: an approximation (error ``O(h²)`` plus rounding ``O(ε/h)``, about 1e-10
-    relative where the map is smooth), not the exact derivative, which the core does not carry
-    for a parameter. When ``p`` is a load's frequency each side runs its own forcing period."""
+    relative where the map is smooth), for a parameter or method whose column the core does not
+    carry. When ``p`` is a load's frequency each side runs its own forcing period."""
     h = relative_step * max(abs(value), scale)
     up, down = (shooting.at(path, value + sign * h) for sign in (1, -1))
     return (up.state_at(z, up.duration) - down.state_at(z, down.duration)) / (2 * h)
@@ -246,7 +254,12 @@ class _Continuation:
     def at(self, value: float) -> Shooting:
         return self.shooting.at(self.path, value)
 
-    def column(self, y: NDArray[np.float64]) -> NDArray[np.float64]:
+    def column(self, y: NDArray[np.float64], raw: dict[str, Any]) -> NDArray[np.float64]:
+        """``∂P^N/∂p`` at ``y``: the core's column in its output ``raw`` of the flow from
+        there, else the central difference."""
+        exact = raw["parameter_column"]
+        if exact is not None:
+            return np.asarray(exact, dtype=float)
         return parameter_column(self.shooting, y[:-1], self.path, float(y[-1]), self.scale)
 
     def correct(self, u0: NDArray[np.float64], row: NDArray[np.float64], target: float,
@@ -254,9 +267,10 @@ class _Continuation:
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any],
                            NDArray[np.float64], int]:
         """Newton on ``P^N(z; p) − z = 0`` and ``row · u = target`` (scaled ``u``) from
-        ``u0``, with the parameter column ``column`` kept while the residual falls fast
-        (a chord in that column), taken again at the iterate where it does not. Returns
-        ``u``, ``Φ``, the core's output there, the last column and the iterations."""
+        ``u0``, with the core's parameter column at each iterate, or without one the central
+        difference ``column`` kept while the residual falls fast (a chord in that column),
+        taken again at the iterate where it does not. Returns ``u``, ``Φ``, the core's output
+        there, the last column (the core's: at ``u``) and the iterations."""
         tol = self.tol if tol is None else tol
         w, n = self.weights, self.shooting.n_state
         u = u0.copy()
@@ -265,6 +279,8 @@ class _Continuation:
             y = u / w
             try:
                 end, phi, raw = self.at(float(y[-1])).flow(y[:-1])
+                if raw["parameter_column"] is not None:
+                    column = np.asarray(raw["parameter_column"], dtype=float)
                 residual = end - y[:-1]
                 norm = float(np.linalg.norm(residual))
                 if norm <= tol * max(float(np.linalg.norm(y[:-1])), 1e-300) and iteration > 0:
@@ -272,7 +288,7 @@ class _Continuation:
                 if iteration == MAX_CORRECTOR_ITERATIONS:
                     break
                 if norm > SLOW_CONTRACTION * previous:  # the kept column is too far off
-                    column = self.column(y)
+                    column = self.column(y, raw)
             except (ModelError, SolverError) as e:
                 raise _StepFailed(str(e)) from None
             previous = norm
@@ -421,7 +437,7 @@ class _Continuation:
         try:
             point = self.point(u, phi, raw, sol.point.arclength + moved, refine)
             if column is sol.column:
-                column = self.column(u / self.weights)
+                column = self.column(u / self.weights, raw)
         except (ModelError, SolverError) as e:
             raise _StepFailed(str(e)) from None
         new = _Solution(point=point, u=u, column=column)
@@ -551,7 +567,9 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
     row = np.zeros(u.size)
     row[-1] = 1.0
     _, phi, raw = first.flow(z)
-    sol = _Solution(point=run.point(u, phi, raw, 0.0), u=u, column=run.column(u / run.weights))
+    note = raw["parameter_column_note"]
+    sol = _Solution(point=run.point(u, phi, raw, 0.0), u=u,
+                    column=run.column(u / run.weights, raw))
     sol.tangent = run.tangent(phi, sol.column, np.sign(end - start) * row)
     sol.tests = run.tests(sol)
     points, specials = [sol.point], []
@@ -563,6 +581,13 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
         except _StepFailed as e:
             ds *= SHRINK
             if ds < min_step:
+                through = (_through_grazing(run, points, sol, low, high)
+                           if len(points) > 1 else None)
+                if through is not None:
+                    specials.append(through[0])
+                    points.append(through[1].point)
+                    sol, ds = through[1], float(step)
+                    continue
                 grazing = _rigid_grazing(run, points, sol)
                 if grazing is None:
                     raise SolverError(f"continuation: the step fell below {min_step:g} at "
@@ -570,8 +595,8 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
                                       f"points ({e})") from None
                 specials.append(grazing)
                 stop = (f"stopped at the grazing of a rigid stop at {path} = "
-                        f"{grazing.point.value:.9g}: an impact at zero speed has no "
-                        "derivative, so the branch is not continued through it")
+                        f"{grazing.point.value:.9g}: no orbit clear of the stop was found "
+                        "past it")
                 break
             continue
         value = new.point.value
@@ -598,6 +623,11 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
             points.append(specials[-1].point)
             run, new = _switch(run, specials[-1], ds)
         points.append(new.point)
+        through = None if last else _through_grazing(run, points, new, low, high)
+        if through is not None:  # a rigid stop's grazing ahead: past it, clear of the stop
+            specials.append(through[0])
+            points.append(through[1].point)
+            new = through[1]
         sol = new
         if last:
             break
@@ -607,12 +637,113 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
             ds *= SHRINK
     specials.sort(key=lambda s: s.point.arclength)
     return Branch(parameter=path, points=tuple(points), special_points=tuple(specials),
-                  dof_units=tuple(model.structure.dof_units), stopped=stop)
+                  dof_units=tuple(model.structure.dof_units), stopped=stop,
+                  parameter_column=f"central difference: {note}" if note else "exact")
 
 
 #: A rigid wall's grazing test function (its distance, or minus the impact speed) this small
 #: against the wall's clearance (at least 1) at a branch's last point is a grazing at hand.
 GRAZING_END = 1e-3
+#: A rigid wall's impact speed falling below this fraction of its largest along the branch is
+#: a grazing at hand too: near it the multipliers grow as the inverse of the speed, Newton
+#: slows and the steps shrink, so that the branch would crawl there.
+GRAZING_FRACTION = 1e-3
+#: Tries, each twice as far past the estimated grazing, of an orbit clear of the stop.
+THROUGH_ATTEMPTS = 20
+#: The clearance of the gap taken away to find the orbit clear of its stop.
+FAR = 1e12
+
+
+def _rigid_wall_grazing(run: _Continuation,
+                        points: list[BranchPoint]) -> tuple[int, float] | None:
+    """The rigid wall (index in ``run.walls``) whose impact speed falls to zero ahead of the
+    last of ``points`` (below ``GRAZING_END`` or ``GRAZING_FRACTION`` of its largest on them),
+    and the parameter value where the secant of its speed through the last two vanishes; None
+    if there is none."""
+    previous, last = points[-2], points[-1]
+    for i, (g, _) in enumerate(run.walls):
+        gap = run.shooting.model.gaps[g]
+        fa, fb = float(previous.wall_margins[i]), float(last.wall_margins[i])
+        if not (gap.law.impulsive and fa < fb < 0):
+            continue
+        largest = max(-float(p.wall_margins[i]) for p in points)
+        near = GRAZING_END * max(abs(float(gap.clearance)), 1.0)
+        if -fb < near or -fb < GRAZING_FRACTION * largest:
+            return i, last.value - fb * (last.value - previous.value) / (fb - fa)
+    return None
+
+
+def _through_grazing(run: _Continuation, points: list[BranchPoint], sol: _Solution,
+                     low: float, high: float) -> tuple[SpecialPoint, _Solution] | None:
+    """The grazing of a rigid stop that the branch ``points`` reaches after its last, ``sol``
+    (at least two points), and the first point past it, on the branch clear of the stop; None
+    if there is no grazing at hand (:func:`_rigid_wall_grazing`) or no such orbit in
+    ``[low, high]``.
+
+    Clear of the stop, the orbit is that of the model whose gap is moved away (clearance
+    ``FAR``: nothing impacts there, so nothing at zero speed either), and its distance to the
+    wall is smooth in the parameter: its zero, bracketed between the last point and the first
+    value past the secant's estimate where the distance is positive and located by the
+    Illinois iteration, is the grazing, and the orbit there is the grazing orbit (its
+    multipliers those of the flow clear of the stop). The first point past it is that orbit,
+    corrected on the model itself, at the bracket's far end."""
+    found = _rigid_wall_grazing(run, points)
+    if found is None:
+        return None
+    wall, estimate = found
+    g = run.walls[wall][0]
+    row = np.zeros(sol.u.size)
+    row[-1] = 1.0
+
+    def clear(value: float) -> tuple[float, NDArray[np.float64], BranchPoint]:
+        away = run.at(value).at(f"gaps.{g}.clearance", FAR)
+        z = solve_orbit(away, sol.point.state, run.tol).state
+        _, phi, raw = away.flow(z)
+        u = np.append(z, value) * run.weights
+        point = run.point(u, phi, raw, sol.point.arclength, refine=True)
+        return float(point.wall_margins[wall]), u, point
+
+    a, b = sol.point.value, estimate
+    try:
+        fa = clear(a)[0]
+        step = b - a
+        for _ in range(THROUGH_ATTEMPTS):
+            fb, u_far, _ = clear(b)
+            if fb > 0:
+                break
+            b += step
+            step *= 2
+        else:
+            return None
+        if not (fa < 0 < fb and low <= b <= high):
+            return None
+        cache: dict[float, tuple[NDArray[np.float64], BranchPoint]] = {}
+
+        def margin(value: float) -> float:
+            f, u, point = clear(value)
+            cache[value] = (u, point)
+            return f
+
+        at = _illinois(margin, a, fa, b, fb, LOCATE_TOLERANCE * run.scale,
+                       MAX_LOCATE_ITERATIONS)
+        if at not in cache:
+            margin(at)
+        u_grazing, grazing = cache[at]
+        grazing = replace(grazing, arclength=sol.point.arclength
+                          + float(np.linalg.norm(u_grazing - sol.u)))
+        u, phi, raw, column, _ = run.correct(u_far, row, u_far[-1], sol.column)
+        moved = float(np.linalg.norm(u - u_grazing))
+        point = run.point(u, phi, raw, grazing.arclength + moved)
+        if point.wall_margins[wall] <= 0:  # the correction went back onto the stop
+            return None
+        if column is sol.column:
+            column = run.column(u / run.weights, raw)
+    except (_StepFailed, _LocateFailed, ModelError, SolverError):
+        return None
+    new = _Solution(point=point, u=u, column=column)
+    new.tangent = run.tangent(phi, column, (u - u_grazing) / moved)
+    new.tests = run.tests(new)
+    return SpecialPoint("grazing", grazing), new
 
 
 def _rigid_grazing(run: _Continuation, points: list[BranchPoint],
@@ -664,7 +795,7 @@ def _switch(run: _Continuation, pd: SpecialPoint, ds: float) -> tuple[_Continuat
     at = doubled.at(float(y[-1]))
     _, phi, raw = at.flow(y[:-1])
     sol = _Solution(point=doubled.point(u, phi, raw, point.arclength), u=u,
-                    column=doubled.column(y), tangent=direction)
+                    column=doubled.column(y, raw), tangent=direction)
     for _ in range(SWITCH_ATTEMPTS):
         try:
             # the period-2 branch leaves at a right angle: its first correction is large

@@ -278,8 +278,8 @@ class EventDriven(Integrator):
     """Event-driven integration of rigid impacts (gaps with ``contact.Rigid`` only): every
     impact instant is located by root finding on the exact solution, Newton's restitution
     law is applied as a velocity jump through the generalized impulse, and between events
-    the linear structure is integrated exactly (matrix exponential; constant and harmonic
-    loads exactly, a table load as the quadratic over each step). ``dt`` is the step on
+    the linear structure is integrated exactly (matrix exponential; constant, harmonic and
+    table loads exactly, a table split at its breakpoints). ``dt`` is the step on
     which events are searched and output is recorded.
 
     Rules (docs/rigid-impacts.md): simultaneous impacts are resolved together by the

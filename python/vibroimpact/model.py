@@ -40,6 +40,7 @@ __all__ = [
     "TableLoad",
     "UnbalanceLoad",
     "spd_solver",
+    "spec_load_frequency",
 ]
 
 Side = Literal["positive", "negative", "both"]
@@ -48,6 +49,12 @@ Side = Literal["positive", "negative", "both"]
 #: (a translation), ``"rad"`` (a rotation) or ``"kg^0.5 m"`` (the coordinate of a
 #: mass-normalised mode, ``φᵀMφ = 1``: a Craig–Bampton interior mode).
 DOF_UNITS: tuple[str, ...] = ("m", "rad", "kg^0.5 m")
+
+#: ``structure.spin_profile``: a constant spin speed, or a linear run-up (or run-down).
+SPIN_PROFILES = ("constant", "linear")
+
+#: The spin profile's fields of a structure and of a model spec.
+SPIN_KEYS = ("spin_profile", "spin_speed_end", "run_up_time")
 
 #: A structure matrix: a dense array, or a SciPy CSR array for large (e.g. FE) models.
 Matrix: TypeAlias = "NDArray[np.float64] | sp.csr_array"
@@ -172,6 +179,9 @@ class Structure:
     dof_units: tuple[str, ...]
     gyroscopic: Matrix | None
     spin_speed: float
+    spin_profile: str
+    spin_speed_end: float | None
+    run_up_time: float | None
 
     def __init__(
         self,
@@ -182,6 +192,9 @@ class Structure:
         *,
         gyroscopic: ArrayLike | sp.sparray | sp.spmatrix | None = None,
         spin_speed: float = 0.0,
+        spin_profile: str = "constant",
+        spin_speed_end: float | None = None,
+        run_up_time: float | None = None,
     ) -> None:
         m = _matrix(mass, "structure.mass")
         n = m.shape[0]
@@ -211,6 +224,22 @@ class Structure:
         object.__setattr__(self, "gyroscopic", g)
         object.__setattr__(self, "spin_speed", _finite_number(
             spin_speed, "structure.spin_speed", "a spin speed in rad/s"))
+        require(spin_profile in SPIN_PROFILES, "structure.spin_profile", spin_profile,
+                " or ".join(SPIN_PROFILES))
+        object.__setattr__(self, "spin_profile", spin_profile)
+        for name, value, expected in (
+                ("spin_speed_end", spin_speed_end, "a spin speed in rad/s"),
+                ("run_up_time", run_up_time, "a duration > 0 in s")):
+            if spin_profile == "constant":
+                require(value is None, f"structure.{name}", value,
+                        "no value with spin_profile = 'constant' (a run-up: 'linear')")
+            else:
+                require(value is not None, f"structure.{name}", value,
+                        f"{expected} with spin_profile = 'linear'")
+                value = _finite_number(value, f"structure.{name}", expected)
+                require(name != "run_up_time" or value > 0, f"structure.{name}", value,
+                        expected)
+            object.__setattr__(self, name, value)
 
     @classmethod
     def sdof(cls, mass: float, stiffness: float = 0.0, damping: float = 0.0) -> Structure:
@@ -243,9 +272,39 @@ class Structure:
         return cls(np.diag([m, m]), np.diag(per[0]), np.diag(per[1]), spin_speed=spin_speed)
 
     def at_speed(self, spin_speed: float) -> Structure:
-        """This structure spinning at ``spin_speed`` (rad/s) instead."""
+        """This structure spinning at the constant ``spin_speed`` (rad/s) instead."""
         return Structure(self.mass, self.stiffness, self.damping, self.dof_units,
                          gyroscopic=self.gyroscopic, spin_speed=spin_speed)
+
+    def run_up(self, spin_speed_end: float, run_up_time: float) -> Structure:
+        """This structure run up (or down) from its spin speed Ω₀ to ``spin_speed_end`` Ω₁
+        (rad/s) over ``run_up_time`` T (s), then held: ``Ω(t) = Ω₀ + (Ω₁ − Ω₀) t / T``
+        (``spin_profile = "linear"``)."""
+        return Structure(self.mass, self.stiffness, self.damping, self.dof_units,
+                         gyroscopic=self.gyroscopic, spin_speed=self.spin_speed,
+                         spin_profile="linear", spin_speed_end=spin_speed_end,
+                         run_up_time=run_up_time)
+
+    def spin(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                         NDArray[np.float64]]:
+        """``Ω(t)`` (rad/s), ``Ω̇(t)`` (rad/s²) and the angle turned ``∫₀ᵗ Ω dt`` (rad) at the
+        times ``t`` ≥ 0 (s) of its spin profile."""
+        tt = np.asarray(t, dtype=float)
+        w0 = self.spin_speed
+        if self.spin_profile == "constant":
+            return np.full(tt.shape, w0), np.zeros(tt.shape), w0 * tt
+        w1, duration = float(self.spin_speed_end), float(self.run_up_time)  # type: ignore[arg-type]
+        slope = (w1 - w0) / duration
+        ramp = tt < duration
+        omega = np.where(ramp, w0 + slope * tt, w1)
+        angle = np.where(ramp, (w0 + 0.5 * slope * tt) * tt,
+                         0.5 * (w0 + w1) * duration + w1 * (tt - duration))
+        return omega, np.where(ramp, slope, 0.0), angle
+
+    @property
+    def fastest_spin(self) -> float:
+        """The largest ``|Ω|`` of its spin profile, rad/s."""
+        return max(abs(self.spin_speed), abs(self.spin_speed_end or 0.0))
 
     @property
     def n_dof(self) -> int:
@@ -534,7 +593,9 @@ class HarmonicLoad(Load):
 class UnbalanceLoad:
     """A rotating unbalance on the DOF pair ``dof = [ix, iy]`` (x and y of one node) of a
     structure spinning at Ω (:attr:`Structure.spin_speed`): ``magnitude`` m·e (kg·m) at
-    ``phase`` φ (rad) gives ``F = m e Ω² (cos(Ωt + φ), sin(Ωt + φ))`` (N)."""
+    ``phase`` φ (rad) gives ``F = m e Ω² (cos(Ωt + φ), sin(Ωt + φ))`` (N); during a run-up
+    (``Structure.run_up``) ``F = m e (Ω² cos θ + Ω̇ sin θ, Ω² sin θ − Ω̇ cos θ)`` with
+    ``θ = ∫Ω dt + φ`` (the reaction of the eccentric mass's acceleration)."""
 
     dof: Sequence[int]
     magnitude: float
@@ -552,6 +613,11 @@ class UnbalanceLoad:
     @property
     def dofs(self) -> tuple[int, ...]:
         return tuple(self.dof)
+
+    def to_spec(self) -> dict[str, Any]:
+        """The core applies it at the structure's spin profile (``Load::unbalance``)."""
+        return {"kind": "unbalance", "dofs": list(self.dofs),
+                "magnitude": float(self.magnitude), "phase": float(self.phase)}
 
     def harmonics(self, spin_speed: float) -> tuple[HarmonicLoad, HarmonicLoad]:
         """The two harmonic loads it is at the spin speed Ω (x: ``cos θ = sin(θ + π/2)``; a
@@ -624,6 +690,18 @@ class TableLoad(Load):
             "time": list(self.time),
             "value": list(self.force),
         }
+
+
+def spec_load_frequency(spec: dict[str, Any], i: int) -> float:
+    """The frequency (Hz) of load ``i`` of a model spec (:meth:`Model.to_spec`): a harmonic
+    load's, or an unbalance's ``|Ω| / 2π`` at a constant spin speed; 0 for any other (a
+    constant load, a table, an unbalance during a run-up: none that is periodic)."""
+    ld = spec["loads"][i]
+    if ld["kind"] == "harmonic":
+        return float(ld["frequency"])
+    if ld["kind"] == "unbalance" and spec.get("spin_profile", "constant") == "constant":
+        return abs(float(spec.get("spin_speed", 0.0))) / (2 * math.pi)
+    return 0.0
 
 
 def _initial(value: ArrayLike | None, n: int, field_name: str, unit: str) -> NDArray[np.float64]:
@@ -720,12 +798,14 @@ class Model:
 
     @property
     def applied_loads(self) -> tuple[Load, ...]:
-        """The loads the core applies: each :class:`UnbalanceLoad` as its two harmonic loads
-        at the structure's spin speed."""
+        """The loads as time functions: each :class:`UnbalanceLoad` as its two harmonic loads
+        at the structure's spin speed (what the core applies at a constant speed; during a
+        run-up at its fastest ``|Ω|``, the bound of its ``Ω²`` force the run's checks use)."""
+        st = self.structure
+        speed = st.spin_speed if st.spin_profile == "constant" else st.fastest_spin
         out: list[Load] = []
         for ld in self.loads:
-            out += ld.harmonics(self.structure.spin_speed) if isinstance(
-                ld, UnbalanceLoad) else [ld]
+            out += ld.harmonics(speed) if isinstance(ld, UnbalanceLoad) else [ld]
         return tuple(out)
 
     def gap_flexibility(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -796,7 +876,9 @@ class Model:
         """The model of a :meth:`to_spec` dict (a gap's optional ``name`` kept): what a
         parameter path set in a spec (:func:`vibroimpact.sweeps.apply`) is as a model."""
         structure = Structure(spec["mass"], spec["stiffness"], spec["damping"],
-                              dof_units=dof_units)
+                              dof_units=dof_units, gyroscopic=spec.get("gyroscopic"),
+                              spin_speed=spec.get("spin_speed", 0.0),
+                              **{k: spec[k] for k in SPIN_KEYS if spec.get(k) is not None})
         gaps = []
         for i, g in enumerate(spec["gaps"]):
             kind = g["law"]["kind"]
@@ -819,10 +901,13 @@ class Model:
             gaps.append(Gap(dof=g["dofs"], coefficients=g["coefficients"],
                             clearance=g["clearance"], side=g["side"], law=law,
                             name=g.get("name")))
-        loads: list[Load] = []
+        loads: list[Load | UnbalanceLoad] = []
         for i, ld in enumerate(spec["loads"]):
             kind = ld["kind"]
-            if kind == "constant":
+            if kind == "unbalance":
+                loads.append(UnbalanceLoad(dof=ld["dofs"], magnitude=ld["magnitude"],
+                                           phase=ld["phase"]))
+            elif kind == "constant":
                 loads.append(ConstantLoad(dof=ld["dofs"], amplitude=ld["amplitude"]))
             elif kind == "harmonic":
                 loads.append(HarmonicLoad(dof=ld["dofs"], amplitude=ld["amplitude"],
@@ -844,9 +929,10 @@ class Model:
             "damping": s.damping,
             "stiffness": s.stiffness,
             "gaps": [g.to_spec() for g in self.gaps],
-            "loads": [ld.to_spec() for ld in self.applied_loads],
+            "loads": [ld.to_spec() for ld in self.loads],
             "gyroscopic": s.gyroscopic,
             "spin_speed": s.spin_speed,
+            **{k: getattr(s, k) for k in SPIN_KEYS},
             "x0": np.asarray(self.initial_displacement, dtype=float),
             "v0": np.asarray(self.initial_velocity, dtype=float),
         }

@@ -29,7 +29,7 @@ from numpy.typing import ArrayLike, NDArray
 from vibroimpact import _core
 from vibroimpact.errors import ModelError, SolverError
 from vibroimpact.integrators import Adaptive, Dop853, EventDriven, Integrator
-from vibroimpact.model import ConstantLoad, HarmonicLoad, Model, TableLoad
+from vibroimpact.model import ConstantLoad, HarmonicLoad, Model, TableLoad, spec_load_frequency
 from vibroimpact.result import ImpactTable, Result
 from vibroimpact.simulate import _run_core, check_run
 from vibroimpact.sweeps.grid import apply, canonical_path
@@ -54,6 +54,10 @@ def forcing_period(model: Model) -> float:
     Raises :class:`ModelError` if there is no harmonic load, if a load is a table (not
     periodic) or if two frequencies are not commensurate (their ratio is not a fraction with a
     denominator up to 64, to 1e-12)."""
+    st = model.structure
+    if st.spin_profile != "constant":
+        raise ModelError(f"structure.spin_profile: {st.spin_profile!r} (a run-up) is not "
+                         "periodic; expected spin_profile = 'constant' for a periodic orbit")
     frequencies = []
     for i, load in enumerate(model.applied_loads):
         if isinstance(load, TableLoad):
@@ -108,6 +112,20 @@ def default_method(model: Model) -> Integrator:
     return Dop853(adaptive=Adaptive(rtol=1e-12, atol=1e-15))
 
 
+
+def _core_load_path(spec: dict[str, Any], path: str) -> tuple[str | None, str]:
+    """The core's spelling of the model path ``path`` (the core holds an unbalance as two
+    loads, x and y, so a later load's index moves by one per unbalance before it), or None
+    and why the core carries no column for it (an unbalance's own numbers)."""
+    parts = path.split(".")
+    if parts[0] != "loads" or len(parts) < 3 or not parts[1].isdigit():
+        return path, ""
+    k, loads = int(parts[1]), spec["loads"]
+    if k < len(loads) and loads[k]["kind"] == "unbalance":
+        return None, f"'{path}': an unbalance's column is not carried"
+    core = sum(2 if load["kind"] == "unbalance" else 1 for load in loads[:k])
+    return ".".join(["loads", str(core), *parts[2:]]), ""
+
 class Shooting:
     """The stroboscopic map ``P^N`` of ``model`` over ``period`` forcing periods and its
     state-transition matrix, integrated by ``method`` (default :func:`default_method`; one that
@@ -150,11 +168,13 @@ class Shooting:
         """This problem for the model with the number at ``path`` (the paths of ``sweep
         --param``, set by :func:`vibroimpact.sweeps.apply`) equal to ``value``. A load's
         frequency moves the forcing period, hence the section's period and the steps, which
-        stay the same fraction of it. The core checks the value at the first :meth:`flow`
+        stay the same fraction of it; so does a rotor's spin speed (``structure.spin_speed``:
+        the unbalance's period ``2π/Ω``, its ``Ω²`` force and the gyroscopic ``Ω G``). The
+        core checks the value at the first :meth:`flow`
         (:class:`ModelError` naming the field)."""
         spec = apply(self.spec, path, value)
-        period = _common_period(tuple(float(ld["frequency"]) for ld in spec["loads"]
-                                      if ld["kind"] == "harmonic" and ld["frequency"] > 0))
+        period = _common_period(tuple(
+            f for i in range(len(spec["loads"])) if (f := spec_load_frequency(spec, i)) > 0))
         shooting = copy.copy(self)
         shooting._model, shooting.spec = None, spec
         shooting.parameter = (canonical_path(path), float(value))
@@ -220,11 +240,19 @@ class Shooting:
 
     def flow(self, z: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64],
                                                     dict[str, Any]]:
-        """``P^N(z)``, ``∂P^N/∂z`` and the core's output of the run (its time histories)."""
+        """``P^N(z)``, ``∂P^N/∂z`` and the core's output of the run (its time histories; with
+        the parameter of :meth:`at`, its ``parameter_column`` ``∂P^N/∂p`` where the core
+        carries it, else None and ``parameter_column_note`` says why)."""
         n = self.n_dof
         spec = dict(self._spec, x0=np.ascontiguousarray(z[:n]),
                     v0=np.ascontiguousarray(z[n:]))
+        core_path, refused = (None, "") if self.parameter is None else _core_load_path(
+            self.spec, self.parameter[0])
+        if core_path is not None:
+            spec["sensitivity_parameter"] = core_path
         raw = _core.flow_map(spec)
+        if refused:
+            raw["parameter_column"], raw["parameter_column_note"] = None, refused
         if raw["error"] is not None:
             raise SolverError(f"periodic orbit: the run from the section state failed: "
                               f"{raw['error']}")

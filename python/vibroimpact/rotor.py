@@ -32,16 +32,25 @@ from numpy.typing import ArrayLike, NDArray
 from vibroimpact.errors import ModelError, require
 from vibroimpact.fe.dofs import DofMap, FEStructure
 from vibroimpact.model import Model, Structure, UnbalanceLoad
+from vibroimpact.result import Result
 
 __all__ = [
     "Campbell",
+    "FullSpectrum",
+    "PerRevolution",
+    "Waterfall",
     "campbell",
     "from_ross",
+    "full_spectrum",
     "orbit_radius",
+    "per_revolution",
     "plot_campbell",
+    "plot_waterfall",
+    "revolution_times",
     "rub_onset_speeds",
     "translation_pairs",
     "unbalance_response",
+    "waterfall",
 ]
 
 #: A mode whose x and y DOFs move less than this fraction of its whole shape (an axial or
@@ -229,6 +238,176 @@ def rub_onset_speeds(model: Model, dofs: Sequence[int], clearance: float,
         elif fa * fb < 0:
             roots.append(float(scipy.optimize.brentq(excess, a, b, xtol=1e-14 * b, rtol=1e-15)))
     return roots
+
+
+@dataclass(frozen=True)
+class FullSpectrum:
+    """The full spectrum of an orbit: ``frequency`` (Hz, ascending, signed: > 0 forward whirl,
+    with the spin; < 0 backward) and each line's ``amplitude`` (m: the radius of its circular
+    whirl) and ``phase`` (rad, at the record's first sample)."""
+
+    frequency: NDArray[np.float64]
+    amplitude: NDArray[np.float64]
+    phase: NDArray[np.float64]
+
+    def at(self, frequency: float) -> float:
+        """The amplitude (m) of the line nearest ``frequency`` (Hz, signed)."""
+        return float(self.amplitude[int(np.argmin(np.abs(self.frequency - frequency)))])
+
+
+def full_spectrum(x: ArrayLike, y: ArrayLike, dt: float) -> FullSpectrum:
+    """The forward/backward whirl decomposition of the orbit ``x(t), y(t)`` (m, sampled every
+    ``dt`` s): the discrete Fourier transform of ``z = x + i y``, ``Z_k / N`` (Goldman &
+    Muszynska, *Orbit Monitoring and Full Spectrum*, 1999): ``z = Σ_k Z_k e^{i 2π f_k t}`` is a
+    sum of circular whirls of radius ``|Z_k| / N``, forward for ``f_k > 0``. No window: a line
+    at a frequency that fits a whole number of times in the record is exact, any other leaks
+    into its neighbours."""
+    xa = np.asarray(x, dtype=float).ravel()
+    ya = np.asarray(y, dtype=float).ravel()
+    require(xa.size == ya.size and xa.size >= 2, "y", f"{ya.size} samples",
+            f"as many samples as x ({xa.size}), at least 2")
+    require(bool(np.all(np.isfinite(xa)) and np.all(np.isfinite(ya))), "x, y", "NaN",
+            "finite displacements in m")
+    require(math.isfinite(dt) and dt > 0, "dt", dt, "a sampling step > 0 in s")
+    z = np.fft.fftshift(np.fft.fft(xa + 1j * ya)) / xa.size
+    f = np.fft.fftshift(np.fft.fftfreq(xa.size, dt))
+    return FullSpectrum(f, np.abs(z), np.angle(z))
+
+
+@dataclass(frozen=True)
+class Waterfall:
+    """Full spectra over a speed sweep: at each ``speeds`` (rad/s; the swept
+    ``structure.spin_speed``) the lines ``frequency`` (Hz, signed: > 0 forward whirl, < 0
+    backward; rows: speeds) and their ``amplitude`` (m, radius of each circular whirl)."""
+
+    speeds: NDArray[np.float64]
+    frequency: NDArray[np.float64]
+    amplitude: NDArray[np.float64]
+
+
+def waterfall(sweep: Any, dofs: Sequence[int] | None = None) -> Waterfall:
+    """The :func:`full_spectrum` of each point of a sweep over ``structure.spin_speed`` (a
+    Dataset or file of :func:`vibroimpact.sweeps.run_sweep` / ``vibroimpact sweep``, run with
+    ``samples_per_period`` > 1: its samples are the orbit every ``T / N``) at the sampled
+    DOFs ``dofs = [ix, iy]`` (default the first two)."""
+    from vibroimpact.sweeps.plot import sweep_dataset
+
+    ds = sweep_dataset(sweep)
+    path = "structure.spin_speed"
+    require(path in ds.dims and len(ds.dims) > 0 and "direction" not in ds.dims
+            and sum(d not in ("sample", "dof", "gap", "impact", "model_dof") for d in ds.dims)
+            == 1, "sweep", f"parameters {ds.attrs.get('params', '')}",
+            "a sweep over structure.spin_speed alone (one direction)")
+    per_period = int(ds.attrs.get("samples_per_period", 1))
+    require(per_period >= 4, "--samples-per-period", per_period,
+            "a sweep run with --samples-per-period of at least 4 (a spectrum per speed)")
+    sampled = [int(d) for d in ds["dof"].values]
+    ix, iy = (sampled[:2] if dofs is None else [int(d) for d in dofs])
+    for d in (ix, iy):
+        require(d in sampled, "--dof", d, f"one of the sampled DOFs {sampled}")
+    x = ds["poincare_displacement"].sel(dof=ix).values
+    y = ds["poincare_displacement"].sel(dof=iy).values
+    periods = ds["forcing_period"].values
+    freqs, amps = [], []
+    for k in range(x.shape[0]):
+        s = full_spectrum(x[k], y[k], float(periods[k]) / per_period)
+        freqs.append(s.frequency)
+        amps.append(s.amplitude)
+    return Waterfall(np.asarray(ds[path].values, dtype=float), np.array(freqs), np.array(amps))
+
+
+def plot_waterfall(sweep: Any, dofs: Sequence[int] | None = None, path: Any = None,
+                   title: str | None = None) -> Any:
+    """The full-spectrum waterfall of a speed sweep (:func:`waterfall`): each speed's
+    spectrum as a line raised by its speed (rad/s, vertical axis) against the whirl frequency
+    (Hz, horizontal: backward < 0 < forward), scaled so that the largest line spans the
+    speed step, with the ±1× lines ``f = ±Ω / 2π``."""
+    from vibroimpact.plotting import new_figure, save_figure
+
+    w = waterfall(sweep, dofs)
+    fig, ax = new_figure(height=5.0)
+    step = float(np.ptp(w.speeds)) / max(len(w.speeds) - 1, 1) or 1.0
+    scale = step / max(float(w.amplitude.max()), np.finfo(float).tiny)
+    for speed, f, a in zip(w.speeds, w.frequency, w.amplitude, strict=True):
+        ax.plot(f, speed + scale * a, color="C0", lw=0.8)
+    for sign, text in ((1, "+1x (forward)"), (-1, "-1x (backward)")):
+        ax.plot(sign * w.speeds / (2 * math.pi), w.speeds, "k--", lw=0.6, alpha=0.6,
+                label=text)
+    ax.set_xlabel("whirl frequency [Hz] (< 0: backward, > 0: forward)")
+    ax.set_ylabel(f"spin speed [rad/s] (lines: amplitude, {step / scale:.3g} m per step)")
+    ax.legend(fontsize="small", loc="upper right")
+    ax.grid(True, alpha=0.3)
+    ax.set_title(title or "full-spectrum waterfall")
+    if path is not None:
+        save_figure(fig, path)
+    return fig
+
+
+def revolution_times(structure: Structure, t_end: float, t_start: float = 0.0,
+                     phase: float = 0.0) -> NDArray[np.float64]:
+    """The instants in ``[t_start, t_end]`` (s) at which the rotor has turned a whole number
+    of revolutions past ``phase`` (rad): ``∫₀ᵗ Ω dt = 2π k + phase``, inverted in closed form
+    for the structure's spin profile (constant: ``t = θ/Ω``; during a linear run-up
+    ``Ω₀ t + ½ Ω̇ t² = θ``, ``t = 2θ / (Ω₀ + √(Ω₀² + 2 Ω̇ θ))``). Needs ``Ω ≥ 0``."""
+    require(structure.spin_speed >= 0 and (structure.spin_speed_end or 0.0) >= 0,
+            "structure.spin_speed", structure.spin_speed,
+            "a spin speed >= 0 (and spin_speed_end >= 0) for revolutions")
+    require(math.isfinite(t_end) and t_end >= t_start >= 0, "t_end", t_end,
+            f"an instant >= t_start = {t_start} >= 0 in s")
+    angle = structure.spin(np.array([t_start, t_end]))[2]
+    k = np.arange(math.ceil((angle[0] - phase) / (2 * math.pi) - 1e-12),
+                  math.floor((angle[1] - phase) / (2 * math.pi) + 1e-12) + 1)
+    theta = 2 * math.pi * k + phase
+    theta = theta[theta >= 0]
+    w0 = structure.spin_speed
+    if structure.spin_profile == "constant":
+        require(w0 > 0, "structure.spin_speed", w0, "a spin speed > 0 for revolutions")
+        return np.asarray(theta / w0, dtype=float)
+    w1, duration = float(structure.spin_speed_end), float(structure.run_up_time)  # type: ignore[arg-type]
+    slope = (w1 - w0) / duration
+    theta_end = 0.5 * (w0 + w1) * duration
+    ramp = theta < theta_end
+    with np.errstate(divide="ignore", invalid="ignore"):
+        during = 2 * theta / (w0 + np.sqrt(np.maximum(w0 * w0 + 2 * slope * theta, 0.0)))
+        after = duration + (theta - theta_end) / w1
+    t = np.where(ramp, during, after)
+    return np.asarray(t[(t >= t_start - 1e-12 * max(t_end, 1.0)) & np.isfinite(t)], dtype=float)
+
+
+@dataclass(frozen=True)
+class PerRevolution:
+    """The once-per-revolution Poincaré section of a run: at each ``time`` (s) that the
+    rotor has turned a whole revolution (:func:`revolution_times`), the ``displacement`` and
+    ``velocity`` of the result's recorded DOFs (rows: revolutions); ``revolution`` counts
+    them from ``t = 0``; ``speed`` is ``Ω`` there (rad/s)."""
+
+    time: NDArray[np.float64]
+    revolution: NDArray[np.int64]
+    speed: NDArray[np.float64]
+    displacement: NDArray[np.float64]
+    velocity: NDArray[np.float64]
+
+
+def per_revolution(result: Result, model: Model | None = None, phase: float = 0.0,
+                   transient: float = 0.0) -> PerRevolution:
+    """The once-per-revolution section of ``result`` (its model's spin profile, or that of
+    ``model``) from ``transient`` s on, at the angle ``phase`` (rad): each sample is the
+    cubic Hermite interpolant of the recorded rows (displacement with the velocity as its
+    derivative, velocity with the acceleration), exact where a row lands on the revolution
+    (a constant spin with a whole number of steps per revolution)."""
+    from scipy.interpolate import CubicHermiteSpline
+
+    model = result.model if model is None else model
+    require(model is not None, "model", None, "the model of the run (the result has none)")
+    assert model is not None
+    t = np.asarray(result.time, dtype=float)
+    require(t.size >= 2, "result.time", f"{t.size} rows", "at least 2 recorded rows")
+    st = model.structure
+    times = revolution_times(st, float(t[-1]), max(float(t[0]), transient), phase)
+    turns = np.rint((st.spin(times)[2] - phase) / (2 * math.pi)).astype(np.int64)
+    x = CubicHermiteSpline(t, result.displacement, result.velocity, axis=0)(times)
+    v = CubicHermiteSpline(t, result.velocity, result.acceleration, axis=0)(times)
+    return PerRevolution(times, turns, st.spin(times)[0], np.atleast_2d(x), np.atleast_2d(v))
 
 
 def from_ross(rotor: Any, speed: float = 0.0) -> FEStructure:

@@ -1,5 +1,5 @@
 """The rotor-rub benchmark (issue 22; ``vibroimpact bench``): a Jeffcott rotor rubbing on a
-seal (examples/models/jeffcott_rub.toml: a radial gap with a linear stator and regularised
+seal (examples/models/jeffcott_seal_rub.toml: a radial gap with a linear stator and regularised
 friction), 100 revolutions by our DOP853 and by SciPy's ``solve_ivp`` DOP853 with the contact
 onsets and ends located as events, at the same rtol, side by side; then 1,000 revolutions by
 ours. :func:`scipy_rub` is also the independent reference of tests/test_radial_gap.py."""

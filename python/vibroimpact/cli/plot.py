@@ -22,7 +22,9 @@ examples:
   vibroimpact plot run.nc --kind impact-map --x phase --period 0.2 -o map.pdf
   vibroimpact plot run.nc --kind spectrum --quantity acceleration --f-max 5000 -o fft.png
   vibroimpact plot branch.nc --kind branch --sweep sweep.nc -o branch.png
-  vibroimpact plot branch.nc --kind multipliers -o multipliers.png"""
+  vibroimpact plot branch.nc --kind multipliers -o multipliers.png
+  vibroimpact plot rotor.nc --kind orbit --dof 0 --dof 1 --clearance 1e-3 -o orbit.png
+  vibroimpact plot speeds.nc --kind waterfall --dof 0 --dof 1 -o waterfall.png"""
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
@@ -57,6 +59,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--f-max", type=float, default=None, help="spectrum: highest frequency, Hz")
     p.add_argument("--n-modes", type=int, default=None,
                    help="mode-shapes: elastic modes to draw (default 4)")
+    p.add_argument("--clearance", type=float, default=None, metavar="C",
+                   help="orbit: draw the stator's clearance circle of radius C, m")
+    p.add_argument("--center", type=float, nargs=2, default=None, metavar=("X", "Y"),
+                   help="orbit: the stator's centre, m (default 0 0)")
     p.add_argument("--sweep", default=None, metavar="SWEEP.nc",
                    help="branch: draw this sweep's bifurcation diagram (over the branch's "
                    "parameter) under the branch")
@@ -92,7 +98,8 @@ def main(args: argparse.Namespace) -> int:
     ds = load(args.result)
     kind = KINDS[args.kind]
     options: dict[str, Any] = {"t_min": args.t_min, "t_max": args.t_max}
-    for name in ("dofs", "gaps", "x", "period", "quantity", "f_max", "n_modes"):
+    for name in ("dofs", "gaps", "x", "period", "quantity", "f_max", "n_modes", "clearance",
+                 "center"):
         value = getattr(args, name)
         if value is None:
             continue

@@ -94,8 +94,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                    help="DOF to sample (repeat; default: the model file's output DOFs, else "
                    "all up to 8 DOFs, else the gaps' DOFs)")
     p.add_argument("--period-load", type=int, default=None, metavar="L",
-                   help="the harmonic load whose period --transient, --periods and the "
-                   "samples count (default the first harmonic load)")
+                   help="the harmonic (or unbalance) load whose period --transient, --periods "
+                   "and the samples count (default the first such load)")
+    p.add_argument("--samples-per-period", type=int, default=1, metavar="N",
+                   help="samples of each sampled period (default 1: the Poincare section; "
+                   "more: a time history at T/N for spectra, e.g. --kind waterfall)")
     p.add_argument("--max-impacts", type=int, default=None, metavar="K",
                    help="impact speeds and phases kept per gap and point (default --periods, "
                    "at most 1000)")
@@ -146,7 +149,8 @@ def main(args: argparse.Namespace) -> int:
     options: dict[str, Any] = {"transient": args.transient, "periods": args.periods,
                                "continuation": args.continuation,
                                "max_impacts": args.max_impacts, "chunk_size": args.chunk_size,
-                               "period_load": args.period_load}
+                               "period_load": args.period_load,
+                               "samples_per_period": args.samples_per_period}
     if args.dofs:
         options["dofs"] = args.dofs
     if args.method is not None:

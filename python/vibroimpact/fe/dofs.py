@@ -166,12 +166,24 @@ class DofMap:
         the shell node's results): ``1/6, 2/3, 1/6`` over the three layers of a corner node
         (Simpson's rule on the quadratic field), ``1/2, 1/2`` over the two of a midside node
         (a linear one); ``([index], [1.0])`` for a pair without layers. As a gap's
-        coefficients they make the gap act on the shell node (a force on it is spread over the
-        layers by the same weights)."""
+        coefficients they make the gap act on the shell node."""
+        return self._layer_weights(node, direction, {2: [0.5, 0.5], 3: [1 / 6, 2 / 3, 1 / 6]})
+
+    def shell_load_weights(self, node: int, direction: str | int
+                           ) -> tuple[list[int], list[float]]:
+        """The DOFs and weights over which CalculiX spreads a force on the shell node (its
+        ``gen3dforc``: the loaded node is tied to its layers by ``2u = u₁ + u₃`` at a midside
+        node and ``2u = −u₁ + 4u₂ − u₃`` at a corner node, so a force ``F`` on it does work
+        on them as ``F/2, F/2`` and ``−F/2, 2F, −F/2``); ``([index], [1.0])`` for a pair
+        without layers."""
+        return self._layer_weights(node, direction, {2: [0.5, 0.5], 3: [-0.5, 2.0, -0.5]})
+
+    def _layer_weights(self, node: int, direction: str | int,
+                       table: dict[int, list[float]]) -> tuple[list[int], list[float]]:
         layered = self.layer_dofs(node, direction)
         if not layered:
             return [self.index(node, direction)], [1.0]
-        weights = {2: [0.5, 0.5], 3: [1 / 6, 2 / 3, 1 / 6]}.get(len(layered))
+        weights = table.get(len(layered))
         if weights is None:
             raise ModelError(
                 f"node: {node!r} is not valid with direction {direction_name(direction)!r}; "

@@ -39,6 +39,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 from numpy.typing import ArrayLike, NDArray
 
+from vibroimpact import _core
 from vibroimpact.errors import ModelError
 from vibroimpact.fe.condensation import weighted_gap, weighted_loads
 from vibroimpact.fe.dofs import DofMap, FEStructure
@@ -230,28 +231,31 @@ def craig_bampton(
     k_ii = ks[interior][:, interior]
     k_ib = ks[interior][:, b].toarray()
     m_ii = ms[interior][:, interior]
-    lu = None
+    factor = None
     if ni == 0:
         psi = np.zeros((0, len(b)))
     elif sparse:
-        try:
-            lu = spla.splu(sp.csc_array(k_ii))
-        except RuntimeError:
+        k_rows = sp.csr_array(k_ii)
+        k_rows.sum_duplicates()
+        k_rows.sort_indices()
+        try:  # the core's sparse Cholesky, as a run factors its effective stiffness
+            factor = _core.CholeskyFactor(k_rows)
+        except _core.ModelError:
             raise ModelError(_singular_message(len(b))) from None
-        psi = -lu.solve(k_ib)
+        psi = -factor.solve(k_ib)
     else:
         try:
             kd = k_ii.toarray()
-            factor = scipy.linalg.cho_factor(kd)
-            psi = -scipy.linalg.cho_solve(factor, k_ib)
+            cho = scipy.linalg.cho_factor(kd)
+            psi = -scipy.linalg.cho_solve(cho, k_ib)
         except np.linalg.LinAlgError:
             raise ModelError(_singular_message(len(b))) from None
     if ni and not np.all(np.isfinite(psi)):
         raise ModelError(_singular_message(len(b)))
     if n_modes:
         if sparse and n_modes < ni - 1:
-            assert lu is not None  # shift-invert about 0 reuses the factor of K_ii
-            k_inv = spla.LinearOperator((ni, ni), matvec=lu.solve, dtype=float)
+            assert factor is not None  # shift-invert about 0 reuses the factor of K_ii
+            k_inv = spla.LinearOperator((ni, ni), matvec=factor.solve, dtype=float)
             lam, phi = spla.eigsh(
                 sp.csc_array(k_ii), k=n_modes, M=sp.csc_array(m_ii), sigma=0.0, which="LM",
                 OPinv=k_inv,

@@ -37,6 +37,7 @@ from numpy.typing import NDArray
 
 from vibroimpact import contact, integrators
 from vibroimpact.errors import ModelError, SolverError
+from vibroimpact.fe.condensation import weighted_loads
 from vibroimpact.fe.damping import damping_from_table
 from vibroimpact.fe.dofs import DofMap, FEStructure
 from vibroimpact.fe.matrices import FORMATS, SUFFIXES, read_dof_map, read_matrix_files
@@ -286,6 +287,7 @@ _MATRICES = ("kind", ("matrices",))
 _BEAM = ("kind", ("beam",))
 _JEFFCOTT = ("kind", ("jeffcott",))
 _SPINNING = ("kind", ("jeffcott", "matrices", "beam"))
+_RUN_UP = ("spin_profile", ("linear",))
 # keys of [[gaps]] and [[loads]] that depend on the structure (see _Checker.context)
 _ON_BEAM = ("structure.kind", ("beam",))
 _WITHOUT_NODES = ("structure.kind", ("sdof", "jeffcott"))
@@ -320,6 +322,15 @@ SCHEMA: tuple[Field, ...] = (
     Field("structure.spin_speed", "number", "spin speed Ω of a rotor (its gyroscopic forces "
           "Ω G x' and unbalance loads turn with it)", unit="rad/s", default=0.0,
           when=_SPINNING),
+    Field("structure.spin_profile", "string", "the spin speed over time: constant, or a "
+          "linear run-up (or run-down) from spin_speed to spin_speed_end over run_up_time, "
+          "then held (docs/rotors.md)", default="constant", choices=("constant", "linear"),
+          when=_SPINNING),
+    Field("structure.spin_speed_end", "number", "the speed a run-up ends at", unit="rad/s",
+          default=None, when=_RUN_UP, required_when=_RUN_UP),
+    Field("structure.run_up_time", "number", "the duration of a run-up", unit="s",
+          default=None, minimum=0, minimum_inclusive=False, when=_RUN_UP,
+          required_when=_RUN_UP),
     Field("structure.gyroscopic", "matrix", "gyroscopic matrix G of a rotor (M x'' + (C + Ω G) "
           "x' + K x = F)", unit="kg·m^2", default_text="none",
           rule="same shape as mass, skew-symmetric", when=_MATRICES),
@@ -1365,6 +1376,27 @@ def _shell_node(ck: _Checker, g: Mapping[str, Any]) -> tuple[list[int], list[flo
         return None  # _node_dofs names the mistake
 
 
+def _shell_load(ck: _Checker, ld: Mapping[str, Any], n: int | None
+                ) -> NDArray[np.float64] | None:
+    """The weights per DOF of a load by ``nodes``/``direction`` with a node that CalculiX
+    expanded into layers (:meth:`~vibroimpact.fe.dofs.DofMap.shell_load_weights`: how ccx
+    spreads a ``*CLOAD`` on it), else None."""
+    dm = getattr(ck.context.get("fe"), "dof_map", None)
+    nodes, direction = ld.get("nodes"), ld.get("direction")
+    if dm is None or direction is None or isinstance(nodes, str) or nodes is None or "dof" in ld:
+        return None  # _node_dofs checks what is given
+    try:
+        if not any(dm.layer_dofs(node, direction) for node in nodes):
+            return None
+        w = np.zeros(len(dm.nodes))
+        for node in nodes:
+            dofs, weights = dm.shell_load_weights(node, direction)
+            w[dofs] += weights
+        return w
+    except _CAUGHT:
+        return None  # _node_dofs names the mistake
+
+
 def _dof_label(ck: _Checker, dof: int) -> str:
     dm = ck.context["fe"].dof_map
     layer = "" if dm is None or not dm.layers[dof] else f" layer {dm.layers[dof]}"
@@ -1488,7 +1520,12 @@ def _build_load(
     if ld["kind"] == "unbalance":
         return _build_unbalance(ck, lp, ld, n)
     by_node = ck.context.get("structure.kind") in _WITH_NODES[1]
-    dofs: tuple[int, ...] = (_node_dofs(ck, lp, ld, many=True) if by_node else ld.get("dof")) or ()
+    shell = _shell_load(ck, ld, n) if by_node else None
+    dofs: tuple[int, ...]
+    if shell is not None:
+        dofs = tuple(int(j) for j in np.flatnonzero(shell))
+    else:
+        dofs = (_node_dofs(ck, lp, ld, many=True) if by_node else ld.get("dof")) or ()
     _check_dofs(ck, f"{lp}.dof", dofs, n)
     if not ck.ok(lp) or not dofs:
         return None
@@ -1504,11 +1541,12 @@ def _build_load(
         else:
             table: _Table = ld["file"]
             load = TableLoad(dof=dof, time=table.time, force=table.force, scale=ld["scale"])
+        loads = [load] if shell is None else weighted_loads(load, shell)
         cond = ck.context.get("condensation")
         if cond is None:
-            return [load]
-        ck.context.setdefault("file_loads", []).append(load)
-        return cond.reduce_load(load)
+            return list(loads)
+        ck.context.setdefault("file_loads", []).extend(loads)
+        return [r for one in loads for r in cond.reduce_load(one)]
     except _CAUGHT as e:
         ck.add(lp, _reprefix(e, {"load.table": f"{lp}.file", "load": lp}, lp))
         return None
@@ -1693,6 +1731,13 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
         ck.context["structure.kind"] = kind
     top = ck.table("", "", doc)
     structure = _build_structure(ck, top["structure"]) if "structure" in top else None
+    if structure is not None and top["structure"].get("spin_profile") == "linear":
+        try:
+            structure = structure.run_up(top["structure"]["spin_speed_end"],
+                                         top["structure"]["run_up_time"])
+        except _CAUGHT as e:
+            ck.add("structure", _reprefix(e, {}, "structure"))
+            structure = None
     if "fe" in ck.context:  # matrices: DOF indices in the file count the file's DOFs
         n: int | None = ck.context["fe"].n_dof
     else:

@@ -7,7 +7,9 @@
   (no bool, object or variable-length string arrays). The model and the solver settings are
   stored so that a file says how it was made: attributes ``model_spec`` and ``method_spec``
   (JSON text) and the variables ``structure_mass``, ``structure_damping``,
-  ``structure_stiffness``, ``initial_displacement`` and ``initial_velocity``;
+  ``structure_stiffness`` (a rotor's ``structure_gyroscopic`` too; its spin speed, run-up
+  and unbalance loads are in ``model_spec``), ``initial_displacement`` and
+  ``initial_velocity``;
   :func:`model_from_dataset` rebuilds the model and the integrator from them. A sparse
   structure's matrices are stored as their entries (``structure_mass`` on
   ``structure_mass_entry``, with ``structure_mass_row`` and ``structure_mass_col``), never
@@ -103,7 +105,8 @@ CSV_TABLES = {"time_histories": ".csv", "impacts": "_impacts.csv", "energy": "_e
 _GAP_VARIABLES = {"penetration": ("penetration", "m"), "contact_force": ("force", "N")}
 #: Model matrices stored as variables (not JSON) so that large FE models stay compact.
 _MODEL_MATRICES = {"structure_mass": ("mass", "kg"), "structure_damping": ("damping", "N s/m"),
-                   "structure_stiffness": ("stiffness", "N/m")}
+                   "structure_stiffness": ("stiffness", "N/m"),
+                   "structure_gyroscopic": ("gyroscopic", "kg m^2")}  # (a rotor's, if any)
 _MODEL_VECTORS = {"initial_displacement": ("x0", "m"), "initial_velocity": ("v0", "m/s")}
 
 
@@ -200,14 +203,16 @@ def run_metadata(result: Result) -> tuple[dict[str, Any], dict[str, tuple[tuple[
     if result.model is not None:
         spec = result.model.to_spec()
         model = {k: v for k, v in spec.items() if k not in ("mass", "damping", "stiffness",
-                                                            "x0", "v0")}
+                                                            "gyroscopic", "x0", "v0")}
         model["n_dof"] = result.model.n_dof
         model["dof_units"] = list(result.model.structure.dof_units)
         for g, gap in zip(model["gaps"], result.model.gaps, strict=True):
             g["name"] = gap.name
         attrs["model_spec"] = json.dumps(_jsonable(model))
         for name, (key, unit) in _MODEL_MATRICES.items():
-            variables.update(_matrix_variables(name, spec[key], f"structure {key} matrix", unit))
+            if spec[key] is not None:
+                variables.update(_matrix_variables(name, spec[key], f"structure {key} matrix",
+                                                   unit))
         for name, (key, unit) in _MODEL_VECTORS.items():
             variables[name] = (("model_dof",), np.asarray(spec[key], dtype=float),
                                {"units": unit, "long_name": name.replace("_", " ")})
@@ -265,8 +270,8 @@ def model_from_dataset(ds: xr.Dataset) -> tuple[Model, Integrator]:
     spec, msettings = meta["model_spec"], meta["method_spec"]
     if not spec or "structure_mass" not in ds:
         raise ModelError("result file: no model stored; expected a file written by vibroimpact")
-    matrices = {key: structure_matrix(ds, f"structure_{key}")
-                for key in ("mass", "stiffness", "damping")}
+    matrices = {key: structure_matrix(ds, name) for name, (key, _) in _MODEL_MATRICES.items()
+                if name in ds}
     model = Model.from_spec(dict(spec, **matrices, x0=ds["initial_displacement"].values,
                                  v0=ds["initial_velocity"].values),
                             dof_units=spec.get("dof_units"))

@@ -29,6 +29,7 @@ from vibroimpact.plotting.contact import force_indentation, velocity_indentation
 from vibroimpact.plotting.energy import ENERGY_CURVES, energy
 from vibroimpact.plotting.impact_map import impact_map
 from vibroimpact.plotting.modes import mode_shapes
+from vibroimpact.plotting.orbit import orbit
 from vibroimpact.plotting.phase import phase_portrait
 from vibroimpact.plotting.spectrum import amplitude_spectrum, spectrum
 from vibroimpact.plotting.time_history import TIME_HISTORIES, time_history
@@ -94,6 +95,9 @@ KINDS: dict[str, Kind] = {
                        ("gaps", "x", "period")),
     "spectrum": Kind("spectrum", spectrum, "FFT amplitude spectrum",
                      ("quantity", "dofs", "gaps", "f_max")),
+    "orbit": Kind("orbit", orbit, "rotor orbit: y against x at two DOFs (--dof IX --dof IY), "
+                  "with the stator's clearance circle (--clearance, --center)",
+                  ("dofs", "clearance", "center")),
     "mode-shapes": Kind("mode-shapes", mode_shapes,
                         "mode shapes of the result's structure (from its M and K)",
                         ("n_modes", "include_rigid")),
@@ -178,7 +182,8 @@ def plot(
 
     **Options** (by kind, see :data:`KINDS`): ``dofs``/``gaps`` (labels to show, default all),
     ``t_min``/``t_max`` (s), ``label`` (legend entry), ``x="time"|"phase"`` and ``period``
-    (impact-map), ``quantity`` and ``f_max`` (spectrum), and matplotlib line styles.
+    (impact-map), ``quantity`` and ``f_max`` (spectrum), ``clearance`` and ``center``
+    (orbit), and matplotlib line styles.
     """
     if ax is None:
         fig, ax = new_figure()

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from vibroimpact.errors import ModelError
+from vibroimpact.model import spec_load_frequency
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -93,8 +94,10 @@ def penetration_rate(ds: xr.Dataset, position: int) -> Array:
 
 
 def harmonic_period(ds: xr.Dataset) -> float | None:
-    """The period (s) of the model's first harmonic load, if any."""
-    for load in model_spec(ds).get("loads", []):
-        if load.get("kind") == "harmonic" and load.get("frequency", 0) > 0:
-            return 1.0 / float(load["frequency"])
+    """The period (s) of the model's first periodic load (harmonic, or an unbalance at a
+    constant spin speed: :func:`~vibroimpact.model.spec_load_frequency`), if any."""
+    spec = model_spec(ds)
+    for i in range(len(spec.get("loads", []))):
+        if (f := spec_load_frequency(spec, i)) > 0:
+            return 1.0 / f
     return None

@@ -9,13 +9,18 @@ model file's names; ``gaps[0].law.restitution`` and ``gaps.0.law.restitution`` a
                                     entry ``(i, j)`` and ``(j, i)`` of the matrix)
 ``structure.stiffness``             likewise, N/m
 ``structure.damping``               likewise, N·s/m
+``structure.spin_speed``            spin speed Ω of a rotor, rad/s (its gyroscopic forces and
+                                    unbalance loads follow; a run-up's start)
+``structure.spin_speed_end``        a run-up's final spin speed, rad/s
+``structure.run_up_time``           a run-up's duration, s
 ``gaps.G.clearance``                clearance of gap ``G``, m
 ``gaps.G.law.KEY``                  a number of gap ``G``'s contact law: ``stiffness``
                                     (N/mⁿ), ``exponent``, ``restitution``, ``damping`` …
 ``gaps.G.coefficients.J``           coefficient ``J`` of the gap coordinate
 ``loads.L.amplitude``               amplitude of load ``L``, N
 ``loads.L.frequency``               frequency of harmonic load ``L``, Hz
-``loads.L.phase``                   phase of harmonic load ``L``, rad
+``loads.L.phase``                   phase of harmonic or unbalance load ``L``, rad
+``loads.L.magnitude``               unbalance m·e of load ``L``, kg·m
 ``initial.displacement[.I]``        initial displacement of DOF ``I`` (no index: single DOF), m
 ``initial.velocity[.I]``            initial velocity, m/s
 ==================================  ==========================================================
@@ -51,9 +56,17 @@ _UNITS = {
     "restitution": "1",
     "exponent": "1",
     "coefficients": "1",
+    "spin_speed": "rad/s",
+    "spin_speed_end": "rad/s",
+    "run_up_time": "s",
+    "magnitude": "kg m",
 }
 
 _MATRICES = {"mass", "stiffness", "damping"}
+#: The structure's numbers that are not matrices: a rotor's spin (keys of the spec).
+_SPIN = ("spin_speed", "spin_speed_end", "run_up_time")
+#: The numbers of a load, by kind.
+_LOAD_NUMBERS = ("amplitude", "frequency", "phase", "magnitude")
 _INITIAL = {"displacement": "x0", "velocity": "v0"}
 
 
@@ -165,6 +178,9 @@ def numeric_paths(spec: Mapping[str, Any]) -> list[str]:
             out.append(f"structure.{name}")
         else:
             out.append(f"structure.{name}.I.J")
+    rotor = (spec.get("gyroscopic") is not None or bool(spec.get("spin_speed"))
+             or any(ld["kind"] == "unbalance" for ld in spec.get("loads", [])))
+    out.extend(f"structure.{k}" for k in _SPIN if rotor and _is_number(spec.get(k)))
     for key, name in (("x0", "displacement"), ("v0", "velocity")):
         out.append(f"initial.{name}" if np.asarray(spec[key]).size == 1
                    else f"initial.{name}.I")
@@ -173,8 +189,7 @@ def numeric_paths(spec: Mapping[str, Any]) -> list[str]:
         out.extend(f"gaps.{i}.law.{k}" for k, v in g["law"].items() if _is_number(v))
         out.append(f"gaps.{i}.coefficients.J")
     for i, ld in enumerate(spec.get("loads", [])):
-        out.extend(f"loads.{i}.{k}" for k in ("amplitude", "frequency", "phase")
-                   if _is_number(ld.get(k)))
+        out.extend(f"loads.{i}.{k}" for k in _LOAD_NUMBERS if _is_number(ld.get(k)))
     return out
 
 
@@ -197,6 +212,12 @@ def apply(spec: dict[str, Any], path: str, value: float) -> dict[str, Any]:
     value = float(value)
     out = dict(spec)
     head = parts[0]
+    if head == "structure" and len(parts) == 2 and parts[1] in _SPIN:
+        if not _is_number(spec.get(parts[1])):
+            raise _fail(path, spec, f"the structure has no {parts[1]} (spin_speed_end and "
+                        "run_up_time: a run-up, spin_profile = 'linear')")
+        out[parts[1]] = value
+        return out
     if head == "structure":
         if len(parts) < 2 or parts[1] not in _MATRICES:
             raise _fail(path, spec, "not a structure matrix")
@@ -249,7 +270,7 @@ def apply(spec: dict[str, Any], path: str, value: float) -> dict[str, Any]:
             coeffs[_index(rest[1], len(coeffs), path, spec)] = value
             item["coefficients"] = coeffs
         elif len(rest) == 1 and rest[0] in (("clearance",) if head == "gaps"
-                                            else ("amplitude", "frequency", "phase")):
+                                            else _LOAD_NUMBERS):
             if not _is_number(item.get(rest[0])):
                 raise _fail(path, spec, f"{head[:-1]} {k} has no {rest[0]}")
             item[rest[0]] = value

@@ -25,6 +25,8 @@ __all__ = ["SWEEP_KINDS", "cli_plot", "plot_bifurcation", "plot_response", "swee
 SWEEP_KINDS = {
     "bifurcation": "sweep: Poincare samples (or impact speeds) against the swept parameter",
     "response": "sweep: amplitude against the swept parameter, up- and down-sweeps",
+    "waterfall": "sweep over structure.spin_speed (--samples-per-period N): full-spectrum "
+                 "waterfall, forward and backward whirl (--dof IX --dof IY)",
 }
 
 #: Bifurcation quantities: variable, axis text, unit (None: the sampled DOF's, see
@@ -230,6 +232,12 @@ def cli_plot(args: argparse.Namespace) -> int:
     gaps = getattr(args, "gaps", None) or [0]
     quantity = getattr(args, "quantity", None)
     title = getattr(args, "title", None)
+    if args.kind == "waterfall":
+        from vibroimpact.rotor import plot_waterfall
+
+        plot_waterfall(args.result, dofs=getattr(args, "dofs", None), path=args.output,
+                       title=title)
+        return 0
     if args.kind == "bifurcation":
         plot_bifurcation(args.result, quantity=quantity or "displacement", dof=dofs[0],
                          gap=gaps[0], path=args.output, title=title)

@@ -53,7 +53,7 @@ from vibroimpact import _core
 from vibroimpact.errors import Interrupted, ModelError, require
 from vibroimpact.integrators import Integrator, Newmark
 from vibroimpact.io.results_file import atomic_write, netcdf_engine
-from vibroimpact.model import Model
+from vibroimpact.model import Model, spec_load_frequency
 from vibroimpact.result import DOF_UNIT_DESCRIPTION, dof_variable_units
 from vibroimpact.sweeps.grid import Param, apply
 
@@ -106,6 +106,9 @@ class Sweep:
     - ``max_impacts``: impacts kept per gap and point (speeds and phases; default
       ``periods``, at most 1000).
     - ``chunk_size``: points per chunk (default: about 20 chunks, at most 256 points each).
+    - ``samples_per_period``: samples of each sampled period (default 1, the Poincaré
+      section; more: the ``sample`` dimension is a time history at ``T / N``, what a rotor's
+      full-spectrum waterfall needs: ``vibroimpact plot SWEEP --kind waterfall``).
     """
 
     model: Model
@@ -119,6 +122,7 @@ class Sweep:
     max_impacts: int | None = None
     period_load: int | None = None
     chunk_size: int | None = None
+    samples_per_period: int = 1
 
     def __post_init__(self) -> None:
         require(isinstance(self.model, Model), "model", type(self.model).__name__,
@@ -156,6 +160,9 @@ class Sweep:
         mi = min(self.periods, 1000) if self.max_impacts is None else self.max_impacts
         require(isinstance(mi, int) and mi >= 0, "--max-impacts", mi, "an integer >= 0")
         object.__setattr__(self, "max_impacts", mi)
+        spp = self.samples_per_period
+        require(isinstance(spp, int) and not isinstance(spp, bool) and spp >= 1,
+                "--samples-per-period", spp, "an integer >= 1")
         require(self.chunk_size is None or (isinstance(self.chunk_size, int)
                                             and self.chunk_size >= 1),
                 "--chunk-size", self.chunk_size, "an integer >= 1")
@@ -215,6 +222,7 @@ class _Plan:
     max_impacts: int
     period_load: int | None
     directions: tuple[str, ...]
+    samples_per_period: int = 1
 
     @property
     def adaptive(self) -> dict[str, Any] | None:
@@ -243,20 +251,23 @@ class _Plan:
         return spec
 
     def period(self, spec: dict[str, Any]) -> float:
+        """The forcing period (s) the sweep counts: load ``period_load``'s, else the first
+        periodic load's (:func:`~vibroimpact.model.spec_load_frequency`: a harmonic load, or
+        an unbalance at the spin speed: ``2π/Ω``)."""
         loads = spec.get("loads", [])
         if self.period_load is not None:
-            ld = loads[self.period_load]
-            f = ld.get("frequency") if ld.get("kind") == "harmonic" else None
-            if not f or f <= 0:
+            f = spec_load_frequency(spec, self.period_load)
+            if f <= 0:
                 raise ModelError(f"--period-load: load {self.period_load} is not a harmonic "
-                                 "load with a frequency > 0; expected the load whose period "
-                                 "the sweep samples at")
-            return 1.0 / float(f)
-        for ld in loads:
-            if ld.get("kind") == "harmonic" and ld.get("frequency", 0) > 0:
-                return 1.0 / float(ld["frequency"])
-        raise ModelError("loads: no harmonic load with a frequency > 0; expected one, since "
-                         "--transient and --periods count periods of the first harmonic load")
+                                 "load (or an unbalance) with a frequency > 0; expected the "
+                                 "load whose period the sweep samples at")
+            return 1.0 / f
+        for i in range(len(loads)):
+            if (f := spec_load_frequency(spec, i)) > 0:
+                return 1.0 / f
+        raise ModelError("loads: no harmonic load (or unbalance at a constant spin speed) with "
+                         "a frequency > 0; expected one, since --transient and --periods count "
+                         "periods of the first such load")
 
     def job_spec(self, j: int, start: tuple[np.ndarray, np.ndarray] | None = None
                  ) -> dict[str, Any]:
@@ -272,7 +283,9 @@ class _Plan:
             dt=self.dt,
             every=_NEVER,
             record_dofs=list(self.dofs),
-            sweep={"period": period, "transient": self.transient, "samples": self.periods,
+            sweep={"period": period, "transient": self.transient,
+                   "samples": self.periods * self.samples_per_period,
+                   "per_period": self.samples_per_period,
                    "dofs": list(self.dofs), "max_impacts": self.max_impacts},
         )
         return spec
@@ -311,6 +324,9 @@ class _Plan:
             "max_impacts": self.max_impacts,
             "period_load": self.period_load,
             "directions": self.directions,
+            # (only when not 1: the hashes of the sweeps from before it are kept)
+            **({"samples_per_period": self.samples_per_period}
+               if self.samples_per_period != 1 else {}),
         })
 
 
@@ -329,6 +345,7 @@ def _plan(sweep: Sweep) -> _Plan:
         max_impacts=int(sweep.max_impacts),
         period_load=sweep.period_load,
         directions=sweep.directions,
+        samples_per_period=sweep.samples_per_period,
     )
 
 
@@ -715,9 +732,11 @@ def run_sweep(
 #: and ``model_dof`` is that of translations; see :data:`DOF_QUANTITIES`.
 VARIABLES: dict[str, tuple[tuple[str, ...], str, str]] = {
     "poincare_displacement": (("sample", "dof"), "m",
-                              "displacement at t = (transient + sample) * forcing_period"),
+                              "displacement at t = (transient + sample / samples_per_period) "
+                              "* forcing_period"),
     "poincare_velocity": (("sample", "dof"), "m/s",
-                          "velocity at t = (transient + sample) * forcing_period"),
+                          "velocity at t = (transient + sample / samples_per_period) * "
+                          "forcing_period"),
     "displacement_max": (("dof",), "m", "largest displacement after the transient"),
     "displacement_min": (("dof",), "m", "smallest displacement after the transient"),
     "displacement_rms": (("dof",), "m", "RMS displacement after the transient"),
@@ -816,6 +835,7 @@ def _dataset(sweep: Sweep, plan: _Plan, chunks: Sequence[_Chunk],
         "params": json.dumps([p.path for p in sweep.params]),
         "transient_periods": plan.transient,
         "sampled_periods": plan.periods,
+        "samples_per_period": plan.samples_per_period,
         "continuation": sweep.continuation,
         "continuation_axis": plan.paths[0] if sweep.continuation != "none" else "",
         "dt": plan.dt,

@@ -112,7 +112,7 @@ fn main() {
     let t0 = Instant::now();
     let out = simulate(
         &sys,
-        Method::NewmarkFamily(NewmarkFamily::average_acceleration()),
+        Method::Newmark(NewmarkFamily::average_acceleration()),
         &settings,
         DVector::zeros(n),
         DVector::zeros(n),

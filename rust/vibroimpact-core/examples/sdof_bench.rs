@@ -88,7 +88,7 @@ fn main() {
             (Method::Dop853, Some(tol))
         } else {
             let scheme = NewmarkFamily::average_acceleration();
-            (Method::NewmarkFamily(scheme), None)
+            (Method::Newmark(scheme), None)
         };
         let settings = RunSettings {
             t_end: 0.02,

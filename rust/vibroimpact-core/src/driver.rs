@@ -81,6 +81,8 @@ pub(crate) struct Run<'o> {
     events: bool,
     /// The policy is to carry the state-transition matrix (`crate::sensitivity`).
     pub wants_sensitivity: bool,
+    /// With it, the parameter whose column `∂z/∂p` it carries too.
+    pub sensitivity_parameter: Option<crate::sensitivity::Parameter>,
     /// It, at the end of the last advance.
     state_transition: Option<StateTransition>,
 }
@@ -114,6 +116,7 @@ impl<'o> Run<'o> {
             contact: None,
             events: false,
             wants_sensitivity: false,
+            sensitivity_parameter: None,
             state_transition: None,
         })
     }
@@ -459,7 +462,7 @@ impl Account {
             let mut d = st.damping.increment_form(&s0.x, &s1.x, &s0.v, &s1.v);
             if let Some(g) = &st.gyroscopic {
                 // the gyroscopic forces Ω G x' (in `damping`) do no work
-                d -= st.spin_speed * g.increment_form(&s0.x, &s1.x, &s0.v, &s1.v);
+                d -= st.spin.start * g.increment_form(&s0.x, &s1.x, &s0.v, &s1.v);
             }
             self.damping_dissipated += 0.5 * d;
         }

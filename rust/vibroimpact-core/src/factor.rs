@@ -25,6 +25,8 @@ pub struct FactorPlan {
     kind: PlanKind,
     /// Estimated cycles of one solve with the chosen factor.
     solve_cost: usize,
+    /// Estimated cycles of one factorisation (a run makes one per step size).
+    factor_cost: usize,
 }
 
 #[derive(Debug, Clone)]
@@ -52,20 +54,26 @@ impl FactorPlan {
     /// the general factor faster): a 2,004-DOF beam (band 11) 40 µs banded, 31 µs
     /// simplicial; 3-D lattices of 3,000 and 12,288 DOFs 4 and 61 ms banded, 0.5 and 10 ms
     /// supernodal.
+    ///
+    /// A factorisation costs about one cycle per multiply-add of the left-looking column
+    /// updates, `Σⱼ cⱼ²` over the factor's column counts `cⱼ` ([`factor_flops`]; the band's
+    /// `n (bw + 1)²`).
     pub fn new(patterns: &[&Csr], choice: FactorChoice) -> Self {
         let n = patterns[0].n();
         let banded = || {
             let (perm, bandwidth) = BandedCholesky::ordering(n, patterns);
             let cost = 16 * n * (1 + bandwidth / 4);
-            (PlanKind::Banded { perm, bandwidth }, cost)
+            let factor_cost = n * (bandwidth + 1) * (bandwidth + 1);
+            (PlanKind::Banded { perm, bandwidth }, cost, factor_cost)
         };
         let sparse = || {
             let union = Csr::combination(&patterns.iter().map(|a| (1.0, *a)).collect::<Vec<_>>());
             let symbolic = SparseCholesky::analyse(&union);
             let cost = 3 * symbolic.len_val() + 16 * n;
-            (PlanKind::Sparse(Arc::new(symbolic)), cost)
+            let factor_cost = factor_flops(&symbolic);
+            (PlanKind::Sparse(Arc::new(symbolic)), cost, factor_cost)
         };
-        let (kind, solve_cost) = match choice {
+        let (kind, solve_cost, factor_cost) = match choice {
             FactorChoice::Banded => banded(),
             FactorChoice::Sparse => sparse(),
             FactorChoice::Cheapest => {
@@ -77,12 +85,21 @@ impl FactorPlan {
                 }
             }
         };
-        Self { kind, solve_cost }
+        Self {
+            kind,
+            solve_cost,
+            factor_cost,
+        }
     }
 
     /// Estimated cycles of one solve.
     pub fn solve_cost(&self) -> usize {
         self.solve_cost
+    }
+
+    /// Estimated cycles of one factorisation.
+    pub fn factor_cost(&self) -> usize {
+        self.factor_cost
     }
 
     /// Factorises `Σ cₖ Aₖ` (all within the planned pattern). `None` if it is not positive
@@ -96,6 +113,29 @@ impl FactorPlan {
                 SparseCholesky::factor(symbolic.clone(), &Csr::combination(terms))
                     .map(SpdFactor::Sparse)
             }
+        }
+    }
+}
+
+/// Multiply-adds of a sparse Cholesky factorisation with the pattern `symbolic`: `Σⱼ cⱼ²`
+/// over the column counts `cⱼ` of `L` (a supernode of `w` columns over `p` rows below it has
+/// counts `p + w, p + w − 1, …, p + 1`).
+fn factor_flops(symbolic: &SymbolicCholesky<usize>) -> usize {
+    match symbolic.raw() {
+        SymbolicCholeskyRaw::Simplicial(s) => s
+            .col_ptr()
+            .windows(2)
+            .map(|w| (w[1] - w[0]) * (w[1] - w[0]))
+            .sum(),
+        SymbolicCholeskyRaw::Supernodal(s) => {
+            let rows = s.col_ptr_for_row_idx();
+            (0..s.n_supernodes())
+                .map(|k| {
+                    let w = s.supernode_end()[k] - s.supernode_begin()[k];
+                    let p = rows[k + 1] - rows[k];
+                    (p + 1..=p + w).map(|c| c * c).sum::<usize>()
+                })
+                .sum()
         }
     }
 }
@@ -290,14 +330,14 @@ impl SparseCholesky {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use nalgebra::{DMatrix, DVector};
 
     use super::*;
 
     /// The stiffness of a 3-D lattice of `k × k × k` nodes with springs to the six nearest
     /// neighbours and to the ground, in scrambled node order: a pattern with a wide band.
-    fn lattice(k: usize) -> DMatrix<f64> {
+    pub(crate) fn lattice(k: usize) -> DMatrix<f64> {
         let n = k * k * k;
         let scramble = |i: usize| (i * 7919) % n;
         let mut a = DMatrix::zeros(n, n);

@@ -211,7 +211,7 @@ mod tests {
                 },
                 adaptive: None,
             };
-            let method = Method::NewmarkFamily(NewmarkFamily::average_acceleration());
+            let method = Method::Newmark(NewmarkFamily::average_acceleration());
             let (x0, v0) = (DVector::zeros(1), DVector::from_element(1, 8.0));
             let ours = simulate(&sys, method, &settings, x0, v0).unwrap();
             assert!(ours.impacts.len() >= 4, "{} contacts", ours.impacts.len());

@@ -1,16 +1,23 @@
-//! Which integrator advances a run: the one name of a method (Python's `integrator`, the
-//! model file's `solver.method`), its settings and the laws it takes.
+//! Which integrator advances a run: its settings and the laws it takes. Its name (Python's
+//! `integrator`, the model file's `solver.method`, a spec's `kind`) is its catalog entry's
+//! (`crate::method_catalog`).
 
 use crate::error::{invalid, SimError};
 use crate::impulsive::{EventDriven, MoreauJean};
 use crate::integrators::{Bathe, NewmarkFamily, PreciseIntegration};
+use crate::method_catalog;
 use crate::system::System;
 
 /// Which integrator advances the run.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Method {
-    /// Newmark-β / HHT-α / generalized-α with Newton on the gap forces.
-    NewmarkFamily(NewmarkFamily),
+    /// Newmark-β with Newton on the gap forces (`α_m = α_f = 0`).
+    Newmark(NewmarkFamily),
+    /// Generalized-α (Chung & Hulbert 1993): the Newmark family's step with `α_m`, `α_f` from
+    /// the spectral radius at infinity.
+    GeneralizedAlpha(NewmarkFamily),
+    /// HHT-α (Hilber, Hughes & Taylor 1977): the Newmark family's step with `α_m = 0`.
+    Hht(NewmarkFamily),
     /// Precise integration with the Adams treatment of the gap forces (paper eqs. 32–43).
     Precise(PreciseIntegration),
     /// Bathe's composite trapezoidal / three-point backward scheme with Newton on the gaps.
@@ -25,15 +32,17 @@ pub enum Method {
 }
 
 impl Method {
-    /// The method's name in the model file and in messages.
+    /// The method's name in the model file and in messages: its catalog entry's.
     pub fn name(&self) -> &'static str {
-        match self {
-            Method::NewmarkFamily(_) => "newmark",
-            Method::Precise(_) => "precise",
-            Method::Bathe(_) => "bathe",
-            Method::EventDriven(_) => "event-driven",
-            Method::MoreauJean(_) => "moreau-jean",
-            Method::Dop853 => "dop853",
+        method_catalog::entry_of(self).name
+    }
+
+    /// The Newmark-family scheme of Newmark-β, generalized-α and HHT-α (`None` for the
+    /// others): they share one stepper.
+    pub fn newmark_family(&self) -> Option<NewmarkFamily> {
+        match *self {
+            Method::Newmark(s) | Method::GeneralizedAlpha(s) | Method::Hht(s) => Some(s),
+            _ => None,
         }
     }
 

@@ -233,15 +233,26 @@ impl MethodEntry {
         for (p, &v) in self.parameters.iter().zip(values) {
             p.check(v)?;
         }
-        let method = (self.build)(values);
-        match &method {
-            Method::NewmarkFamily(s) => s.validate()?,
-            Method::Bathe(s) => s.validate()?,
-            Method::EventDriven(s) => s.validate()?,
-            Method::MoreauJean(s) => s.validate()?,
-            Method::Precise(_) | Method::Dop853 => {}
+        Ok((self.build)(values))
+    }
+
+    /// Refuses adaptive stepping (`adaptive`) for a method that takes fixed steps only: one
+    /// line naming the method and those that step adaptively.
+    pub fn check_adaptive(&self, adaptive: bool) -> Result<(), SimError> {
+        if adaptive && self.stepping == Stepping::Fixed {
+            let adaptive: Vec<_> = METHODS
+                .iter()
+                .filter(|m| m.stepping != Stepping::Fixed)
+                .map(|m| m.name)
+                .collect();
+            return invalid(format!(
+                "solver.adaptive: true is not valid; expected false for method '{}'; adaptive \
+                 stepping is available for {}",
+                self.name,
+                adaptive.join(", ")
+            ));
         }
-        Ok(method)
+        Ok(())
     }
 
     /// The method with every parameter at its default.
@@ -274,19 +285,7 @@ impl MethodEntry {
                 self.name
             ));
         }
-        if adaptive.is_some() && self.stepping == Stepping::Fixed {
-            let adaptive: Vec<_> = METHODS
-                .iter()
-                .filter(|m| m.stepping != Stepping::Fixed)
-                .map(|m| m.name)
-                .collect();
-            return invalid(format!(
-                "solver.adaptive: True is not valid; expected false for method '{}'; adaptive \
-                 stepping is available for {}",
-                self.name,
-                adaptive.join(", ")
-            ));
-        }
+        self.check_adaptive(adaptive.is_some())?;
         Ok(MethodSpec {
             entry: self,
             method,
@@ -294,6 +293,16 @@ impl MethodEntry {
             adaptive,
         })
     }
+}
+
+/// The entry of `method`: the one whose methods are of its variant (each variant of
+/// [`Method`] has one entry, `every_method_has_one_entry_and_its_name`).
+pub fn entry_of(method: &Method) -> &'static MethodEntry {
+    let variant = std::mem::discriminant(method);
+    METHODS
+        .iter()
+        .find(|e| std::mem::discriminant(&e.default_method()) == variant)
+        .expect("every variant of Method has its entry in METHODS")
 }
 
 /// The method called `name`, if the catalog has one.
@@ -515,7 +524,7 @@ pub static METHODS: &[MethodEntry] = &[
         stepping: Stepping::AdaptiveOnRequest,
         impulsive: false,
         build: |v| {
-            Method::NewmarkFamily(NewmarkFamily {
+            Method::Newmark(NewmarkFamily {
                 gamma: v[0],
                 beta: v[1],
                 alpha_m: 0.0,
@@ -538,7 +547,7 @@ pub static METHODS: &[MethodEntry] = &[
         newton: true,
         stepping: Stepping::AdaptiveOnRequest,
         impulsive: false,
-        build: |v| Method::NewmarkFamily(generalized_alpha(v[0])),
+        build: |v| Method::GeneralizedAlpha(generalized_alpha(v[0])),
     },
     MethodEntry {
         name: "hht",
@@ -555,7 +564,7 @@ pub static METHODS: &[MethodEntry] = &[
         newton: true,
         stepping: Stepping::AdaptiveOnRequest,
         impulsive: false,
-        build: |v| Method::NewmarkFamily(hht(v[0])),
+        build: |v| Method::Hht(hht(v[0])),
     },
     MethodEntry {
         name: "precise",
@@ -624,6 +633,49 @@ pub static METHODS: &[MethodEntry] = &[
     },
 ];
 
+// The checks of the schemes built in Rust (the steppers' constructors call them): each
+// parameter against its setting above, so that every check lives once.
+
+impl NewmarkFamily {
+    /// `γ` and `β` against Newmark's settings, and `α_m < 1`, `0 <= α_f < 1` (the α-form's
+    /// weights; generalized-α and HHT derive them within this range).
+    pub fn validate(&self) -> Result<(), SimError> {
+        NEWMARK_GAMMA.check(self.gamma)?;
+        NEWMARK_BETA.check(self.beta)?;
+        if !(self.alpha_f >= 0.0 && self.alpha_f < 1.0 && self.alpha_m < 1.0) {
+            return invalid(format!(
+                "solver: alpha_m = {}, alpha_f = {} are not valid; expected alpha_m < 1 and 0 <= \
+                 alpha_f < 1",
+                self.alpha_m, self.alpha_f
+            ));
+        }
+        Ok(())
+    }
+}
+
+impl Bathe {
+    /// `γ` against [`BATHE_GAMMA`].
+    pub fn validate(&self) -> Result<(), SimError> {
+        BATHE_GAMMA.check(self.gamma).map(|_| ())
+    }
+}
+
+impl EventDriven {
+    /// Its settings against [`CHATTER_FRACTION`] and [`MAX_EVENTS_PER_STEP`].
+    pub fn validate(&self) -> Result<(), SimError> {
+        CHATTER_FRACTION.check(self.chatter_fraction)?;
+        MAX_EVENTS_PER_STEP.check(self.max_events_per_step as f64)?;
+        Ok(())
+    }
+}
+
+impl MoreauJean {
+    /// `θ` against [`THETA`].
+    pub fn validate(&self) -> Result<(), SimError> {
+        THETA.check(self.theta).map(|_| ())
+    }
+}
+
 impl Default for Bathe {
     fn default() -> Self {
         Self {
@@ -674,11 +726,32 @@ mod tests {
     }
 
     #[test]
+    fn every_method_has_one_entry_and_its_name() {
+        for m in METHODS {
+            let method = m.default_method();
+            assert_eq!(entry_of(&method), m);
+            assert_eq!(method.name(), m.name);
+        }
+        // a Newmark-family scheme keeps the name it was asked for, even where the parameters
+        // coincide (HHT at α = 0 is average acceleration, generalized-α at ρ∞ = 1/2 is HHT at
+        // α = 1/3)
+        let entry = |name| method_entry(name).unwrap();
+        assert_eq!(entry("hht").method(&[0.0]).unwrap().name(), "hht");
+        let alpha = entry("generalized-alpha").method(&[0.5]).unwrap();
+        assert_eq!(alpha.name(), "generalized-alpha");
+        assert_eq!(
+            alpha.newmark_family(),
+            entry("hht").method(&[1.0 / 3.0]).unwrap().newmark_family()
+        );
+        assert_eq!(entry("bathe").default_method().newmark_family(), None);
+    }
+
+    #[test]
     fn the_defaults_are_those_the_schemes_take() {
         let scheme = |name| method_entry(name).unwrap().default_method();
         assert_eq!(
             scheme("newmark"),
-            Method::NewmarkFamily(NewmarkFamily::newmark(0.5, 0.25).unwrap())
+            Method::Newmark(NewmarkFamily::newmark(0.5, 0.25).unwrap())
         );
         assert_eq!(scheme("bathe"), Method::Bathe(Bathe { gamma: 0.5 }));
         assert_eq!(
@@ -706,8 +779,11 @@ mod tests {
     #[test]
     fn generalized_alpha_and_hht_are_chung_and_hulberts_and_hilbers_schemes() {
         let scheme = |name, v: f64| match method_entry(name).unwrap().method(&[v]).unwrap() {
-            Method::NewmarkFamily(s) => (s.alpha_m, s.alpha_f, s.gamma, s.beta),
-            other => panic!("{name} is of the Newmark family, not {other:?}"),
+            m @ (Method::GeneralizedAlpha(s) | Method::Hht(s)) => {
+                assert_eq!(m.name(), name);
+                (s.alpha_m, s.alpha_f, s.gamma, s.beta)
+            }
+            other => panic!("{name} is generalized-α or HHT, not {other:?}"),
         };
         // ρ∞ = 1: α_m = α_f = 1/2, the trapezoidal rule; ρ∞ = 0: α_m = −1, γ = 3/2, β = 1
         assert_eq!(scheme("generalized-alpha", 1.0), (0.5, 0.5, 0.5, 0.25));
@@ -749,6 +825,52 @@ mod tests {
             e.contains("solver.adaptive") && e.contains("newmark"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_scheme_built_in_rust_is_checked_by_the_catalogs_settings() {
+        let refusal = |name: &str, values: &[f64]| {
+            method_entry(name)
+                .unwrap()
+                .method(values)
+                .unwrap_err()
+                .to_string()
+        };
+        let message = |r: Result<(), SimError>| r.unwrap_err().to_string();
+        assert_eq!(
+            message(NewmarkFamily::newmark(0.5, 0.0).map(|_| ())),
+            refusal("newmark", &[0.5, 0.0])
+        );
+        assert_eq!(
+            message(Bathe { gamma: 1.0 }.validate()),
+            refusal("bathe", &[1.0])
+        );
+        let chatter = EventDriven {
+            chatter_fraction: 1.0,
+            ..EventDriven::default()
+        };
+        assert_eq!(
+            message(chatter.validate()),
+            refusal("event-driven", &[1.0, 1000.0])
+        );
+        let events = EventDriven {
+            max_events_per_step: 0,
+            ..EventDriven::default()
+        };
+        assert_eq!(
+            message(events.validate()),
+            refusal("event-driven", &[1e-3, 0.0])
+        );
+        assert_eq!(
+            message(MoreauJean { theta: 0.4 }.validate()),
+            refusal("moreau-jean", &[0.4])
+        );
+        // the α-form's weights, which no setting of the catalog holds
+        let weights = NewmarkFamily {
+            alpha_f: 1.0,
+            ..NewmarkFamily::average_acceleration()
+        };
+        assert!(message(weights.validate()).starts_with("solver: alpha_m = 0, alpha_f = 1"));
     }
 
     #[test]

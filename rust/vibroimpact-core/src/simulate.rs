@@ -16,6 +16,8 @@ use crate::integrators::dop853::{Dop853Steps, Steps};
 use crate::integrators::{
     BatheStepper, NewmarkStepper, NewmarkTransition, NewtonSettings, PreciseStepper, Stepper,
 };
+use crate::method_catalog;
+use crate::sensitivity::Parameter;
 use crate::step_control::{AdaptiveSteps, FixedSteps, StepControl};
 use crate::system::System;
 
@@ -46,23 +48,41 @@ pub fn simulate_observed(
     v0: DVector<f64>,
     observer: Option<&mut dyn StepObserver>,
 ) -> Result<RunOutput, SimError> {
-    run_watched(sys, method, settings, x0, v0, observer, None, false)
+    run_watched(sys, method, settings, x0, v0, observer, None, None)
 }
 
 /// [`simulate_observed`], carrying the state-transition matrix `∂(x, v)(t_end)/∂(x₀, v₀)`
 /// along (`RunOutput::state_transition`; `crate::sensitivity`): DOP853, the event-driven
 /// method and the Newmark family at fixed steps, refused before the run for the others
-/// (`sensitivity::check_supported`).
+/// (`sensitivity::check_supported`); with `parameter`, its column `∂z(t_end)/∂p` beside it
+/// (DOP853 and the Newmark family: `sensitivity::parameter_for`).
 pub fn simulate_with_sensitivity(
     sys: &System,
     method: Method,
     settings: &RunSettings,
     x0: DVector<f64>,
     v0: DVector<f64>,
+    parameter: Option<Parameter>,
     observer: Option<&mut dyn StepObserver>,
 ) -> Result<RunOutput, SimError> {
     crate::sensitivity::check_supported(sys, method, settings.adaptive.is_some())?;
-    run_watched(sys, method, settings, x0, v0, observer, None, true)
+    if parameter.is_some() && !crate::sensitivity::carries_parameter(method) {
+        return invalid(format!(
+            "solver.method: '{}' does not carry a parameter's column; expected 'dop853' or the \
+             Newmark family",
+            method.name()
+        ));
+    }
+    run_watched(
+        sys,
+        method,
+        settings,
+        x0,
+        v0,
+        observer,
+        None,
+        Some(parameter),
+    )
 }
 
 /// [`simulate`], with `sink` taking the recorded rows in blocks of `sink.chunk_rows()` as they
@@ -78,7 +98,7 @@ pub fn simulate_streamed(
     v0: DVector<f64>,
     sink: &mut dyn Sink,
 ) -> Result<RunOutput, SimError> {
-    run_watched(sys, method, settings, x0, v0, None, Some(sink), false)
+    run_watched(sys, method, settings, x0, v0, None, Some(sink), None)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -90,7 +110,7 @@ fn run_watched<'o>(
     v0: DVector<f64>,
     observer: Option<&'o mut dyn StepObserver>,
     sink: Option<&'o mut dyn Sink>,
-    sensitivity: bool,
+    sensitivity: Option<Option<Parameter>>,
 ) -> Result<RunOutput, SimError> {
     let started = Instant::now();
     let RunSettings {
@@ -127,23 +147,24 @@ fn run_watched<'o>(
     }
     // Rigid gaps (massless bar) are for the impulsive methods only, and they take no others.
     method.check_laws(sys)?;
-    if method.is_impulsive() && adaptive.is_some() {
+    // a run-up's gyroscopic forces Ω(t) G change the implicit methods' effective matrix
+    if sys.structure.varying_gyroscopic().is_some() && !matches!(method, Method::Dop853) {
         return invalid(format!(
-            "solver.adaptive: true is not available for method '{}'; expected false",
+            "structure.spin_profile: a run-up of a rotor with gyroscopic forces is not available \
+             with method '{}' (its effective matrix would change with Ω(t)); expected \
+             solver.method = 'dop853'",
             method.name()
         ));
     }
+    method_catalog::entry_of(&method).check_adaptive(adaptive.is_some())?;
     // Fixed steps: dt is shortened so that t_end is a whole number of steps. Adaptive steps:
     // the cached sizes are dt_max / 2^k, with dt_max likewise a whole fraction of t_end.
     let explicit = matches!(method, Method::Dop853);
     let control = match adaptive {
         Some(a) if !explicit => {
-            let Method::NewmarkFamily(scheme) = method else {
-                return invalid(
-                    "solver.adaptive: true is not valid for this method; expected adaptive = false \
-                     (adaptive stepping is available for the Newmark family)",
-                );
-            };
+            let scheme = method
+                .newmark_family()
+                .expect("the implicit methods that step adaptively are the Newmark family's");
             Some(StepControl::new(a, scheme, t_end, dt)?)
         }
         _ => None,
@@ -181,7 +202,8 @@ fn run_watched<'o>(
     };
     let mut run = Run::new(sys, x0, v0, record_dofs.clone(), n_rec)?;
     run.observer = observer;
-    run.wants_sensitivity = sensitivity;
+    run.wants_sensitivity = sensitivity.is_some();
+    run.sensitivity_parameter = sensitivity.flatten();
     if let Some(sink) = sink {
         run.watch(sink);
     }
@@ -212,7 +234,7 @@ fn run_watched<'o>(
                 max_step_cuts: max_levels,
                 ..newton
             };
-            match stepper(sys, method, cut_newton, h0) {
+            match stepper(sys, method, cut_newton, h0, (t_end / h0).round() as usize) {
                 // A singular tangent is a solver failure at t = 0: the initial state is the result.
                 Err(e @ SimError::SingularTangent { .. }) => Some(e),
                 Err(e) => return Err(e),
@@ -226,9 +248,14 @@ fn run_watched<'o>(
                                 n_steps,
                                 newton.max_step_cuts,
                             );
-                            match method {
-                                Method::NewmarkFamily(scheme) if sensitivity => {
-                                    let transition = NewmarkTransition::new(sys, scheme, &run.cur)?;
+                            match method.newmark_family() {
+                                Some(scheme) if run.wants_sensitivity => {
+                                    let transition = NewmarkTransition::new(
+                                        sys,
+                                        scheme,
+                                        &run.cur,
+                                        run.sensitivity_parameter,
+                                    )?;
                                     run.drive(sys, &mut policy.with_derivative(transition), every)
                                 }
                                 _ => run.drive(sys, &mut policy, every),
@@ -246,16 +273,19 @@ fn run_watched<'o>(
     Ok(run.finish(sys, error, h0, started, impacts))
 }
 
-/// The stepper of an implicit or precise `method`, its operators prepared for steps of `h0`.
+/// The stepper of an implicit or precise `method`, its operators prepared for steps of `h0`
+/// and chosen for a run of about `steps` of them (adaptive runs: at least that many).
 fn stepper(
     sys: &System,
     method: Method,
     newton: NewtonSettings,
     h0: f64,
+    steps: usize,
 ) -> Result<Box<dyn Stepper>, SimError> {
     Ok(match method {
-        Method::NewmarkFamily(scheme) => {
+        Method::Newmark(scheme) | Method::GeneralizedAlpha(scheme) | Method::Hht(scheme) => {
             let mut s = NewmarkStepper::new(sys, scheme, newton)?;
+            s.expect_steps(steps);
             s.prepare(sys, h0)?;
             Box::new(s)
         }
@@ -350,7 +380,7 @@ mod tests {
     #[test]
     fn streamed_blocks_are_the_whole_run() {
         let sys = sdof();
-        let method = Method::NewmarkFamily(NewmarkFamily::average_acceleration());
+        let method = Method::Newmark(NewmarkFamily::average_acceleration());
         let adaptive = Adaptive {
             rtol: 1e-4,
             atol: 1e-9,
@@ -425,7 +455,7 @@ mod tests {
     #[test]
     fn events_name_the_step_cuts_and_each_contact() {
         let sys = sdof();
-        let method = Method::NewmarkFamily(NewmarkFamily::average_acceleration());
+        let method = Method::Newmark(NewmarkFamily::average_acceleration());
         // three Newton iterations are too few for some contact steps of 20 µs: cuts
         let s = settings(2e-5, None, 3);
         let mut sink = Collect {

@@ -128,7 +128,7 @@ fn cut_steps_equal_a_run_at_the_cut_step_size() {
         newton,
         adaptive: None,
     };
-    let reference = simulate(&sys, Method::NewmarkFamily(scheme), &settings, x0, v0).unwrap();
+    let reference = simulate(&sys, Method::Newmark(scheme), &settings, x0, v0).unwrap();
     assert!(reference.error.is_none());
     assert_eq!(reference.stats.steps, 2 * n_steps);
 

@@ -31,8 +31,9 @@ pub struct LinearStructure {
     /// The gyroscopic matrix `G` (kg·m², skew-symmetric) of a rotor, if any: its forces do no
     /// work, so the energy account takes `Ω G` out of `damping` again.
     pub gyroscopic: Option<Csr>,
-    /// The spin speed `Ω` (rad/s) of a rotor; 0 for a structure that does not spin.
-    pub spin_speed: f64,
+    /// The spin speed `Ω(t)` (rad/s) of a rotor: constant (0 for a structure that does not
+    /// spin) or a run-up; `damping` holds `Ω(0) G`, and DOP853 adds `(Ω(t) − Ω(0)) G x'`.
+    pub spin: SpinProfile,
     /// `M = L Lᵀ` (banded or general sparse, whichever solves faster): the
     /// positive-definiteness check, and the initial acceleration's solve.
     mass_factor: SpdFactor,
@@ -131,7 +132,7 @@ impl LinearStructure {
             damping,
             stiffness,
             gyroscopic: None,
-            spin_speed: 0.0,
+            spin: SpinProfile::constant(0.0),
             mass_factor,
             dense: OnceLock::new(),
         })
@@ -146,7 +147,7 @@ impl LinearStructure {
                 "structure.spin_speed: {spin_speed} is not finite; expected a speed in rad/s"
             ));
         }
-        self.spin_speed = spin_speed;
+        self.spin = SpinProfile::constant(spin_speed);
         let Some(g) = gyroscopic else {
             return Ok(self);
         };
@@ -186,10 +187,38 @@ impl LinearStructure {
         Ok(self)
     }
 
+    /// The structure run up (or down) linearly from its spin speed to `end` (rad/s) over
+    /// `duration` (s), constant after: `Ω(t) = Ω₀ + (end − Ω₀) t / duration`.
+    pub fn run_up(mut self, end: f64, duration: f64) -> Result<Self, SimError> {
+        if !end.is_finite() {
+            return invalid(format!(
+                "structure.spin_speed_end: {end} is not finite; expected a speed in rad/s"
+            ));
+        }
+        if !(duration.is_finite() && duration > 0.0) {
+            return invalid(format!(
+                "structure.run_up_time: {duration} is not valid; expected a duration > 0 in s"
+            ));
+        }
+        self.spin = SpinProfile {
+            start: self.spin.start,
+            end,
+            duration,
+        };
+        Ok(self)
+    }
+
+    /// `G` if the gyroscopic forces change in time (a run-up of a structure that has them).
+    pub fn varying_gyroscopic(&self) -> Option<&Csr> {
+        self.gyroscopic
+            .as_ref()
+            .filter(|_| !self.spin.is_constant())
+    }
+
     /// Whether `damping` is symmetric: no gyroscopic forces (no `G`, or `Ω = 0`). The
     /// Cholesky factors of the effective stiffness need it; the LU factors do not.
     pub fn damping_is_symmetric(&self) -> bool {
-        self.gyroscopic.is_none() || self.spin_speed == 0.0
+        self.gyroscopic.is_none() || self.spin.start == 0.0
     }
 
     pub fn n_dof(&self) -> usize {
@@ -225,6 +254,79 @@ impl LinearStructure {
     }
 }
 
+/// A rotor's spin speed over time: `start` (rad/s) run linearly to `end` over `duration`
+/// (s), then held; constant (`start`) when `duration` is 0.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpinProfile {
+    pub start: f64,
+    pub end: f64,
+    pub duration: f64,
+}
+
+impl SpinProfile {
+    pub fn constant(speed: f64) -> Self {
+        Self {
+            start: speed,
+            end: speed,
+            duration: 0.0,
+        }
+    }
+
+    pub fn is_constant(&self) -> bool {
+        self.duration == 0.0
+    }
+
+    /// `Ω̇` during the run-up, rad/s².
+    fn slope(&self) -> f64 {
+        if self.is_constant() {
+            0.0
+        } else {
+            (self.end - self.start) / self.duration
+        }
+    }
+
+    /// `Ω(t)`, rad/s.
+    #[inline]
+    pub fn speed(&self, t: f64) -> f64 {
+        if t >= self.duration {
+            self.end
+        } else if t <= 0.0 {
+            self.start
+        } else {
+            self.start + self.slope() * t
+        }
+    }
+
+    /// `Ω̇(t)`, rad/s² (0 before and after the run-up).
+    #[inline]
+    pub fn acceleration(&self, t: f64) -> f64 {
+        if (0.0..self.duration).contains(&t) {
+            self.slope()
+        } else {
+            0.0
+        }
+    }
+
+    /// The angle turned since `t = 0`, `∫₀ᵗ Ω dt`, rad.
+    #[inline]
+    pub fn angle(&self, t: f64) -> f64 {
+        if t >= self.duration {
+            0.5 * (self.start + self.end) * self.duration + self.end * (t - self.duration)
+        } else if t <= 0.0 {
+            self.start * t
+        } else {
+            (self.start + 0.5 * self.slope() * t) * t
+        }
+    }
+}
+
+/// The direction of one of an unbalance's two forces.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Axis {
+    X,
+    Y,
+}
+
 /// Time function of a load.
 #[derive(Debug, Clone, PartialEq)]
 pub enum LoadHistory {
@@ -239,6 +341,14 @@ pub enum LoadHistory {
     },
     /// `A · g(t)` with `g` linearly interpolated in a table and held at its end values.
     Table { time: Vec<f64>, value: Vec<f64> },
+    /// One force of a rotating unbalance `A = m e` on a rotor spinning at `Ω(t)`, angle
+    /// `φ = ∫Ω dt + phase`: x `A (Ω² cos φ + Ω̇ sin φ)`, y `A (Ω² sin φ − Ω̇ cos φ)` (the
+    /// reaction of the eccentric mass's acceleration). [`Load::unbalance`] builds the pair.
+    Unbalance {
+        axis: Axis,
+        phase: f64,
+        spin: SpinProfile,
+    },
 }
 
 /// A load `A · g(t)` applied to each of a set of DOFs.
@@ -304,21 +414,79 @@ impl Load {
                     ));
                 }
             }
+            LoadHistory::Unbalance { phase, .. } => {
+                if !phase.is_finite() {
+                    return invalid(format!(
+                        "{field}.phase: {phase} is not finite; expected an angle in rad"
+                    ));
+                }
+            }
         }
         Ok(())
+    }
+
+    /// The two loads of an unbalance `magnitude` m·e (kg·m) at `phase` (rad) on the DOFs
+    /// `[ix, iy]` of a rotor spinning at `spin`: at a constant speed the two harmonic loads
+    /// `m e Ω² (cos(Ωt + φ), sin(Ωt + φ))` (`cos θ = sin(θ + π/2)`; a negative Ω turns the
+    /// other way: `θ = |Ω| t`, the y force and the phase negated), else
+    /// [`LoadHistory::Unbalance`].
+    pub fn unbalance(dofs: [usize; 2], magnitude: f64, phase: f64, spin: SpinProfile) -> [Load; 2] {
+        let [ix, iy] = dofs;
+        if spin.is_constant() {
+            let w = spin.start.abs();
+            let sign = if spin.start >= 0.0 { 1.0 } else { -1.0 };
+            let frequency = w / (2.0 * std::f64::consts::PI);
+            let force = magnitude * w * w;
+            return [
+                Load {
+                    dofs: vec![ix],
+                    amplitude: force,
+                    history: LoadHistory::Harmonic {
+                        frequency,
+                        phase: sign * phase + std::f64::consts::FRAC_PI_2,
+                    },
+                },
+                Load {
+                    dofs: vec![iy],
+                    amplitude: sign * force,
+                    history: LoadHistory::Harmonic {
+                        frequency,
+                        phase: sign * phase,
+                    },
+                },
+            ];
+        }
+        [(ix, Axis::X), (iy, Axis::Y)].map(|(d, axis)| Load {
+            dofs: vec![d],
+            amplitude: magnitude,
+            history: LoadHistory::Unbalance { axis, phase, spin },
+        })
     }
 
     /// `A · g(t)`.
     #[inline]
     pub fn value(&self, t: f64) -> f64 {
-        self.amplitude
-            * match &self.history {
-                LoadHistory::Constant => 1.0,
-                LoadHistory::Harmonic { frequency, phase } => {
-                    (2.0 * std::f64::consts::PI * frequency * t + phase).sin()
-                }
-                LoadHistory::Table { time, value } => interpolate(time, value, t),
+        self.amplitude * self.shape(t)
+    }
+
+    /// `g(t)`.
+    #[inline]
+    pub fn shape(&self, t: f64) -> f64 {
+        match &self.history {
+            LoadHistory::Constant => 1.0,
+            LoadHistory::Harmonic { frequency, phase } => {
+                (2.0 * std::f64::consts::PI * frequency * t + phase).sin()
             }
+            LoadHistory::Unbalance { axis, phase, spin } => {
+                let (w, dw) = (spin.speed(t), spin.acceleration(t));
+                let (sin, cos) = (spin.angle(t) + phase).sin_cos();
+                match axis {
+                    Axis::X => w * w * cos + dw * sin,
+                    Axis::Y => w * w * sin - dw * cos,
+                }
+            }
+            LoadHistory::Table { time, value } => interpolate(time, value, t),
+        }
     }
 
     /// `A · g'(t)` (a table's: the slope of the segment holding `t`, zero outside it).
@@ -337,6 +505,15 @@ impl Load {
                     } else {
                         let i = time.partition_point(|&ti| ti <= t) - 1;
                         (value[i + 1] - value[i]) / (time[i + 1] - time[i])
+                    }
+                }
+                // Ω̈ = 0 inside and outside the run-up (its corners are not represented)
+                LoadHistory::Unbalance { axis, phase, spin } => {
+                    let (w, dw) = (spin.speed(t), spin.acceleration(t));
+                    let (sin, cos) = (spin.angle(t) + phase).sin_cos();
+                    match axis {
+                        Axis::X => 3.0 * w * dw * cos - w * w * w * sin,
+                        Axis::Y => 3.0 * w * dw * sin + w * w * w * cos,
                     }
                 }
             }
@@ -424,6 +601,48 @@ mod tests {
                 (got - fd).abs() < 1e-6 * fd.abs().max(1.0),
                 "{got} vs {fd} at {t}"
             );
+        }
+    }
+
+    /// A run-up's angle against the trapezoidal sum of its speed (exact for a piecewise
+    /// linear Ω on a grid through the corner), its unbalance forces against their formula,
+    /// and their rates against a central difference, inside and after the run-up.
+    #[test]
+    fn run_up_angle_and_unbalance_forces() {
+        let spin = SpinProfile {
+            start: 50.0,
+            end: 350.0,
+            duration: 0.4,
+        };
+        let (n, t_end) = (4000, 0.8);
+        let h = t_end / n as f64;
+        let mut angle = 0.0;
+        for i in 0..n {
+            let t = i as f64 * h;
+            angle += 0.5 * h * (spin.speed(t) + spin.speed(t + h));
+            assert!((spin.angle(t + h) - angle).abs() < 1e-10 * angle, "at {t}");
+        }
+        let [x, y] = Load::unbalance([0, 1], 2e-3, 0.3, spin);
+        for t in [0.1, 0.37, 0.6] {
+            let (w, dw) = (spin.speed(t), if t < 0.4 { 750.0 } else { 0.0 });
+            let phi = spin.angle(t) + 0.3;
+            let fx = 2e-3 * (w * w * phi.cos() + dw * phi.sin());
+            let fy = 2e-3 * (w * w * phi.sin() - dw * phi.cos());
+            assert!((x.value(t) - fx).abs() < 1e-12 * fx.abs().max(1.0));
+            assert!((y.value(t) - fy).abs() < 1e-12 * fy.abs().max(1.0));
+            let tau = 1e-7;
+            for load in [&x, &y] {
+                let fd = (load.value(t + tau) - load.value(t - tau)) / (2.0 * tau);
+                assert!((load.rate(t) - fd).abs() < 1e-6 * fd.abs(), "{t}");
+            }
+        }
+        // at a constant speed: the two harmonic loads of the same forces
+        let steady = SpinProfile::constant(-120.0);
+        let [hx, hy] = Load::unbalance([0, 1], 2e-3, 0.3, steady);
+        for t in [0.01, 0.2] {
+            let phi = -120.0 * t + 0.3;
+            assert!((hx.value(t) - 2e-3 * 14400.0 * phi.cos()).abs() < 1e-10);
+            assert!((hy.value(t) - 2e-3 * 14400.0 * phi.sin()).abs() < 1e-10);
         }
     }
 

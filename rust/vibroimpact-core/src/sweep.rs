@@ -3,7 +3,8 @@
 //! needs, so that no time history is ever stored:
 //!
 //! * stroboscopic (Poincaré) samples of displacement and velocity at `t = (N_tr + k) T`,
-//!   `k = 1 … N`, after a transient of `N_tr` forcing periods `T` — taken at the step that
+//!   `k = 1 … N` (or `per_period` samples a period, `t = N_tr T + k T / per_period`), after a
+//!   transient of `N_tr` forcing periods `T` — taken at the step that
 //!   ends there (fixed steps are made a whole fraction of `T`) or, with adaptive steps, from
 //!   the cubic Hermite interpolant of the accepted step that contains the instant;
 //! * after the transient: largest and smallest displacement (step ends and the Hermite
@@ -36,8 +37,11 @@ pub struct Sampling {
     pub period: f64,
     /// Transient `N_tr`, in periods: nothing is kept before `N_tr T`.
     pub transient: usize,
-    /// Number of stroboscopic samples `N`: the run lasts `(N_tr + N) T`.
+    /// Number of samples `N`, `per_period` a period: the run lasts `(N_tr + N / per_period) T`.
     pub samples: usize,
+    /// Samples per period (1: the stroboscopic map; more: a time history at `T / per_period`
+    /// for spectra, e.g. a rotor's full-spectrum waterfall).
+    pub per_period: usize,
     /// DOFs sampled (displacement, velocity, peaks, RMS).
     pub dofs: Vec<usize>,
     /// Approach speeds and phases kept per gap (the first impacts after the transient).
@@ -52,7 +56,7 @@ impl Sampling {
 
     /// Duration of the run, s.
     pub fn t_end(&self) -> f64 {
-        (self.transient + self.samples) as f64 * self.period
+        (self.transient as f64 + self.samples as f64 / self.per_period as f64) * self.period
     }
 
     fn validate(&self, n_dof: usize) -> Result<(), SimError> {
@@ -64,6 +68,13 @@ impl Sampling {
         }
         if self.samples == 0 {
             return invalid("sweep.periods: 0 is not valid; expected at least 1 sampled period");
+        }
+        if self.per_period == 0 || self.samples % self.per_period != 0 {
+            return invalid(format!(
+                "sweep.per_period: {} is not valid; expected an integer >= 1 that divides the \
+                 {} samples",
+                self.per_period, self.samples
+            ));
         }
         if let Some(d) = self.dofs.iter().find(|&&d| d >= n_dof) {
             return invalid(format!(
@@ -212,14 +223,16 @@ impl StepObserver for Reducer<'_> {
         let Sampling {
             period,
             samples,
+            per_period,
             ref dofs,
             ..
         } = *self.sampling;
+        let interval = period / per_period as f64;
         let nd = dofs.len();
 
         // Stroboscopic samples inside (t0, t1].
         while self.next_sample <= samples {
-            let ts = self.start + self.next_sample as f64 * period;
+            let ts = self.start + self.next_sample as f64 * interval;
             if ts > t1 + tol {
                 break;
             }
@@ -360,7 +373,9 @@ pub fn run_point(job: &SweepJob, start: Option<(&[f64], &[f64])>) -> PointSummar
     settings.every = usize::MAX;
     settings.record_dofs = sampling.dofs.clone();
     if settings.adaptive.is_none() && settings.dt.is_finite() && settings.dt > 0.0 {
-        settings.dt = period / (period / settings.dt - 1e-9).ceil().max(1.0);
+        // a whole number of steps between samples: they land on step ends
+        let interval = period / sampling.per_period as f64;
+        settings.dt = interval / (interval / settings.dt - 1e-9).ceil().max(1.0);
     }
     match simulate_observed(
         &job.system,
@@ -544,7 +559,7 @@ mod tests {
     fn job(frequency: f64, clearance: f64) -> SweepJob {
         SweepJob {
             system: oscillator(frequency, clearance),
-            method: Method::NewmarkFamily(NewmarkFamily::average_acceleration()),
+            method: Method::Newmark(NewmarkFamily::average_acceleration()),
             settings: RunSettings {
                 t_end: 1.0,
                 dt: 1e-3,
@@ -559,6 +574,7 @@ mod tests {
                 period: 1.0 / frequency,
                 transient: 5,
                 samples: 4,
+                per_period: 1,
                 dofs: vec![0],
                 max_impacts: 3,
             },
@@ -606,6 +622,33 @@ mod tests {
             .find(|r| r.t_start > j.sampling.start())
             .unwrap();
         assert_eq!(p.impact_velocity[0], first.v_in);
+    }
+
+    /// `per_period` samples a period are the rows of the full history every `T / per_period`.
+    #[test]
+    fn samples_per_period_are_the_history_at_their_instants() {
+        let mut j = job(0.8, 0.02);
+        j.sampling.per_period = 5;
+        j.sampling.samples = 20;
+        let p = run_point(&j, None);
+        assert!(p.error.is_none());
+        let interval = j.sampling.period / 5.0;
+        let dt = interval / (interval / j.settings.dt - 1e-9).ceil();
+        let settings = RunSettings {
+            t_end: j.sampling.t_end(),
+            dt,
+            ..j.settings.clone()
+        };
+        let full = simulate(&j.system, j.method, &settings, j.x0.clone(), j.v0.clone()).unwrap();
+        let m = (interval / dt).round() as usize;
+        assert_eq!(full.rows.time.len() - 1, (5 * 5 + 20) * m);
+        for k in 1..=20 {
+            let i = (5 * 5 + k) * m;
+            assert_eq!(p.poincare_displacement[k - 1], full.rows.displacement[i]);
+            assert_eq!(p.poincare_velocity[k - 1], full.rows.velocity[i]);
+        }
+        j.sampling.per_period = 3;
+        assert!(run_point(&j, None).error.is_some());
     }
 
     #[test]

@@ -68,6 +68,16 @@ impl System {
                 ));
             }
             g.validate(i, n)?;
+            if let Side::Radial(r) = &g.side {
+                if r.friction > 0.0 && !structure.spin.is_constant() {
+                    return invalid(format!(
+                        "gaps[{i}].friction: {} on a radial gap during a run-up is not available \
+                         yet (its sliding speed R Ω would change with Ω(t)); expected friction = \
+                         0 or structure.spin_profile = 'constant'",
+                        r.friction
+                    ));
+                }
+            }
         }
         let n_gaps = gaps.len();
         let mut gaps = gaps;
@@ -269,7 +279,7 @@ impl System {
     ) -> WallState {
         let k = self.radial_kinematics(r, g, u, u_rate);
         let mut s = contact_state(&self.gaps[g].law, start, k.rho - wall.clearance, k.rate, h);
-        let spin = r.radius * self.structure.spin_speed;
+        let spin = r.radius * self.structure.spin.start;
         s.slide = k.slide;
         s.slip = spin + k.slide;
         if !s.closed() {
@@ -332,7 +342,7 @@ impl State {
                 let k = sys.radial_kinematics(r, wall.gap, &self.u, &self.u_rate);
                 state.rate = k.rate;
                 state.slide = k.slide;
-                state.slip = r.radius * sys.structure.spin_speed + k.slide;
+                state.slip = r.radius * sys.structure.spin.start + k.slide;
             } else {
                 state.rate = wall.sign * self.u_rate[wall.gap];
             }

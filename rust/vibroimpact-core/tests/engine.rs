@@ -29,7 +29,7 @@ fn run(sys: &System, t_end: f64, dt: f64, x0: f64, v0: f64) -> RunOutput {
     };
     simulate(
         sys,
-        Method::NewmarkFamily(NewmarkFamily::average_acceleration()),
+        Method::Newmark(NewmarkFamily::average_acceleration()),
         &settings,
         DVector::from_element(1, x0),
         DVector::from_element(1, v0),

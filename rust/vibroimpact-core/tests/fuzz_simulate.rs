@@ -210,8 +210,8 @@ fn run_case(c: &Case) -> Result<(), TestCaseError> {
         Err(e) => return Err(TestCaseError::fail(format!("System::new: {e:?}"))),
     };
     let method = match c.method {
-        0 => Method::NewmarkFamily(NewmarkFamily::average_acceleration()),
-        1 => Method::NewmarkFamily(NewmarkFamily {
+        0 => Method::Newmark(NewmarkFamily::average_acceleration()),
+        1 => Method::GeneralizedAlpha(NewmarkFamily {
             beta: 0.3025,
             gamma: 0.6,
             alpha_m: -0.1,

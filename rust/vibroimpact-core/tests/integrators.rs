@@ -340,7 +340,7 @@ fn two_gaps_and_a_load_agree_with_a_fine_reference() {
         assert!(out.error.is_none());
         out
     };
-    let newmark = Method::NewmarkFamily(NewmarkFamily::average_acceleration());
+    let newmark = Method::Newmark(NewmarkFamily::average_acceleration());
     let reference = run(newmark, 5e-7);
     assert_eq!(reference.impacts.len(), 8);
     for (method, dt, peak_tol, time_tol) in [
@@ -396,8 +396,8 @@ fn kelvin_voigt_peak_force(m: f64, k: f64, c: f64, v0: f64) -> f64 {
 #[test]
 fn kelvin_voigt_force_peak_includes_the_onset_in_every_method() {
     let (m, k, v0): (f64, f64, f64) = (0.04, 2.4e8, 0.3);
-    let newmark = Method::NewmarkFamily(NewmarkFamily::average_acceleration());
-    let alpha = Method::NewmarkFamily(generalized_alpha(0.8));
+    let newmark = Method::Newmark(NewmarkFamily::average_acceleration());
+    let alpha = Method::GeneralizedAlpha(generalized_alpha(0.8));
     let methods = [
         newmark,
         alpha,

@@ -39,7 +39,7 @@ fn a_requested_interrupt_stops_the_run_with_its_results_up_to_then() {
         newton: NewtonSettings::default(),
         adaptive: None,
     };
-    let method = Method::NewmarkFamily(NewmarkFamily::average_acceleration());
+    let method = Method::Newmark(NewmarkFamily::average_acceleration());
     let x0 = DVector::zeros(1);
     let v0 = DVector::from_element(1, 8.0);
 

@@ -9,6 +9,7 @@ use vibroimpact_core::contact::{Hertz, Hysteretic, Law, Rigid};
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::impulsive::EventDriven;
 use vibroimpact_core::integrators::NewtonSettings;
+use vibroimpact_core::sensitivity::Parameter;
 use vibroimpact_core::settings::Adaptive;
 use vibroimpact_core::simulate::{simulate, simulate_with_sensitivity, Method, RunSettings};
 use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
@@ -85,7 +86,8 @@ fn check(law: Law, method: Method, impacts_expected: usize) {
         DVector::from_element(1, z[0]),
         DVector::from_element(1, z[1]),
     );
-    let out = simulate_with_sensitivity(&sys, method, &settings(method), x0, v0, None).unwrap();
+    let out =
+        simulate_with_sensitivity(&sys, method, &settings(method), x0, v0, None, None).unwrap();
     assert!(out.error.is_none(), "{:?}", out.error);
     assert_eq!(out.impacts.len(), impacts_expected, "{:?}", out.impacts);
     let phi = out.state_transition.expect("asked for").matrix;
@@ -115,6 +117,7 @@ fn check(law: Law, method: Method, impacts_expected: usize) {
         &settings(Method::Dop853),
         DVector::from_element(1, z[0]),
         DVector::from_element(1, z[1]),
+        None,
         None,
     )
     .unwrap();
@@ -151,7 +154,132 @@ fn methods_without_a_state_transition_are_refused() {
         DVector::zeros(1),
         DVector::zeros(1),
         None,
+        None,
     )
     .unwrap_err();
     assert!(err.to_string().contains("solver.method"), "{err}");
+    // DOP853 at fixed steps: refused with its reason
+    let fixed = RunSettings {
+        adaptive: None,
+        ..settings(Method::Dop853)
+    };
+    let err = simulate_with_sensitivity(
+        &sys,
+        Method::Dop853,
+        &fixed,
+        DVector::zeros(1),
+        DVector::zeros(1),
+        None,
+        None,
+    )
+    .unwrap_err();
+    assert!(
+        err.to_string()
+            .starts_with("solver.adaptive: false is not valid for DOP853's"),
+        "{err}"
+    );
+}
+
+/// The oscillator with one of its numbers changed: `(parameter path, value)`; with the run's
+/// length one forcing period (and its first step the same fraction of it).
+fn varied(law: &Law, path: &str, value: f64) -> (System, RunSettings) {
+    let mut sys = oscillator(law.clone());
+    let mut settings = settings(Method::Dop853);
+    match path {
+        "loads.0.amplitude" => sys.loads[0].amplitude = value,
+        "loads.0.phase" | "loads.0.frequency" => {
+            let LoadHistory::Harmonic { frequency, phase } = &mut sys.loads[0].history else {
+                unreachable!()
+            };
+            if path.ends_with("phase") {
+                *phase = value;
+            } else {
+                let scale = *frequency / value;
+                *frequency = value;
+                settings.t_end *= scale;
+                settings.dt *= scale;
+            }
+        }
+        "gaps.0.clearance" => {
+            sys = with_clearance(law.clone(), value);
+        }
+        _ => unreachable!("{path}"),
+    }
+    (sys, settings)
+}
+
+/// DOP853's column `∂P/∂p` of a load's amplitude, frequency (the map over its forcing period)
+/// and phase and of the stop's clearance equals the central differences of the simulated map,
+/// over a period with two contacts of a Hertz and a Lankarani–Nikravesh stop.
+#[test]
+fn dop853_parameter_columns_match_finite_differences() {
+    let laws = [
+        Law::Hertz(Hertz::new(1e4, 1.5).unwrap()),
+        Law::Hysteretic(Hysteretic::new("lankarani-nikravesh", 1e4, 1.5, 0.7).unwrap()),
+    ];
+    let z = [0.2, 1.0];
+    let f0 = 0.8 / (2.0 * std::f64::consts::PI);
+    let nominal = [
+        ("loads.0.amplitude", 1.0),
+        ("loads.0.frequency", f0),
+        ("loads.0.phase", std::f64::consts::FRAC_PI_2),
+        ("gaps.0.clearance", 0.5),
+    ];
+    let end = |sys: &System, settings: &RunSettings| -> [f64; 2] {
+        let (x0, v0) = (
+            DVector::from_element(1, z[0]),
+            DVector::from_element(1, z[1]),
+        );
+        let out = simulate(sys, Method::Dop853, settings, x0, v0).unwrap();
+        assert!(out.error.is_none(), "{:?}", out.error);
+        [
+            *out.rows.displacement.last().unwrap(),
+            *out.rows.velocity.last().unwrap(),
+        ]
+    };
+    for law in &laws {
+        for (path, p) in nominal {
+            let (sys, settings) = varied(law, path, p);
+            let parameter = Parameter::of_path(&sys, path).unwrap();
+            let out = simulate_with_sensitivity(
+                &sys,
+                Method::Dop853,
+                &settings,
+                DVector::from_element(1, z[0]),
+                DVector::from_element(1, z[1]),
+                Some(parameter),
+                None,
+            )
+            .unwrap();
+            assert_eq!(out.impacts.len(), 2, "{path}: {:?}", out.impacts);
+            let transition = out.state_transition.unwrap();
+            let column = transition.parameter_column().expect("asked for");
+            let h = 1e-5 * p;
+            let (up, down) = (varied(law, path, p + h), varied(law, path, p - h));
+            let (zu, zd) = (end(&up.0, &up.1), end(&down.0, &down.1));
+            for i in 0..2 {
+                let fd = (zu[i] - zd[i]) / (2.0 * h);
+                assert!(
+                    (fd - column[i]).abs() <= 1e-6 * column.amax().max(1.0),
+                    "{law:?} {path}: ∂P/∂p[{i}] = {}, FD {fd}",
+                    column[i]
+                );
+            }
+            // the monodromy is the one without the column
+            let plain = simulate_with_sensitivity(
+                &sys,
+                Method::Dop853,
+                &settings,
+                DVector::from_element(1, z[0]),
+                DVector::from_element(1, z[1]),
+                None,
+                None,
+            )
+            .unwrap();
+            assert_eq!(
+                plain.state_transition.unwrap().matrix,
+                transition.monodromy()
+            );
+        }
+    }
 }

@@ -16,7 +16,7 @@ use vibroimpact_core::contact::{law_entry, Law, ParameterValue, ParameterValues,
 use vibroimpact_core::gap::{FrictionLaw, Gap, Radial, Side};
 use vibroimpact_core::linalg::Csr;
 use vibroimpact_core::simulate::{Method, RunSettings};
-use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
+use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory, SpinProfile};
 use vibroimpact_core::system::System;
 
 pub(crate) struct Job {
@@ -88,7 +88,13 @@ fn matrix(d: &Bound<'_, PyDict>, key: &str) -> PyResult<Matrix> {
         let (r, c) = a.dim();
         return Ok(Matrix::Dense(DMatrix::from_fn(r, c, |i, j| a[[i, j]])));
     }
-    let bad = |what: String| ModelError::new_err(format!("structure.{key}: {what}"));
+    csr(&obj, &format!("structure.{key}")).map(Matrix::Sparse)
+}
+
+/// A SciPy sparse matrix (CSR, or anything with `indptr`, `indices`, `data`, `shape` of a
+/// CSR array) read without densifying; errors name `field`.
+pub(crate) fn csr(obj: &Bound<'_, PyAny>, field: &str) -> PyResult<Csr> {
+    let bad = |what: String| ModelError::new_err(format!("{field}: {what}"));
     let (rows, cols): (usize, usize) = obj.getattr("shape")?.extract()?;
     if rows != cols {
         return Err(bad(format!(
@@ -107,9 +113,7 @@ fn matrix(d: &Bound<'_, PyDict>, key: &str) -> PyResult<Matrix> {
     let data = obj.getattr("data")?.call_method1("astype", ("float64",))?;
     let data: PyReadonlyArray1<f64> = data.extract().map_err(|e| bad(format!("data: {e}")))?;
     let data = data.as_array().to_vec();
-    Csr::from_parts(rows, row_start, indices, data)
-        .map(Matrix::Sparse)
-        .map_err(bad)
+    Csr::from_parts(rows, row_start, indices, data).map_err(bad)
 }
 
 fn vector<'py>(d: &Bound<'py, PyDict>, key: impl Key<'py>) -> PyResult<DVector<f64>> {
@@ -188,7 +192,9 @@ fn gap(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Gap> {
     })
 }
 
-fn load(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Load> {
+/// The core's loads of a spec's load `i`: one, or an unbalance's two (x and y) at the
+/// structure's spin profile.
+fn load(d: &Bound<'_, PyDict>, i: usize, spin: SpinProfile) -> PyResult<Vec<Load>> {
     let ctx = format!("loads[{i}]");
     let kind: String = item(d, "kind", &ctx)?;
     let history = match kind.as_str() {
@@ -201,17 +207,23 @@ fn load(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Load> {
             time: item(d, "time", &ctx)?,
             value: item(d, "value", &ctx)?,
         },
+        "unbalance" => {
+            let dofs: [usize; 2] = item(d, "dofs", &ctx)?;
+            let magnitude: f64 = item(d, "magnitude", &ctx)?;
+            return Ok(Load::unbalance(dofs, magnitude, item(d, "phase", &ctx)?, spin).into());
+        }
         other => {
             return Err(ModelError::new_err(format!(
-                "{ctx}.kind: '{other}' is not valid; expected constant, harmonic or table"
+                "{ctx}.kind: '{other}' is not valid; expected constant, harmonic, table or \
+                 unbalance"
             )))
         }
     };
-    Ok(Load {
+    Ok(vec![Load {
         dofs: item(d, "dofs", &ctx)?,
         amplitude: item(d, "amplitude", &ctx)?,
         history,
-    })
+    }])
 }
 
 /// A model's structure, gaps and loads as the core's `System`, built once by
@@ -243,9 +255,28 @@ fn system(spec: &Bound<'_, PyDict>) -> PyResult<System> {
         _ => None,
     };
     let spin_speed: f64 = opt(spec, "spin_speed", "structure")?.unwrap_or(0.0);
-    let structure = structure
+    let mut structure = structure
         .spinning(gyroscopic, spin_speed)
         .map_err(to_py_err)?;
+    // a run-up (`spin_profile = "linear"`)
+    let profile: Option<String> = opt(spec, "spin_profile", "structure")?;
+    match profile.as_deref() {
+        None | Some("constant") => {}
+        Some("linear") => {
+            structure = structure
+                .run_up(
+                    item(spec, "spin_speed_end", "structure")?,
+                    item(spec, "run_up_time", "structure")?,
+                )
+                .map_err(to_py_err)?;
+        }
+        Some(other) => {
+            return Err(ModelError::new_err(format!(
+                "structure.spin_profile: '{other}' is not valid; expected constant or linear"
+            )))
+        }
+    }
+    let spin = structure.spin;
     let gaps_list: Bound<'_, PyList> = item(spec, "gaps", "model")?;
     let gaps = gaps_list
         .iter()
@@ -256,8 +287,9 @@ fn system(spec: &Bound<'_, PyDict>) -> PyResult<System> {
     let loads = loads_list
         .iter()
         .enumerate()
-        .map(|(i, l)| load(l.cast::<PyDict>()?, i))
-        .collect::<PyResult<Vec<_>>>()?;
+        .map(|(i, l)| load(l.cast::<PyDict>()?, i, spin))
+        .collect::<PyResult<Vec<_>>>()?
+        .concat();
     System::new(structure, gaps, loads).map_err(to_py_err)
 }
 

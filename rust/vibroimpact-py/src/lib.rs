@@ -3,6 +3,7 @@
 //! the GIL released, and returns numpy arrays.
 
 mod convert;
+mod factor;
 mod method;
 mod orbit;
 mod running;
@@ -56,7 +57,7 @@ fn request_interrupt() {
 }
 
 /// The floor of a Newmark step's cost on the run `spec` (benchmarks): its effective
-/// stiffness for steps of `spec["dt"]` factorised as the run would, and `solves` bare solves
+/// stiffness for steps of `spec["dt"]` factorised as the run (of `spec["t_end"]`) would, and `solves` bare solves
 /// timed. A dict: `solver`, `dofs`, `bandwidth`, `stored_values`, `solve_s` (per solve).
 #[pyfunction]
 fn substitution_time<'py>(
@@ -65,13 +66,17 @@ fn substitution_time<'py>(
     solves: usize,
 ) -> PyResult<Bound<'py, PyDict>> {
     let job = convert::job_from_spec(spec, None)?;
-    let vibroimpact_core::simulate::Method::NewmarkFamily(scheme) = job.method else {
+    let Some(scheme) = job.method.newmark_family() else {
         return Err(ModelError::new_err(
             "solver.method: expected a Newmark-family method for the substitution floor",
         ));
     };
     let (factor, solve_s) = py
-        .detach(|| integrators::substitution_time(&job.system, scheme, job.settings.dt, solves))
+        .detach(|| {
+            let (t_end, dt) = (job.settings.t_end, job.settings.dt);
+            let steps = (t_end / dt).round().max(1.0) as usize;
+            integrators::substitution_time(&job.system, scheme, dt, steps, solves)
+        })
         .map_err(to_py_err)?;
     let d = PyDict::new(py);
     d.set_item("solver", factor.solver)?;
@@ -507,6 +512,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<running::Running>()?;
     m.add_function(wrap_pyfunction!(convert::compile_system, m)?)?;
     m.add_class::<convert::CompiledSystem>()?;
+    m.add_class::<factor::CholeskyFactor>()?;
     m.add_function(wrap_pyfunction!(expm, m)?)?;
     m.add_function(wrap_pyfunction!(substitution_time, m)?)?;
     m.add_function(wrap_pyfunction!(request_interrupt, m)?)?;

@@ -13,7 +13,6 @@ use vibroimpact_core::method_catalog::{
     method_entry, AdaptiveRequest, MethodSpec, Setting, SettingKind, Stepping, ADAPTIVE, METHODS,
     NEWTON,
 };
-use vibroimpact_core::simulate::Method;
 
 /// A run's method, checked: built by `method_spec`, read by every run of its integrator.
 #[pyclass(module = "vibroimpact._core", name = "MethodSpec", frozen)]
@@ -30,7 +29,7 @@ impl PyMethodSpec {
     /// `alpha_m`, `alpha_f`, `gamma`, `beta` of a Newmark-family method as the core steps it
     /// (`None` for the others).
     fn newmark_parameters<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let Method::NewmarkFamily(s) = self.0.method else {
+        let Some(s) = self.0.method.newmark_family() else {
             return Ok(None);
         };
         let d = PyDict::new(py);

@@ -6,6 +6,7 @@ use pyo3::types::PyDict;
 
 use numpy::PyArray1;
 use vibroimpact_core::observe::{StepObserver, Turn};
+use vibroimpact_core::sensitivity::parameter_for;
 use vibroimpact_core::simulate::simulate_with_sensitivity;
 use vibroimpact_core::system::{State, System};
 
@@ -37,8 +38,11 @@ impl StepObserver for Extremes {
 
 /// Runs one model spec (as `_core.start` takes it) carrying the state-transition matrix:
 /// the output dict of `Running.finish` plus `state_transition`, `∂(x, v)(t_end)/∂(x₀, v₀)`
-/// (`2n × 2n`; None if the run stopped early) and `displacement_min`, `displacement_max`
-/// (per DOF, over every step: [`Extremes`]).
+/// (`2n × 2n`; None if the run stopped early), `displacement_min`, `displacement_max`
+/// (per DOF, over every step: [`Extremes`]) and, for the path `sensitivity_parameter` of the
+/// spec (optional), `parameter_column` (`∂(x, v)(t_end)/∂p`, or None) and
+/// `parameter_column_note` (why it is None: the method or the parameter has no column; "" if
+/// it is there or was not asked for).
 #[pyfunction]
 pub(crate) fn flow_map<'py>(
     py: Python<'py>,
@@ -51,6 +55,13 @@ pub(crate) fn flow_map<'py>(
         x0,
         v0,
     } = convert::job_from_spec(spec, None)?;
+    // the column of the parameter at this path, if the method carries it (else why not)
+    let path: Option<String> = spec
+        .get_item("sensitivity_parameter")?
+        .filter(|p| !p.is_none())
+        .map(|p| p.extract())
+        .transpose()?;
+    let parameter = path.map(|p| parameter_for(&system, method, &p));
     let n_gaps = system.n_gaps;
     let mut extremes = Extremes {
         low: x0.iter().copied().collect(),
@@ -58,15 +69,35 @@ pub(crate) fn flow_map<'py>(
     };
     let mut out = py
         .detach(|| {
-            simulate_with_sensitivity(&system, method, &settings, x0, v0, Some(&mut extremes))
+            let parameter = parameter.as_ref().and_then(|p| p.as_ref().ok().copied());
+            simulate_with_sensitivity(
+                &system,
+                method,
+                &settings,
+                x0,
+                v0,
+                parameter,
+                Some(&mut extremes),
+            )
         })
         .map_err(to_py_err)?;
     let transition = out.state_transition.take().filter(|_| out.error.is_none());
     let rows = std::mem::take(&mut out.rows);
     let balance = rows.energy.relative_balance_error();
     let d = output_to_dict(py, out, rows, n_gaps, balance)?;
-    let matrix = transition.map(|t| to_numpy(py, &t.matrix)).transpose()?;
+    let column = transition
+        .as_ref()
+        .and_then(|t| t.parameter_column())
+        .map(|c| PyArray1::from_vec(py, c.as_slice().to_vec()));
+    let matrix = transition
+        .map(|t| to_numpy(py, &t.monodromy()))
+        .transpose()?;
     d.set_item("state_transition", matrix)?;
+    d.set_item("parameter_column", column)?;
+    d.set_item(
+        "parameter_column_note",
+        parameter.and_then(|p| p.err()).unwrap_or_default(),
+    )?;
     d.set_item("displacement_min", PyArray1::from_vec(py, extremes.low))?;
     d.set_item("displacement_max", PyArray1::from_vec(py, extremes.high))?;
     Ok(d)

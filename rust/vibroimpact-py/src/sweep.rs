@@ -31,6 +31,12 @@ fn sampling(spec: &Bound<'_, PyDict>) -> PyResult<Sampling> {
         period: field(&d, "period")?,
         transient: field(&d, "transient")?,
         samples: field(&d, "samples")?,
+        per_period: match d.get_item("per_period")? {
+            Some(v) => v
+                .extract()
+                .map_err(|e| ModelError::new_err(format!("sweep.per_period: {e}")))?,
+            None => 1,
+        },
         dofs: field(&d, "dofs")?,
         max_impacts: field(&d, "max_impacts")?,
     })

@@ -156,14 +156,13 @@ pub(crate) fn fill_gaps(sys: &System, rig: &Rigidity, s: &mut State, force: impl
     sys.gap_coordinates(&s.v, &mut s.u_rate);
     sys.gap_coordinates(&s.a, &mut s.u_accel);
     s.phi.fill(0.0);
-    let x = DVector::from_column_slice(&s.x);
-    let v = DVector::from_column_slice(&s.v);
+    // a wall's row of G is its side times its gap's row: δ = s u − d, δ̇ = s u̇
     for (j, (wall, w)) in sys.walls.iter().zip(s.walls.iter_mut()).enumerate() {
         let f = force(j);
         s.phi[wall.gap] += wall.sign * f;
         *w = WallState {
-            penetration: rig.penetration(j, &x),
-            rate: rig.rate(j, &v),
+            penetration: wall.sign * s.u[wall.gap] - rig.clearance[j],
+            rate: wall.sign * s.u_rate[wall.gap],
             force: f,
             elastic_force: f,
             ..WallState::default()

@@ -38,18 +38,6 @@ pub struct MoreauJean {
     pub theta: f64,
 }
 
-impl MoreauJean {
-    pub fn validate(&self) -> Result<(), SimError> {
-        if !(self.theta >= 0.5 && self.theta <= 1.0) {
-            return invalid(format!(
-                "solver.theta: {} is not valid; expected 0.5 <= theta <= 1",
-                self.theta
-            ));
-        }
-        Ok(())
-    }
-}
-
 /// Moreau–Jean as the run's step policy: one θ-step, and one LCP, per step of the grid.
 pub(crate) struct MoreauJeanSteps {
     rig: Rigidity,

@@ -21,7 +21,7 @@ use nalgebra::DMatrix;
 use super::newmark::{NewmarkFamily, NewmarkStepper};
 use super::newton::{GapNewton, GapProblem, NewtonSettings, RateMap};
 use super::{OperatorCache, StepFailure, Stepper};
-use crate::error::{invalid, SimError};
+use crate::error::SimError;
 use crate::gap::WallState;
 use crate::linalg::axpy;
 use crate::system::{State, System};
@@ -34,16 +34,6 @@ pub struct Bathe {
 }
 
 impl Bathe {
-    pub fn validate(&self) -> Result<(), SimError> {
-        if !(self.gamma.is_finite() && self.gamma > 0.0 && self.gamma < 1.0) {
-            return invalid(format!(
-                "solver.gamma: {} is not valid; expected 0 < gamma < 1 (Bathe's sub-step fraction)",
-                self.gamma
-            ));
-        }
-        Ok(())
-    }
-
     /// `c₁, c₂, c₃` of the three-point backward formula for a step `h`.
     fn coefficients(&self, h: f64) -> [f64; 3] {
         let g = self.gamma;

@@ -126,7 +126,7 @@ impl<'s> Dynamics<'s> {
         }
     }
 
-    /// `a = M⁻¹ (F(t) − C v − K x − Σ φ_g b_gᵀ)` with the forces of the active walls; returns
+    /// `a = M⁻¹ (F(t) − (C + Ω(t) G) v − K x − Σ φ_g b_gᵀ)` with the forces of the active walls; returns
     /// the power of the loads, of the damping and of the contact forces' dissipative part
     /// (the integrands of the energy account, docs/conventions.md). `root`: a wall whose
     /// penetration is given (`ζ²` of a [`Clock::Root`] step) instead of taken from `x`.
@@ -174,7 +174,7 @@ impl<'s> Dynamics<'s> {
                     d_rate: force.d_rate,
                     ..WallState::default()
                 };
-                let rf = radial_contact(r, &k, &state, r.radius * st.spin_speed);
+                let rf = radial_contact(r, &k, &state, r.radius * st.spin.start);
                 let (ix, iy) = (gap.dofs[0], sys.gaps[r.partner].dofs[0]);
                 f[ix] -= rf.phi[0];
                 f[iy] -= rf.phi[1];
@@ -216,6 +216,10 @@ impl<'s> Dynamics<'s> {
                 *fi -= ci;
                 damping += ci * vi;
             }
+        }
+        if let Some(g) = st.varying_gyroscopic() {
+            // a run-up: `damping` holds Ω(0) G; the rest of Ω(t) G x' (no power: G = −Gᵀ)
+            g.mul_add(-(st.spin.speed(t) - st.spin.start), v, f);
         }
         if self.has_stiffness {
             st.stiffness.mul_add(-1.0, x, f);
@@ -895,7 +899,9 @@ impl<'s> Dop853Steps<'s> {
                 in_time: !smooth_in_root(sys, j),
             })
             .collect();
-        let variational = run.wants_sensitivity.then(|| Variational::new(sys));
+        let variational = run
+            .wants_sensitivity
+            .then(|| Variational::new(sys, run.sensitivity_parameter));
         if variational.is_some() {
             in_time_only(&mut contacts);
         }
@@ -1361,7 +1367,7 @@ fn commit(
             w.potential = f.potential;
             if let Side::Radial(r) = &sys.gaps[wall.gap].side {
                 let k = sys.radial_kinematics(r, wall.gap, &s.u, &s.u_rate);
-                let rf = radial_contact(r, &k, w, r.radius * sys.structure.spin_speed);
+                let rf = radial_contact(r, &k, w, r.radius * sys.structure.spin.start);
                 s.phi[wall.gap] += rf.phi[0];
                 s.phi[r.partner] += rf.phi[1];
                 w.friction = rf.friction;
@@ -1372,7 +1378,7 @@ fn commit(
         if let Side::Radial(r) = &sys.gaps[wall.gap].side {
             let k = sys.radial_kinematics(r, wall.gap, &s.u, &s.u_rate);
             w.slide = k.slide;
-            w.slip = r.radius * sys.structure.spin_speed + k.slide;
+            w.slip = r.radius * sys.structure.spin.start + k.slide;
         }
     }
     let integrals = StepIntegrals {

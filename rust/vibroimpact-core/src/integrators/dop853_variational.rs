@@ -18,6 +18,11 @@
 //! Kelvin–Voigt's slope jumps and a power law's of exponent < 1 is infinite, none of which
 //! then enters (docs/periodic-orbits.md).
 //!
+//! With a [`Parameter`], a last column `∂z/∂p` rides along: its stages carry the forcing
+//! `[0; M⁻¹(∂F_ext/∂p − Σ s b F_δ ∂δ/∂p)]`, its switches `∂δ/∂p` in `dt_s/dp`, and a load
+//! frequency's time scale `r = (dT/dp)/T` moves each step's start by `r t₀` (the loads' rate)
+//! and its length by `r h` (`d(end)/dh`).
+//!
 //! The step sizes are those the error control chose; the steps land on every switch, so the
 //! derivative is that of the integrated flow to the method's tolerance. Contacts are then
 //! integrated in time only (no step in `ζ = √δ`, whose duration would depend on the state).
@@ -28,7 +33,7 @@ use nalgebra::{DMatrix, DVector, RowDVector};
 use super::super::dop853_tableau::{A, B, C, STAGES};
 use super::{dot, Contact, Stages, StepEnd, K};
 use crate::contact::{ContactLaw, MIN_IMPACT_SPEED};
-use crate::sensitivity::StateTransition;
+use crate::sensitivity::{Parameter, StateTransition};
 use crate::system::System;
 
 /// Relative step of the central difference of a law's force in its approach speed.
@@ -54,11 +59,14 @@ pub(super) struct Variational {
     rate_of_end: Option<DVector<f64>>,
     /// `dt_s/dz₀` of the switch the next step starts from (`None`: no switch there).
     time_shift: Option<RowDVector<f64>>,
+    /// The parameter whose column is `Φ`'s last, with its time scale and per wall `∂δ/∂p`.
+    parameter: Option<(Parameter, f64, Vec<f64>)>,
 }
 
 impl Variational {
-    pub(super) fn new(sys: &System) -> Self {
+    pub(super) fn new(sys: &System, parameter: Option<Parameter>) -> Self {
         let n = sys.n_dof();
+        let columns = 2 * n + usize::from(parameter.is_some());
         let st = &sys.structure;
         let column = |j: usize, apply: &dyn Fn(&[f64], &mut [f64])| {
             let mut e = vec![0.0; n];
@@ -96,16 +104,22 @@ impl Variational {
             .collect();
         Self {
             n,
-            phi: StateTransition::identity(n),
+            phi: StateTransition::start(n, parameter.is_some()),
             minus_k,
             minus_c,
             rows,
             m_inv_rows,
             impact_speed: vec![None; sys.walls.len()],
-            dk: vec![DMatrix::zeros(2 * n, 2 * n); STAGES],
+            dk: vec![DMatrix::zeros(2 * n, columns); STAGES],
             dk_h: vec![DVector::zeros(2 * n); STAGES],
             rate_of_end: None,
             time_shift: None,
+            parameter: parameter.map(|p| {
+                let walls = (0..sys.walls.len())
+                    .map(|j| p.penetration_derivative(sys, j))
+                    .collect();
+                (p, p.time_scale(sys), walls)
+            }),
         }
     }
 
@@ -123,6 +137,8 @@ impl Variational {
     ) {
         let n = self.n;
         let time_shift = self.time_shift.take();
+        // the parameter's column: its start time's derivative r t₀
+        let scaled = self.parameter.as_ref().map_or(0.0, |p| p.1 * t0);
         let (mut xs, mut vs) = (vec![0.0; n], vec![0.0; n]);
         let stage = |i: usize| {
             let mut k = DVector::zeros(2 * n);
@@ -160,11 +176,20 @@ impl Variational {
                     })
                 })
                 .collect();
-            let loads =
-                (time_shift.is_some() || C[i] != 0.0).then(|| load_rate(sys, t0 + C[i] * h));
+            let loads = (time_shift.is_some() || C[i] != 0.0 || scaled != 0.0)
+                .then(|| load_rate(sys, t0 + C[i] * h));
             let mut bottom = self.apply_jacobian(&tangents, &dy, true);
             if let (Some(shift), Some(loads)) = (&time_shift, &loads) {
                 bottom += loads * shift;
+            }
+            if let Some((p, _, _)) = &self.parameter {
+                let mut forcing = p.load_derivative(sys, t0 + C[i] * h);
+                sys.structure.solve_mass(forcing.as_mut_slice());
+                if let Some(loads) = &loads {
+                    forcing += loads * scaled;
+                }
+                let mut last = bottom.column_mut(2 * n);
+                last += forcing;
             }
             let mut bottom_h = self.apply_jacobian(
                 &tangents,
@@ -193,17 +218,22 @@ impl Variational {
             // back to the step's nominal end: its length shortened by the switch's delay
             self.phi.matrix -= &rate_of_end * shift;
         }
+        if let Some((_, r, _)) = &self.parameter {
+            // the step's length scales with the run's time
+            let mut last = self.phi.matrix.column_mut(2 * n);
+            last += &rate_of_end * (r * h);
+        }
         self.rate_of_end = Some(rate_of_end);
     }
 
     /// The acceleration rows `−M⁻¹(K dx + C dv + Σ (F_δ bbᵀdx + F_δ̇ bbᵀdv))` of `J dy` for a
-    /// stage with the active walls' `tangents` (and, with `impact_speed`, the term of a law's
-    /// approach speed).
+    /// stage with the active walls' `tangents` (and, with `full`, for `dy = [dΦ | dq]`: the
+    /// term of a law's approach speed and the parameter's `F_δ ∂δ/∂p`).
     fn apply_jacobian(
         &self,
         tangents: &[Option<(f64, f64, f64)>],
         dy: &DMatrix<f64>,
-        impact_speed: bool,
+        full: bool,
     ) -> DMatrix<f64> {
         let n = self.n;
         let dx = dy.rows(0, n);
@@ -215,8 +245,11 @@ impl Variational {
             };
             let row = &self.rows[j];
             let mut along = (row.transpose() * dx) * f_delta + (row.transpose() * dv) * f_rate;
-            if let (Some(grad), true) = (&self.impact_speed[j], impact_speed && f_speed != 0.0) {
+            if let (Some(grad), true) = (&self.impact_speed[j], full && f_speed != 0.0) {
                 along += grad * f_speed;
+            }
+            if let (Some((_, _, walls)), true) = (&self.parameter, full) {
+                along[2 * n] += f_delta * walls[j];
             }
             bottom -= &self.m_inv_rows[j] * along;
         }
@@ -251,7 +284,11 @@ impl Variational {
                 continue;
             }
             // dt_s/dz₀ from δ(z(t_s)) = 0, and Φ of the state at the perturbed switch time
-            let shift = (row.transpose() * self.phi.matrix.rows(0, n)) * (-1.0 / transversal);
+            let mut along = row.transpose() * self.phi.matrix.rows(0, n);
+            if let Some((_, _, walls)) = &self.parameter {
+                along[2 * n] += walls[j];
+            }
+            let shift = along * (-1.0 / transversal);
             self.phi.matrix += f_minus * &shift;
             let law = &sys.gaps[sys.walls[j].gap].law;
             if after[j].active && law.uses_impact_speed() && rate > MIN_IMPACT_SPEED {

@@ -21,6 +21,30 @@ use crate::linalg::{axpy, inverse_permutation, DenseMatVec, StackedRows};
 use crate::structure::MAX_DENSE_DOFS;
 use crate::system::{State, System};
 
+/// The schemes the tests run: Newmark-β (average acceleration), HHT-α (`α_f = 0.1`) and
+/// generalized-α (`α_m`, `α_f` ≠ 0).
+#[cfg(test)]
+pub(crate) const TEST_SCHEMES: [NewmarkFamily; 3] = [
+    NewmarkFamily {
+        beta: 0.25,
+        gamma: 0.5,
+        alpha_m: 0.0,
+        alpha_f: 0.0,
+    },
+    NewmarkFamily {
+        beta: 0.3025,
+        gamma: 0.6,
+        alpha_m: 0.0,
+        alpha_f: 0.1,
+    },
+    NewmarkFamily {
+        beta: 0.3086,
+        gamma: 0.6111,
+        alpha_m: 0.3333,
+        alpha_f: 0.4444,
+    },
+];
+
 /// Parameters of a Newmark-family scheme.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct NewmarkFamily {
@@ -56,28 +80,6 @@ impl NewmarkFamily {
             alpha_m: 0.0,
             alpha_f: 0.0,
         }
-    }
-
-    pub fn validate(&self) -> Result<(), SimError> {
-        if !(self.gamma.is_finite() && self.gamma >= 0.5) {
-            return invalid(format!(
-                "solver.gamma: {} is not valid; expected gamma >= 0.5 (paper eq. 16)",
-                self.gamma
-            ));
-        }
-        if !(self.beta.is_finite() && self.beta > 0.0) {
-            return invalid(format!(
-                "solver.beta: {} is not valid; expected beta > 0 (an implicit scheme)",
-                self.beta
-            ));
-        }
-        if !(self.alpha_f >= 0.0 && self.alpha_f < 1.0 && self.alpha_m < 1.0) {
-            return invalid(format!(
-                "solver: alpha_m = {}, alpha_f = {} are not valid; expected alpha_m < 1 and 0 <= alpha_f < 1",
-                self.alpha_m, self.alpha_f
-            ));
-        }
-        Ok(())
     }
 }
 
@@ -178,7 +180,8 @@ impl PredictorChoice {
 
 impl StepOperator {
     /// `plan`: how `K̃` is factorised (`None`: the dense predictor only); `choice`: whether
-    /// the dense predictor is taken where it is estimated to be faster.
+    /// the dense predictor is taken where it is estimated to be faster, over `steps` steps
+    /// (`None`: unknown, per step only).
     fn new(
         sys: &System,
         scheme: &NewmarkFamily,
@@ -186,6 +189,7 @@ impl StepOperator {
         plan: Option<&FactorPlan>,
         choice: PredictorChoice,
         dense_lanes: usize,
+        steps: Option<usize>,
     ) -> Result<Self, SimError> {
         let NewmarkFamily {
             beta,
@@ -227,8 +231,20 @@ impl StepOperator {
                 dense_values
             };
             let sparse_cost = nnz + plan.solve_cost();
+            // The setups, amortised over the run's steps where they are known: the dense LU
+            // of K̃ (n³/3 multiply-adds) and its solves for the n columns of each operator
+            // (n³ each), against one sparse factorisation (FactorPlan::factor_cost); about a
+            // cycle a multiply-add both.
+            let (dense_total, sparse_total) = match steps {
+                Some(steps) => (
+                    (dense_cost as f64) * steps as f64
+                        + (n as f64).powi(3) * (1.0 / 3.0 + n_operators as f64),
+                    (sparse_cost as f64) * steps as f64 + plan.factor_cost() as f64,
+                ),
+                None => (dense_cost as f64, sparse_cost as f64),
+            };
             let dense_allowed = n <= MAX_DENSE_DOFS;
-            if choice == PredictorChoice::Cheapest && dense_allowed && sparse_cost >= dense_cost {
+            if choice == PredictorChoice::Cheapest && dense_allowed && sparse_total >= dense_total {
                 return None;
             }
             let terms = [
@@ -370,6 +386,8 @@ pub struct NewmarkStepper {
     /// `y −= A x` for the dense predictor (SIMD where the CPU has it).
     mat_vec: DenseMatVec,
     choice: PredictorChoice,
+    /// The run's steps, over which the predictor's setup is amortised (`None`: unknown).
+    steps: Option<usize>,
     du_lin: Vec<f64>,
     rate_lin: Vec<f64>,
     gap_newton: GapNewton,
@@ -397,10 +415,17 @@ impl NewmarkStepper {
             du_pred: vec![0.0; ng],
             mat_vec: DenseMatVec::fastest(),
             choice: PredictorChoice::Cheapest,
+            steps: None,
             du_lin: vec![0.0; ng],
             rate_lin: vec![0.0; ng],
             gap_newton: GapNewton::new(ng),
         })
+    }
+
+    /// The run takes about `steps` steps: the predictor is chosen by its setup plus that
+    /// many steps (before [`Self::prepare`]).
+    pub fn expect_steps(&mut self, steps: usize) {
+        self.steps = Some(steps);
     }
 
     /// Builds the operator of the largest step now, so that a singular tangent is reported
@@ -419,21 +444,24 @@ impl NewmarkStepper {
             &self.plan,
             self.choice,
             self.mat_vec.lanes,
+            self.steps,
         )
     }
 }
 
 /// The floor of a step's cost, for the benchmarks: the operator of steps of `h` built as a
-/// run builds it, then `solves` bare solves with it timed (the forward and backward
+/// run of `steps` steps builds it, then `solves` bare solves with it timed (the forward and backward
 /// substitution with the sparse factor, in its order; one mat-vec with the dense
 /// predictor). Returns the linear solver and the seconds per solve.
 pub fn substitution_time(
     sys: &System,
     scheme: NewmarkFamily,
     h: f64,
+    steps: usize,
     solves: usize,
 ) -> Result<(FactorInfo, f64), SimError> {
-    let stepper = NewmarkStepper::new(sys, scheme, NewtonSettings::default())?;
+    let mut stepper = NewmarkStepper::new(sys, scheme, NewtonSettings::default())?;
+    stepper.expect_steps(steps);
     let op = stepper.operator(sys, h)?;
     let n = sys.n_dof();
     let rhs: Vec<f64> = (0..n).map(|i| (i as f64).sin()).collect();
@@ -470,6 +498,7 @@ fn build_operator(
     plan: &OnceLock<Option<FactorPlan>>,
     choice: PredictorChoice,
     dense_lanes: usize,
+    steps: Option<usize>,
 ) -> Result<StepOperator, SimError> {
     let plan = plan.get_or_init(|| {
         let st = &sys.structure;
@@ -479,7 +508,7 @@ fn build_operator(
             .filter(|_| st.damping_is_symmetric())
             .map(|c| FactorPlan::new(&[&st.mass, &st.damping, &st.stiffness], c))
     });
-    StepOperator::new(sys, scheme, h, plan.as_ref(), choice, dense_lanes)
+    StepOperator::new(sys, scheme, h, plan.as_ref(), choice, dense_lanes, steps)
 }
 
 impl Stepper for NewmarkStepper {
@@ -499,6 +528,7 @@ impl Stepper for NewmarkStepper {
                 &self.plan,
                 self.choice,
                 self.mat_vec.lanes,
+                self.steps,
             )
         };
         self.operators
@@ -720,21 +750,7 @@ mod tests {
     #[test]
     fn dense_banded_and_sparse_predictors_agree() {
         let sys = chain();
-        for scheme in [
-            NewmarkFamily::average_acceleration(),
-            NewmarkFamily {
-                beta: 0.3025,
-                gamma: 0.6,
-                alpha_m: 0.0,
-                alpha_f: 0.1,
-            },
-            NewmarkFamily {
-                beta: 0.3086,
-                gamma: 0.6111,
-                alpha_m: 0.3333,
-                alpha_f: 0.4444,
-            },
-        ] {
+        for scheme in TEST_SCHEMES {
             let (dense, contacts) = run(&sys, scheme, PredictorChoice::Dense);
             assert!(contacts > 100, "{contacts} contact steps");
             // max |a − b| / max |a|
@@ -754,6 +770,54 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// A small 3-D solid (a 7 × 7 × 7 spring lattice, 343 DOFs, whose dense operator fits a
+    /// core's cache): the dense predictor is the faster per step, but its setup (an LU and
+    /// n solves, n³·4/3 multiply-adds) outweighs that over a short run, so a run of 10 steps
+    /// takes the sparse factor and one of 10⁶ (or of unknown length) the dense operator; the
+    /// crossover lies between the two totals' break-even and the steps either side of it.
+    #[test]
+    fn setup_cost_decides_the_predictor_of_a_short_run() {
+        let k = Csr::from_dense(&crate::factor::tests::lattice(7));
+        let n = k.n();
+        let m = Csr::from_dense(&DMatrix::from_diagonal(&DVector::from_fn(n, |i, _| {
+            1e-3 * (1.0 + 0.01 * i as f64)
+        })));
+        let zero = Csr::from_parts(n, vec![0; n + 1], vec![], vec![]).unwrap();
+        let sys = System::new(
+            LinearStructure::from_sparse(m, zero, k).unwrap(),
+            vec![],
+            vec![],
+        )
+        .unwrap();
+        let scheme = NewmarkFamily::average_acceleration();
+        let h = 1e-4;
+        let solver = |steps: Option<usize>| {
+            let plan = OnceLock::new();
+            let op = build_operator(&sys, &scheme, h, &plan, PredictorChoice::Cheapest, 4, steps)
+                .unwrap();
+            op.info.solver
+        };
+        assert_eq!(solver(None), "dense");
+        assert_eq!(solver(Some(1_000_000)), "dense");
+        assert!(
+            solver(Some(10)).starts_with("sparse"),
+            "{}",
+            solver(Some(10))
+        );
+        // the break-even of the two estimates: sparse just below it, dense just above
+        let plan = FactorPlan::new(
+            &[&sys.structure.mass, &sys.structure.stiffness],
+            FactorChoice::Cheapest,
+        );
+        let sparse_step = (sys.structure.stiffness.nnz() + plan.solve_cost()) as f64;
+        let dense_step = (n * n) as f64 / 8.0; // in cache, 4 lanes
+        let setup = (n as f64).powi(3) * (1.0 / 3.0 + 1.0) - plan.factor_cost() as f64;
+        let even = setup / (sparse_step - dense_step);
+        assert!(even > 10.0 && even < 1e6, "{even}");
+        assert!(solver(Some((0.9 * even) as usize)).starts_with("sparse"));
+        assert_eq!(solver(Some((1.1 * even) as usize + 1)), "dense");
     }
 
     /// `diag(d) + off (sub- and super-diagonal)` of size `n` as sparse rows.
@@ -807,7 +871,7 @@ mod tests {
         let s = LinearStructure::from_sparse(m, zero, negative).unwrap();
         let sys = System::new(s, vec![], vec![]).unwrap();
         let cheapest = PredictorChoice::Cheapest;
-        let op = build_operator(&sys, &scheme, 1e-3, &OnceLock::new(), cheapest, 4);
+        let op = build_operator(&sys, &scheme, 1e-3, &OnceLock::new(), cheapest, 4, None);
         assert!(matches!(op, Err(SimError::SingularTangent { .. })));
         assert!(sys.structure.dense.get().is_none());
     }
