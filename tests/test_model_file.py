@@ -375,8 +375,8 @@ def test_error_line_format() -> None:
     with pytest.raises(ModelFileError) as info:
         load_model(BAD / "gap_unknown_key.toml")
     assert info.value.errors == [
-        "gaps[0].clearence: unknown key; did you mean 'clearance'? expected one of: dof, "
-        "coefficients, clearance, side, name, law"
+        "gaps[0].clearence: unknown key; did you mean 'clearance'? expected one of: kind, "
+        "dof, coefficients, clearance, side, name, law"
     ]
 
 

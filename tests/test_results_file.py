@@ -113,7 +113,8 @@ def test_csv_columns_carry_units_and_round_trip(two_dof: vi.Result, tmp_path: Pa
     impacts = pd.read_csv(tmp_path / "res_impacts.csv")
     assert list(impacts.columns) == [
         "gap", "side", "t_start [s]", "t_end [s]", "v_in [m/s]", "v_out [m/s]",
-        "restitution_effective", "delta_max [m]", "force_max [N]", "impulse [N s]"]
+        "restitution_effective", "delta_max [m]", "force_max [N]", "friction_max [N]",
+        "impulse [N s]"]
     assert len(impacts) == len(two_dof.impacts)
     energy = pd.read_csv(tmp_path / "res_energy.csv", index_col=0)
     assert energy.index.name == "time [s]"

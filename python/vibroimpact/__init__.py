@@ -38,6 +38,7 @@ from vibroimpact.model import ConstantLoad as ConstantLoad
 from vibroimpact.model import Gap as Gap
 from vibroimpact.model import HarmonicLoad as HarmonicLoad
 from vibroimpact.model import Model as Model
+from vibroimpact.model import RadialGap as RadialGap
 from vibroimpact.model import Structure as Structure
 from vibroimpact.model import TableLoad as TableLoad
 from vibroimpact.model import UnbalanceLoad as UnbalanceLoad

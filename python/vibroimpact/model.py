@@ -417,6 +417,91 @@ class Gap:
         }
 
 
+FrictionLaw = Literal["coulomb", "regularised"]
+
+
+@dataclass(frozen=True)
+class RadialGap(Gap):
+    """A circular stator around two DOFs ``dof = [ix, iy]`` (docs/rotors.md §Radial gaps):
+    penetration ``δ = |(x − x_s, y − y_s)| − clearance`` with the stator centre ``center``
+    (m); the law's normal force acts along the contact normal and the friction
+    ``F_T = friction · F_N`` opposes the sliding speed ``v_rel = R Ω + ρ θ̇`` at the contact
+    (``radius`` R in m, required when ``friction > 0``; Ω the structure's spin speed).
+    ``friction_law``: ``"coulomb"`` (a crossing of ``v_rel = 0`` in contact stops the run:
+    sticking is not modelled) or ``"regularised"``, ``F_T = μ F_N tanh(v_rel / v_reg)`` with
+    ``regularisation_speed`` v_reg (m/s)."""
+
+    dof: int | Sequence[int] = ()
+    law: ContactLaw = None  # type: ignore[assignment]
+    center: Sequence[float] = (0.0, 0.0)
+    friction: float = 0.0
+    radius: float | None = None
+    friction_law: FrictionLaw = "coulomb"
+    regularisation_speed: float | None = None
+    side: Side = "radial"  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        items = [self.dof] if isinstance(self.dof, (int, np.integer)) else list(self.dof)
+        require(len(items) == 2, "gap.dof", self.dof, "two DOFs [ix, iy] for a radial gap")
+        dofs = _dofs(items, "gap.dof")
+        require(dofs[0] != dofs[1], "gap.dof", list(dofs), "two different DOFs [ix, iy]")
+        object.__setattr__(self, "dof", dofs)
+        # the x direction's coefficients: what the contact time-scale estimates use
+        object.__setattr__(self, "coefficients", (1.0, 0.0))
+        c = _finite_number(self.clearance, "gap.clearance", "a clearance >= 0 in m")
+        require(c >= 0, "gap.clearance", self.clearance, "a clearance >= 0 in m")
+        require(self.side == "radial", "gap.side", self.side, "radial (a RadialGap's only side)")
+        require(isinstance(self.law, ContactLaw) and not self.law.impulsive, "gap.law", self.law,
+                "a vibroimpact.contact force law (not rigid)")
+        center = list(self.center) if isinstance(self.center, (list, tuple, np.ndarray)) else []
+        require(len(center) == 2, "gap.center", self.center, "two numbers [x_s, y_s] in m")
+        object.__setattr__(self, "center", tuple(
+            _finite_number(v, "gap.center", "two finite numbers [x_s, y_s] in m") for v in center))
+        mu = _finite_number(self.friction, "gap.friction", "a Coulomb coefficient >= 0")
+        require(mu >= 0, "gap.friction", self.friction, "a Coulomb coefficient >= 0")
+        if mu > 0:
+            require(self.radius is not None, "gap.radius", self.radius,
+                    "the rotor's radius at the contact (> 0, m) when friction > 0")
+        if self.radius is not None:
+            r = _finite_number(self.radius, "gap.radius", "a radius > 0 in m")
+            require(r > 0, "gap.radius", self.radius, "a radius > 0 in m")
+        require(self.friction_law in ("coulomb", "regularised"), "gap.friction_law",
+                self.friction_law, "coulomb or regularised")
+        if self.friction_law == "regularised":
+            require(self.regularisation_speed is not None, "gap.regularisation_speed", None,
+                    "a speed > 0 in m/s with friction_law = 'regularised'")
+            v = _finite_number(self.regularisation_speed, "gap.regularisation_speed",
+                               "a speed > 0 in m/s")
+            require(v > 0, "gap.regularisation_speed", self.regularisation_speed,
+                    "a speed > 0 in m/s")
+        elif self.regularisation_speed is not None:
+            require(False, "gap.regularisation_speed", self.regularisation_speed,
+                    "no value with friction_law = 'coulomb' (or friction_law = 'regularised')")
+
+    def penetration(self, x: ArrayLike, v: ArrayLike) -> tuple[float, float]:
+        """``δ = ρ − c`` and ``δ̇ = n·(ẋ, ẏ)`` at DOF displacements ``x`` and velocities ``v``."""
+        x, v = np.asarray(x, dtype=float), np.asarray(v, dtype=float)
+        ix, iy = self.dofs
+        p = np.array([x[ix] - self.center[0], x[iy] - self.center[1]])
+        rho = float(np.hypot(*p))
+        n = p / rho if rho > 0 else np.array([1.0, 0.0])
+        return rho - float(self.clearance), float(n @ v[[ix, iy]])
+
+    def to_spec(self) -> dict[str, Any]:
+        return {
+            "dofs": list(self.dofs),
+            "coefficients": [1.0, 1.0],
+            "clearance": float(self.clearance),
+            "side": "radial",
+            "center": [float(c) for c in self.center],
+            "friction": float(self.friction),
+            "radius": float(self.radius or 0.0),
+            "friction_law": self.friction_law,
+            "regularisation_speed": float(self.regularisation_speed or 0.0),
+            "law": self.law.to_spec(),
+        }
+
+
 @dataclass(frozen=True)
 class Load:
     """Base of the loads: applied to each DOF in ``dof``."""
@@ -688,13 +773,16 @@ class Model:
             with np.errstate(over="ignore", invalid="ignore"):
                 u, rate = float(b @ x0[list(gap.dofs)]), float(b @ v0[list(gap.dofs)])
             clearance = float(gap.clearance)
-            for sign in {"positive": (1,), "negative": (-1,), "both": (1, -1)}[gap.side]:
-                penetration = sign * u - clearance
+            with np.errstate(over="ignore", invalid="ignore"):
+                walls = [gap.penetration(x0, v0)] if isinstance(gap, RadialGap) else [
+                    (sign * u - clearance, sign * rate)
+                    for sign in {"positive": (1,), "negative": (-1,), "both": (1, -1)}[gap.side]]
+            for penetration, wall_rate in walls:
                 if not penetration > 0:
                     continue
                 # at rest first (the displacement's fault), then at the gap's speed
                 for name, state, speed in (("initial.displacement", x0, 0.0),
-                                           ("initial.velocity", v0, sign * rate)):
+                                           ("initial.velocity", v0, wall_rate)):
                     finite = math.isfinite(penetration) and math.isfinite(speed)
                     if finite and math.isfinite(
                             gap.law.force(penetration, speed, abs(speed) or 1.0)[0]):
@@ -801,6 +889,15 @@ class Model:
                                  "vibroimpact version")
             law = LAWS[kind](**{k: v for k, v in g["law"].items()
                                 if k != "kind" and v is not None})
+            if g["side"] == "radial":
+                regularised = g["friction_law"] == "regularised"
+                gaps.append(RadialGap(
+                    dof=g["dofs"], law=law, clearance=g["clearance"], center=g["center"],
+                    friction=g["friction"], radius=g["radius"] or None,
+                    friction_law=g["friction_law"],
+                    regularisation_speed=g["regularisation_speed"] if regularised else None,
+                    name=g.get("name")))
+                continue
             gaps.append(Gap(dof=g["dofs"], coefficients=g["coefficients"],
                             clearance=g["clearance"], side=g["side"], law=law,
                             name=g.get("name")))

@@ -32,7 +32,7 @@ Array = NDArray[np.float64]
 #: Units and descriptions of the impact-table columns.
 IMPACT_COLUMNS: dict[str, tuple[str, str]] = {
     "gap": ("", "gap index"),
-    "side": ("", "wall hit: positive or negative"),
+    "side": ("", "wall hit: positive, negative or radial"),
     "t_start": ("s", "instant the gap closed"),
     "t_end": ("s", "instant the gap opened (NaN: still closed at the end)"),
     "v_in": ("m/s", "approach speed at closing"),
@@ -40,6 +40,7 @@ IMPACT_COLUMNS: dict[str, tuple[str, str]] = {
     "restitution_effective": ("", "v_out / v_in"),
     "delta_max": ("m", "largest penetration"),
     "force_max": ("N", "largest contact force"),
+    "friction_max": ("N", "largest friction force of a radial gap's contact (0: a 1-D gap)"),
     "impulse": ("N s", "integral of the contact force"),
 }
 
@@ -109,8 +110,9 @@ def _json_number(x: float) -> float | None:
     return None if math.isnan(x) else float(x)
 
 
-#: ``side`` of an impact, indexed by the core's side column (0: negative wall, 1: positive).
-_SIDES = np.array(["negative", "positive"])
+#: ``side`` of an impact, indexed by the core's side column (0: negative wall, 1: positive,
+#: 2: a radial gap's).
+_SIDES = np.array(["negative", "positive", "radial"])
 
 
 @dataclass(frozen=True)
@@ -126,11 +128,13 @@ class ImpactTable:
     restitution_effective: Array
     delta_max: Array
     force_max: Array
+    friction_max: Array
     impulse: Array
 
     @classmethod
     def from_core(cls, raw: dict[str, Any]) -> ImpactTable:
-        """From the core's columns: the fields, with ``side`` 0 (negative) or 1 (positive)."""
+        """From the core's columns: the fields, with ``side`` 0 (negative), 1 (positive) or 2
+        (radial)."""
         return cls(**{**raw, "side": _SIDES[raw["side"]]})
 
     def __len__(self) -> int:

@@ -119,6 +119,8 @@ def main(argv: Sequence[str]) -> int:
     print()
     _print_continuation()
     print()
+    _print_rotor_rub(repeats=repeats)
+    print()
     _print_large_models(quick=args.quick, reduction=args.large)
     points = args.sweep_points if args.sweep_points is not None else (40 if args.quick else 400)
     if points > 0:
@@ -148,6 +150,24 @@ def _print_continuation() -> None:
           f"periods, event-driven, 1 thread): {c['sweep_s']:.2f} s, CPU {c['sweep_cpu_s']:.2f} s; "
           f"on the period-1 orbit at "
           f"{c['sweep_period_one_points']} of them (the stable part only)")
+
+
+def _print_rotor_rub(repeats: int) -> None:
+    """Issue 22's speed targets: the Jeffcott rotor rubbing on a seal, 100 revolutions by
+    DOP853 at least 100× SciPy's event-located DOP853 at the same rtol, 1,000 revolutions in
+    under 50 ms."""
+    from vibroimpact.benchmarks.rotor_rub import rub_benchmark
+
+    b = rub_benchmark(repeats=repeats)
+    print(f"Rotor rub (Jeffcott in a radial gap with friction, examples/models/jeffcott_seal_rub.toml, "
+          f"DOP853 rtol {b['rtol']:g}): {b['revolutions']} revolutions ({b['contacts']} "
+          f"contacts) {b['ours_s'] * 1e3:.2f} ms, SciPy solve_ivp DOP853 with located contact "
+          f"events {b['scipy_s'] * 1e3:.0f} ms ({b['scipy_contacts']} contacts): "
+          f"{b['speedup']:.0f}x (target >= {b['target_speedup']:.0f}x); final displacements "
+          f"within {b['final_difference_m']:.1e} m")
+    print(f"  1,000 revolutions: DOP853 {b['dop853_1000_s'] * 1e3:.1f} ms ({b['contacts_1000']} "
+          f"contacts), Newmark at 200 steps a revolution {b['newmark_1000_s'] * 1e3:.1f} ms "
+          f"({b['newmark_contacts_1000']} contacts) (target < {b['target_1000_s'] * 1e3:.0f} ms)")
 
 
 def _print_large_models(quick: bool, reduction: bool) -> None:

@@ -48,6 +48,7 @@ from vibroimpact.model import (
     HarmonicLoad,
     Load,
     Model,
+    RadialGap,
     Structure,
     TableLoad,
     UnbalanceLoad,
@@ -483,20 +484,42 @@ SCHEMA: tuple[Field, ...] = (
           "frequencies; modal: per elastic mode, the last repeats",
           required_when=("kind", ("modal",))),
     # [[gaps]]
-    Field("gaps[].dof", "dofs", "DOF(s) of the gap coordinate u = Σ coefficients[i]·x[dof[i]]",
-          required_when=_WITHOUT_NODES, rule="0 <= dof < number of DOFs; beam, matrices: or node"),
+    Field("gaps[].kind", "string", "linear: a wall on the gap coordinate u (conventions.md §Gaps); "
+          "radial: a circular stator around the DOFs [x, y] of a rotor (rotors.md §Radial gaps)",
+          default="linear", choices=("linear", "radial")),
+    Field("gaps[].dof", "dofs", "DOF(s) of the gap coordinate u = Σ coefficients[i]·x[dof[i]] "
+          "(radial: [ix, iy])", required_when=_WITHOUT_NODES,
+          rule="0 <= dof < number of DOFs; beam, matrices: or node"),
     Field("gaps[].node", "node", "the node of the gap (beam: index or name; matrices: node "
           "label of the DOF map)", rule="or dof (beam: or at)", when=_WITH_NODES),
     Field("gaps[].at", "number", "the beam node at this fraction of the length", minimum=0,
           maximum=1, rule="or dof or node; must fall on a node", when=_ON_BEAM),
     Field("gaps[].direction", "string", "the DOF at that node", default="x",
           choices=_DIRECTIONS, when=_WITH_NODES),
+    Field("gaps[].directions", "strings", "radial, on a beam or matrices: the directions of "
+          "the rotor's x and y at node", default_text='["x", "y"]', rule="two, with node",
+          when=("kind", ("radial",))),
     Field("gaps[].coefficients", "numbers", "weights of the DOFs in u ([1, -1]: x[i] - x[j])",
-          default_text="1 per DOF", rule="one per dof, not all zero"),
-    Field("gaps[].clearance", "number", "distance to the wall(s)", unit="m", default=0.0,
-          minimum=0),
+          default_text="1 per DOF", rule="one per dof, not all zero", when=("kind", ("linear",))),
+    Field("gaps[].clearance", "number", "distance to the wall(s) (radial: the radial clearance c, "
+          "δ = |(x − x_s, y − y_s)| − c)", unit="m", default=0.0, minimum=0),
     Field("gaps[].side", "string", "wall at u = +clearance, at u = -clearance, or both",
-          default="positive", choices=("positive", "negative", "both")),
+          default="positive", choices=("positive", "negative", "both"),
+          when=("kind", ("linear",))),
+    Field("gaps[].center", "numbers", "stator centre [x_s, y_s]", unit="m", default=[0.0, 0.0],
+          rule="two", when=("kind", ("radial",))),
+    Field("gaps[].friction", "number", "Coulomb coefficient μ of the rub (F_T = μ F_N against "
+          "the sliding speed v_rel = R Ω + ρ θ')", default=0.0, minimum=0,
+          when=("kind", ("radial",))),
+    Field("gaps[].radius", "number", "the rotor's radius R at the contact", unit="m", minimum=0,
+          minimum_inclusive=False, rule="required when friction > 0", when=("kind", ("radial",))),
+    Field("gaps[].friction_law", "string", "coulomb: F_T = μ F_N sign(v_rel), the run stops "
+          "where v_rel crosses 0 in contact (sticking is not modelled); regularised: "
+          "F_T = μ F_N tanh(v_rel / regularisation_speed)", default="coulomb",
+          choices=("coulomb", "regularised"), when=("kind", ("radial",))),
+    Field("gaps[].regularisation_speed", "number", "the speed v_reg of the regularised friction",
+          unit="m/s", minimum=0, minimum_inclusive=False,
+          rule="required for friction_law = \"regularised\"", when=("kind", ("radial",))),
     Field("gaps[].name", "string", "label in results"),
     Field("gaps[].law", "table", "contact-force law (contact-laws.md)", default=REQUIRED),
     # [gaps.law]
@@ -1066,9 +1089,14 @@ class _Checker:
             by_key.setdefault(r.key, []).append(r)
         out: dict[str, Any] = {}
         deciders = [r.key for r in rows if r.when is None and r.key in _deciders(rows)]
+        # a law's kind under [[gaps]]: a [gaps.law] key above its (missing) header
+        law_kind = spath == "gaps[]" and "law" not in doc and doc.get("kind") in contact.LAWS
         for key in deciders:  # e.g. `kind`: decides which other keys apply
-            if key in doc:
+            default = by_key[key][0].default
+            if key in doc and not (law_kind and key == "kind"):
                 self.value(by_key[key][0], _join(dpath, key), doc[key], out)
+            elif default is not None and default is not REQUIRED:
+                out[key] = default  # gaps[].kind = "linear"
 
         def applies(r: Field) -> bool | None:  # None: cannot tell (the decider is bad)
             if r.when is None:
@@ -1079,6 +1107,9 @@ class _Checker:
 
         unknown: dict[str, list[str]] = {}
         for key, value in doc.items():
+            if law_kind and key == "kind":
+                unknown[key] = []
+                continue
             if key in deciders:
                 continue
             p = _join(dpath, key)
@@ -1373,10 +1404,48 @@ def _dof_label(ck: _Checker, dof: int) -> str:
     return f"DOF {dof}{at}"
 
 
+def _build_radial_gap(ck: _Checker, gp: str, g: Mapping[str, Any],
+                      n: int | None) -> RadialGap | None:
+    """A radial gap: on ``dof = [ix, iy]``, or on ``directions`` (default x, y) at ``node``."""
+    by_node = ck.context.get("structure.kind") in _WITH_NODES[1]
+    directions = g.get("directions")
+    if directions is not None and (not by_node or len(directions) != 2):
+        ck.invalid(f"{gp}.directions", ck.raw.get(f"{gp}.directions"),
+                   "two directions [x, y] with node, on a beam or matrices" if by_node else
+                   "no directions without nodes (give dof = [ix, iy])")
+        return None
+    if by_node and "dof" not in g:
+        dofs: tuple[int, ...] = ()
+        for d in directions or ("x", "y"):
+            got = _node_dofs(ck, gp, {**g, "direction": d}, many=False)
+            if not got:
+                return None
+            dofs += got
+    else:
+        dofs = tuple(g.get("dof") or ())
+    _check_dofs(ck, f"{gp}.dof", dofs, n)
+    if "condensation" in ck.context:
+        ck.invalid(f"{gp}.kind", "radial", "a structure without massless DOFs (a radial gap is "
+                   "not condensed)")
+    law = _build_law(ck, f"{gp}.law", g["law"])
+    if law is None or not ck.ok(gp):
+        return None
+    try:
+        return RadialGap(dof=list(dofs), law=law, clearance=g["clearance"], center=g["center"],
+                         friction=g["friction"], radius=g.get("radius"),
+                         friction_law=g["friction_law"],
+                         regularisation_speed=g.get("regularisation_speed"), name=g.get("name"))
+    except _CAUGHT as e:
+        ck.add(gp, _reprefix(e, {"gap": gp, "law": f"{gp}.law"}, gp))
+        return None
+
+
 def _build_gap(ck: _Checker, i: int, g: Mapping[str, Any], n: int | None) -> Gap | None:
     gp = f"gaps[{i}]"
     if not ck.ok(gp):
         return None
+    if g["kind"] == "radial":
+        return _build_radial_gap(ck, gp, g, n)
     by_node = ck.context.get("structure.kind") in _WITH_NODES[1]
     coefficients = g.get("coefficients")
     shell = _shell_node(ck, g) if by_node and coefficients is None else None

@@ -20,7 +20,7 @@ use std::time::Instant;
 use nalgebra::DVector;
 
 use crate::error::{SimError, ENERGY_GROWTH_LIMIT};
-use crate::gap::{ImpactLog, ImpactRecord, WallInterior};
+use crate::gap::{FrictionLaw, ImpactLog, ImpactRecord, Side, WallInterior};
 use crate::integrators::{StepFailure, Stepper};
 use crate::interrupt;
 use crate::observe::{Event, Sink, StepObserver, Turn};
@@ -299,6 +299,9 @@ impl<'o> Run<'o> {
                 gap: busiest_gap(sys, &self.cur),
             });
         }
+        if sys.has_radial {
+            check_sliding(sys, &self.cur, trial)?;
+        }
         match integrals {
             Some(i) => self.account.add(i.work),
             None => self.account.commit(sys, &self.cur, trial),
@@ -342,7 +345,11 @@ impl<'o> Run<'o> {
     /// [`ENERGY_GROWTH_LIMIT`] times the largest energy that entered the system (the initial
     /// energy plus the external work, or the initial energy alone).
     pub(crate) fn check_energy(&mut self, sys: &System) -> Result<(), SimError> {
-        let entered = self.e0 + self.account.external_work.abs();
+        let mut entered = self.e0 + self.account.external_work.abs();
+        if sys.has_radial {
+            // the work friction brings in from the prescribed spin (dry-friction whirl)
+            entered += (-self.account.contact_dissipated).max(0.0);
+        }
         self.energy_in = self.energy_in.max(entered);
         let energy = mechanical_energy(sys, &self.cur);
         if self.energy_in > 0.0 && energy > ENERGY_GROWTH_LIMIT * self.energy_in {
@@ -464,9 +471,31 @@ impl Account {
                 let fd0 = w0.force - w0.elastic_force;
                 let fd1 = w1.force - w1.elastic_force;
                 self.contact_dissipated += 0.5 * (w1.penetration - w0.penetration) * (fd0 + fd1);
+                // a radial wall's friction: its power F_T ρθ̇, trapezoidal in time
+                let friction = w0.friction * w0.slide + w1.friction * w1.slide;
+                self.contact_dissipated += 0.5 * (s1.t - s0.t) * friction;
             }
         }
     }
+}
+
+/// Refuses a step in which a radial gap in contact under Coulomb friction has its sliding
+/// speed `v_rel` change sign ([`SimError::Sticking`], at the linear interpolant's zero).
+fn check_sliding(sys: &System, s0: &State, s1: &State) -> Result<(), SimError> {
+    for ((wall, w0), w1) in sys.walls.iter().zip(&s0.walls).zip(&s1.walls) {
+        let coulomb = matches!(
+            sys.gaps[wall.gap].side,
+            Side::Radial(r) if r.friction > 0.0 && r.friction_law == FrictionLaw::Coulomb
+        );
+        if coulomb && w0.closed() && w1.closed() && w0.slip * w1.slip <= 0.0 && w0.slip != w1.slip {
+            let theta = w0.slip / (w0.slip - w1.slip);
+            return Err(SimError::Sticking {
+                t: s0.t + theta * (s1.t - s0.t),
+                gap: wall.gap,
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Kinetic + strain + contact potential energy of a state, J.
@@ -506,7 +535,7 @@ impl Recorder<'_> {
 
     fn new(sys: &System, dofs: Vec<usize>, n_rec: usize) -> Self {
         Self {
-            rows: Rows::with_capacity(n_rec, dofs.len(), sys.gaps.len()),
+            rows: Rows::with_capacity(n_rec, dofs.len(), sys.n_gaps),
             max_abs: vec![0.0; dofs.len()],
             dofs,
             last_time: f64::NAN,
@@ -520,7 +549,7 @@ impl Recorder<'_> {
         // the RunOutput
         if let (Some(n), Some(sink)) = (self.chunk, self.sink.as_deref_mut()) {
             if self.rows.time.len() >= n {
-                let fresh = Rows::with_capacity(n, self.dofs.len(), sys.gaps.len());
+                let fresh = Rows::with_capacity(n, self.dofs.len(), sys.n_gaps);
                 sink.rows(std::mem::replace(&mut self.rows, fresh));
             }
         }

@@ -44,6 +44,13 @@ pub enum SimError {
         /// Time of the last accepted step, s.
         t: f64,
     },
+    /// A radial gap's sliding speed `v_rel` crossed zero in contact under Coulomb friction:
+    /// sticking is not modelled.
+    Sticking {
+        /// Instant of the crossing (linear between the step's ends), s.
+        t: f64,
+        gap: usize,
+    },
     /// The effective stiffness `K + a0 M + a1 C` cannot be factorised.
     SingularTangent {
         /// Time at the start of the step that needed it, s (0 when found before the run).
@@ -88,6 +95,13 @@ impl fmt::Display for SimError {
                  method (Newmark average acceleration) or check the contact law",
                 on_gap(*gap),
                 ENERGY_GROWTH_LIMIT
+            ),
+            SimError::Sticking { t, gap } => write!(
+                f,
+                "gaps[{gap}]: the sliding speed v_rel = R Omega + rho theta' at the contact \
+                 crossed zero at t = {t:.9e} s in contact (the rotor would stick to the stator): \
+                 sticking is not modelled with Coulomb friction; set friction_law = \
+                 'regularised' with regularisation_speed (m/s), F_T = mu F_N tanh(v_rel / v_reg)"
             ),
             SimError::Interrupted { t } => write!(
                 f,

@@ -7,7 +7,7 @@ use crate::interpolation::{parabola_peak, HermiteSegment};
 use crate::system::System;
 
 /// Which wall(s) the gap coordinate can hit.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Side {
     /// Wall at `u = +d`: penetration `δ = u − d`.
     Positive,
@@ -15,15 +15,81 @@ pub enum Side {
     Negative,
     /// Both walls (bilateral clearance).
     Both,
+    /// A circular stator around two DOFs (docs/rotors.md §Radial gaps): given by the user on a
+    /// gap with `dofs = [ix, iy]`; [`System::new`] splits it into its two gap coordinates, this
+    /// one (x, which owns the wall) and a [`Side::RadialY`] one appended after the user's gaps.
+    Radial(Radial),
+    /// The y coordinate of a radial gap: no wall of its own.
+    RadialY,
 }
 
 impl Side {
-    /// Signs `s` of the walls, with `δ = s u − d`.
+    /// Signs `s` of the walls, with `δ = s u − d`; `0` for a radial gap's one wall (its normal
+    /// turns with the state, [`radial_contact`]).
     pub fn signs(self) -> &'static [f64] {
         match self {
             Side::Positive => &[1.0],
             Side::Negative => &[-1.0],
             Side::Both => &[1.0, -1.0],
+            Side::Radial(_) => &[0.0],
+            Side::RadialY => &[],
+        }
+    }
+}
+
+/// How a radial gap's friction force `F_T` follows the sliding speed `v_rel` at the contact.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum FrictionLaw {
+    /// `F_T = μ F_N sign(v_rel)`; a crossing of `v_rel = 0` in contact stops the run
+    /// (sticking is not modelled).
+    Coulomb,
+    /// `F_T = μ F_N tanh(v_rel / v_reg)`, smooth through `v_rel = 0`; `v_reg` in m/s.
+    Regularised { speed: f64 },
+}
+
+/// A radial gap's stator and friction (docs/rotors.md §Radial gaps).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Radial {
+    /// Stator centre `(x_s, y_s)`, m.
+    pub center: [f64; 2],
+    /// Coulomb coefficient μ (0: frictionless).
+    pub friction: f64,
+    /// Rotor radius `R` at the contact, m (the spin's sliding speed is `R Ω`).
+    pub radius: f64,
+    pub friction_law: FrictionLaw,
+    /// Index of the y gap coordinate (set by [`System::new`]).
+    pub partner: usize,
+}
+
+/// A radial wall's contact at gap coordinates `p = (x − x_s, y − y_s)` and rates `q`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RadialKinematics {
+    /// `ρ = |p|`, m, the outward normal `n = p/ρ` and the tangent `t = (−n_y, n_x)`.
+    pub rho: f64,
+    pub normal: [f64; 2],
+    pub tangent: [f64; 2],
+    /// `δ̇ = n·q` and `ρ θ̇ = t·q`, m/s.
+    pub rate: f64,
+    pub slide: f64,
+}
+
+impl RadialKinematics {
+    /// The kinematics at `p`, `q` (a rotor exactly at the centre takes `n = (1, 0)`).
+    #[inline]
+    pub fn new(p: [f64; 2], q: [f64; 2]) -> Self {
+        let rho = p[0].hypot(p[1]);
+        let normal = if rho > 0.0 {
+            [p[0] / rho, p[1] / rho]
+        } else {
+            [1.0, 0.0]
+        };
+        let tangent = [-normal[1], normal[0]];
+        Self {
+            rho,
+            normal,
+            tangent,
+            rate: normal[0] * q[0] + normal[1] * q[1],
+            slide: tangent[0] * q[0] + tangent[1] * q[1],
         }
     }
 }
@@ -70,15 +136,140 @@ impl Gap {
                 self.clearance
             ));
         }
+        if let Side::Radial(r) = self.side {
+            r.validate(&field, self)?;
+        }
         Ok(())
     }
+}
+
+impl Radial {
+    fn validate(&self, field: &str, gap: &Gap) -> Result<(), SimError> {
+        if gap.dofs.len() != 2 {
+            return invalid(format!(
+                "{field}.dof: {:?} is not valid for kind = 'radial'; expected two DOFs [ix, iy]",
+                gap.dofs
+            ));
+        }
+        if gap.dofs[0] == gap.dofs[1] {
+            return invalid(format!(
+                "{field}.dof: {:?} names one DOF twice; expected two different DOFs [ix, iy]",
+                gap.dofs
+            ));
+        }
+        if gap.law.is_rigid() {
+            return invalid(format!(
+                "{field}.law.kind: 'rigid' is not available on a radial gap; expected a force law"
+            ));
+        }
+        if self.center.iter().any(|c| !c.is_finite()) {
+            return invalid(format!(
+                "{field}.center: {:?} is not valid; expected two finite values in m",
+                self.center
+            ));
+        }
+        if !(self.friction.is_finite() && self.friction >= 0.0) {
+            return invalid(format!(
+                "{field}.friction: {} is not valid; expected a Coulomb coefficient >= 0",
+                self.friction
+            ));
+        }
+        if self.friction > 0.0 && !(self.radius.is_finite() && self.radius > 0.0) {
+            return invalid(format!(
+                "{field}.radius: {} is not valid; expected the rotor's radius at the contact \
+                 (> 0, m) when friction > 0",
+                self.radius
+            ));
+        }
+        if let FrictionLaw::Regularised { speed } = self.friction_law {
+            if !(speed.is_finite() && speed > 0.0) {
+                return invalid(format!(
+                    "{field}.regularisation_speed: {speed} is not valid; expected a speed > 0 \
+                     in m/s"
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// `F_T / (μ F_N)` at sliding speed `v` and its derivative in `v`.
+    #[inline]
+    pub fn friction_factor(&self, v: f64) -> (f64, f64) {
+        match self.friction_law {
+            FrictionLaw::Coulomb => (
+                if v > 0.0 {
+                    1.0
+                } else if v < 0.0 {
+                    -1.0
+                } else {
+                    0.0
+                },
+                0.0,
+            ),
+            FrictionLaw::Regularised { speed } => {
+                let th = (v / speed).tanh();
+                (th, (1.0 - th * th) / speed)
+            }
+        }
+    }
+}
+
+/// A radial wall's generalized force `φ = F_N n + F_T t` on its two gap coordinates (it
+/// pushes the rotor back into the stator, and `F_T = μ F_N s(v_rel)` along `t` opposes
+/// the sliding at the contact, `v_rel = R Ω + ρ θ̇`) and its tangent: `d_u[r][c] = ∂φ_r/∂p_c`,
+/// `d_rate[r][c] = ∂φ_r/∂q_c` (docs/rotors.md §Radial gaps). `state`: the wall's state with
+/// its normal force from the law ([`contact_state`]); `spin`: `R Ω`, m/s.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct RadialForce {
+    pub phi: [f64; 2],
+    /// `F_T` along `t`, N (`φ·t`).
+    pub friction: f64,
+    pub d_u: [[f64; 2]; 2],
+    pub d_rate: [[f64; 2]; 2],
+}
+
+/// [`RadialForce`] of a closed wall (zero force: zero everything).
+#[inline]
+pub fn radial_contact(r: &Radial, k: &RadialKinematics, s: &WallState, spin: f64) -> RadialForce {
+    let mut out = RadialForce::default();
+    if s.force == 0.0 && s.d_penetration == 0.0 && s.d_rate == 0.0 {
+        return out;
+    }
+    let (n, t, rho) = (k.normal, k.tangent, k.rho);
+    let (fs, dfs) = if r.friction > 0.0 {
+        let (f, d) = r.friction_factor(spin + k.slide);
+        (r.friction * f, r.friction * d)
+    } else {
+        (0.0, 0.0)
+    };
+    let f_n = s.force;
+    out.friction = f_n * fs;
+    // direction of φ per unit F_N
+    let e = [n[0] + fs * t[0], n[1] + fs * t[1]];
+    // dF_N/dp = F_δ nᵀ + F_δ̇ (ρθ̇/ρ) tᵀ, dF_N/dq = F_δ̇ nᵀ
+    let dfn_dp = [
+        s.d_penetration * n[0] + s.d_rate * k.slide / rho * t[0],
+        s.d_penetration * n[1] + s.d_rate * k.slide / rho * t[1],
+    ];
+    let dfn_dq = [s.d_rate * n[0], s.d_rate * n[1]];
+    for a in 0..2 {
+        out.phi[a] = f_n * e[a];
+        for b in 0..2 {
+            // F_N (dn + fs dt)/dp = F_N (t tᵀ − fs n tᵀ)/ρ; F_N μ s' t dv/dp, dv/dp = −(δ̇/ρ) tᵀ
+            let turn = f_n * (t[a] - fs * n[a]) * t[b] / rho;
+            let slip = -f_n * dfs * t[a] * k.rate / rho * t[b];
+            out.d_u[a][b] = e[a] * dfn_dp[b] + turn + slip;
+            out.d_rate[a][b] = e[a] * dfn_dq[b] + f_n * dfs * t[a] * t[b];
+        }
+    }
+    out
 }
 
 /// One wall of one gap.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Wall {
     pub gap: usize,
-    /// `+1` for the positive wall, `−1` for the negative one.
+    /// `+1` for the positive wall, `−1` for the negative one, `0` for a radial gap's.
     pub sign: f64,
     pub clearance: f64,
 }
@@ -103,6 +294,11 @@ pub struct WallState {
     /// Largest penetration of the current contact at the ends of its steps (valid while
     /// closed), m: where a tabulated law's unloading curve starts.
     pub max_penetration: f64,
+    /// A radial wall's friction force `F_T` along the tangent `t` (N, signed: `φ·t`) and its
+    /// sliding speed `v_rel = R Ω + ρ θ̇` and `ρ θ̇` (m/s); 0 on a 1-D gap's wall.
+    pub friction: f64,
+    pub slip: f64,
+    pub slide: f64,
 }
 
 impl WallState {
@@ -123,8 +319,25 @@ pub fn evaluate_wall(
     u_rate: f64,
     h: f64,
 ) -> WallState {
-    let penetration = wall.sign * u - wall.clearance;
-    let rate = wall.sign * u_rate;
+    contact_state(
+        law,
+        start,
+        wall.sign * u - wall.clearance,
+        wall.sign * u_rate,
+        h,
+    )
+}
+
+/// A wall's state at penetration `δ` and rate `δ̇` at the end of a step of length `h` from
+/// `start`: `v_imp` latched at the located onset (Hermite on `δ`), the law's normal force.
+#[inline]
+pub fn contact_state(
+    law: &Law,
+    start: &WallState,
+    penetration: f64,
+    rate: f64,
+    h: f64,
+) -> WallState {
     let mut s = WallState {
         penetration,
         rate,
@@ -179,6 +392,8 @@ pub struct ImpactRecord {
     pub delta_max: f64,
     /// Largest contact force, N.
     pub force_max: f64,
+    /// Largest friction force `|F_T|` of a radial gap's contact, N (0 on a 1-D gap).
+    pub friction_max: f64,
     /// `∫ F dt`, N·s.
     pub impulse: f64,
 }
@@ -244,6 +459,7 @@ impl ImpactLog {
                     v_out: f64::NAN,
                     delta_max: s.penetration,
                     force_max: s.force,
+                    friction_max: s.friction.abs(),
                     impulse: 0.0,
                 });
             }
@@ -297,6 +513,7 @@ impl ImpactLog {
                         v_out: f64::NAN,
                         delta_max: 0.0,
                         force_max: onset,
+                        friction_max: 0.0,
                         impulse: known.map_or(0.5 * (1.0 - theta) * h * s1.force, |k| k.impulse),
                     });
                     self.update_peaks(j, &seg, s0, s1, t + h, known);
@@ -350,6 +567,7 @@ impl ImpactLog {
             delta = delta.max(seg.value(s));
         }
         rec.delta_max = rec.delta_max.max(delta);
+        rec.friction_max = rec.friction_max.max(s1.friction.abs());
         // Force peaks: known inside the step, or the parabola through the last three samples.
         let [(ta, fa), (tb, fb)] = self.history[j];
         rec.force_max = rec.force_max.max(s1.force).max(known.map_or_else(
@@ -388,4 +606,161 @@ fn refine_stationary(seg: &HermiteSegment, mut s: f64) -> f64 {
         s = next;
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::DMatrix;
+
+    use super::*;
+    use crate::contact::HuntCrossley;
+    use crate::structure::LinearStructure;
+    use crate::system::Tangent;
+
+    /// A Jeffcott rotor (DOFs 0, 1 of three) spinning at 300 rad/s in a radial gap with a
+    /// damped law and regularised friction, off-centre stator.
+    fn rotor(friction_law: FrictionLaw) -> System {
+        let m = DMatrix::identity(3, 3);
+        let k = DMatrix::identity(3, 3) * 1e4;
+        let c = DMatrix::zeros(3, 3);
+        let s = LinearStructure::new(m, c, k)
+            .unwrap()
+            .spinning(None, 300.0)
+            .unwrap();
+        let gap = Gap {
+            dofs: vec![2, 0],
+            coefficients: vec![1.0, 1.0],
+            clearance: 1e-3,
+            side: Side::Radial(Radial {
+                center: [1e-4, -2e-4],
+                friction: 0.3,
+                radius: 0.02,
+                friction_law,
+                partner: 0,
+            }),
+            law: Law::HuntCrossley(HuntCrossley::new(1e7, 1.5, 3e4).unwrap()),
+        };
+        System::new(s, vec![gap], vec![]).unwrap()
+    }
+
+    fn evaluate(sys: &System, u: &[f64], rate: &[f64]) -> (Vec<f64>, Tangent, WallState) {
+        // a contact under way (its v_imp latched at the start of the step)
+        let start = [WallState {
+            penetration: 1e-6,
+            rate: 0.1,
+            impact_speed: 0.2,
+            max_penetration: 1e-6,
+            ..WallState::default()
+        }];
+        let (mut walls, mut phi, mut t) = ([WallState::default()], vec![0.0; 2], Tangent::new(2));
+        sys.evaluate_contacts(&start, u, rate, 1e-5, &mut walls, &mut phi, &mut t);
+        (phi, t, walls[0])
+    }
+
+    /// `∂φ/∂u`, `∂φ/∂u̇` of [`radial_contact`] (the rotation of the normal, the law's rate
+    /// through `δ̇ = n·q`, the friction through `v_rel`) equal central differences of `φ`.
+    #[test]
+    fn radial_tangent_matches_finite_differences() {
+        for law in [
+            FrictionLaw::Regularised { speed: 0.5 },
+            FrictionLaw::Coulomb,
+        ] {
+            let sys = rotor(law);
+            // coordinate 0: x (DOF 2), coordinate 1: y (DOF 0); rotor 2 µm into the stator
+            let dir = [0.6f64, 0.8];
+            let rho = 1e-3 + 2e-6;
+            let u = [1e-4 + rho * dir[0], -2e-4 + rho * dir[1]];
+            let rate = [0.05, -0.03];
+            let (phi, t, wall) = evaluate(&sys, &u, &rate);
+            assert!(wall.closed() && wall.force > 0.0 && wall.friction != 0.0);
+            let full = |d: &[f64], cross: &[f64], row: usize, col: usize| {
+                if row == col {
+                    d[col]
+                } else {
+                    cross[col]
+                }
+            };
+            for col in 0..2 {
+                for (which, base, h) in [(0, u, 1e-10), (1, rate, 1e-6)] {
+                    let (mut plus, mut minus) = (base, base);
+                    plus[col] += h;
+                    minus[col] -= h;
+                    let (pp, pm) = if which == 0 {
+                        (
+                            evaluate(&sys, &plus, &rate).0,
+                            evaluate(&sys, &minus, &rate).0,
+                        )
+                    } else {
+                        (evaluate(&sys, &u, &plus).0, evaluate(&sys, &u, &minus).0)
+                    };
+                    for row in 0..2 {
+                        let fd = (pp[row] - pm[row]) / (2.0 * h);
+                        let exact = if which == 0 {
+                            full(&t.d_u, &t.cross_u, row, col)
+                        } else {
+                            full(&t.d_rate, &t.cross_rate, row, col)
+                        };
+                        let scale = if which == 0 {
+                            wall.force / 2e-6
+                        } else {
+                            wall.force / 0.05
+                        };
+                        assert!(
+                            (fd - exact).abs() <= 1e-6 * scale,
+                            "{law:?} d phi[{row}]/d {}[{col}]: {exact} vs differences {fd}",
+                            ["u", "u'"][which]
+                        );
+                    }
+                }
+            }
+            // φ = F_N n + F_T t, with |F_T| = μ F_N tanh(v_rel / v_reg) (or μ F_N)
+            let v_rel = 0.02 * 300.0 + (-dir[1] * rate[0] + dir[0] * rate[1]);
+            let factor = match law {
+                FrictionLaw::Regularised { speed } => (v_rel / speed).tanh(),
+                FrictionLaw::Coulomb => 1.0,
+            };
+            assert!((wall.slip - v_rel).abs() < 1e-12);
+            let f_t = 0.3 * wall.force * factor;
+            for a in 0..2 {
+                let t_a = [-dir[1], dir[0]][a];
+                let want = wall.force * dir[a] + f_t * t_a;
+                assert!((phi[a] - want).abs() < 1e-9 * wall.force, "phi[{a}]");
+            }
+        }
+    }
+
+    #[test]
+    fn radial_gap_refuses_bad_input() {
+        let sys = |dofs: Vec<usize>, clearance: f64, friction: f64, radius: f64| {
+            let s = LinearStructure::new(
+                DMatrix::identity(2, 2),
+                DMatrix::zeros(2, 2),
+                DMatrix::identity(2, 2),
+            )
+            .unwrap();
+            let n = dofs.len();
+            let gap = Gap {
+                dofs,
+                coefficients: vec![1.0; n],
+                clearance,
+                side: Side::Radial(Radial {
+                    center: [0.0, 0.0],
+                    friction,
+                    radius,
+                    friction_law: FrictionLaw::Coulomb,
+                    partner: 0,
+                }),
+                law: Law::Hertz(crate::contact::Hertz::new(1e6, 1.0).unwrap()),
+            };
+            System::new(s, vec![gap], vec![])
+                .err()
+                .map(|e| e.to_string())
+                .unwrap_or_default()
+        };
+        assert!(sys(vec![0], 1e-3, 0.0, 0.0).starts_with("gaps[0].dof: [0] is not valid"));
+        assert!(sys(vec![0, 0], 1e-3, 0.0, 0.0).contains("names one DOF twice"));
+        assert!(sys(vec![0, 1], -1e-3, 0.0, 0.0).starts_with("gaps[0].clearance: -0.001"));
+        assert!(sys(vec![0, 1], 1e-3, 0.2, 0.0).starts_with("gaps[0].radius: 0 is not valid"));
+        assert!(sys(vec![0, 1], 1e-3, 0.0, 0.0).is_empty());
+    }
 }

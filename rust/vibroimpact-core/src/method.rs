@@ -55,6 +55,18 @@ impl Method {
     /// methods (one line naming the gap, its law and the method).
     pub fn check_laws(&self, sys: &System) -> Result<(), SimError> {
         let impulsive = self.is_impulsive();
+        if let (Some(i), Method::Precise(_) | Method::Bathe(_)) = (
+            sys.gaps
+                .iter()
+                .position(|g| matches!(g.side, crate::gap::Side::Radial(_))),
+            self,
+        ) {
+            return invalid(format!(
+                "gaps[{i}].kind: 'radial' is not available with solver.method '{}'; expected \
+                 'dop853', 'newmark', 'hht' or 'generalized-alpha'",
+                self.name()
+            ));
+        }
         for (i, g) in sys.gaps.iter().enumerate() {
             if g.law.is_rigid() && !impulsive {
                 return invalid(format!(

@@ -253,6 +253,16 @@ pub(crate) fn check_supported(
     method: Method,
     adaptive: bool,
 ) -> Result<(), SimError> {
+    if let Some(i) = sys
+        .gaps
+        .iter()
+        .position(|g| matches!(g.side, crate::gap::Side::Radial(_)))
+    {
+        return invalid(format!(
+            "gaps[{i}].kind: 'radial' has no state-transition matrix yet (its normal turns with \
+             the state and its friction is not differentiated); expected 1-D gaps"
+        ));
+    }
     let newmark = method.newmark_family().is_some();
     if !(newmark || matches!(method, Method::Dop853 | Method::EventDriven(_))) {
         return invalid(format!(

@@ -24,7 +24,7 @@ use crate::interpolation::HermiteSegment;
 use crate::output::Stats;
 use crate::sensitivity::StateTransition;
 use crate::settings::Adaptive;
-use crate::system::{State, System};
+use crate::system::{State, System, Tangent};
 
 /// Peaks of the penetration closer than this fraction of the step to its ends are not
 /// landed on.
@@ -576,8 +576,7 @@ enum Retry {
 struct Scratch {
     u: Vec<f64>,
     u_rate: Vec<f64>,
-    d_u: Vec<f64>,
-    d_rate: Vec<f64>,
+    tangent: Tangent,
 }
 
 impl Scratch {
@@ -586,8 +585,7 @@ impl Scratch {
         Self {
             u: vec![0.0; ng],
             u_rate: vec![0.0; ng],
-            d_u: vec![0.0; ng],
-            d_rate: vec![0.0; ng],
+            tangent: Tangent::new(ng),
         }
     }
 
@@ -613,8 +611,7 @@ impl Scratch {
             h,
             &mut coarse.walls,
             &mut coarse.phi,
-            &mut self.d_u,
-            &mut self.d_rate,
+            &mut self.tangent,
         );
         coarse.finish_gaps(sys, &self.u);
     }

@@ -51,6 +51,9 @@ impl Stepper for Flaky {
                 d_rate: 1.0,
                 impact_speed: 42.0,
                 max_penetration: 2.0,
+                friction: 5.0,
+                slip: -1.0,
+                slide: 3.0,
             };
         }
         Err(StepFailure {

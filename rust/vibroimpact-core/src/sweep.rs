@@ -359,12 +359,7 @@ pub fn run_point(job: &SweepJob, start: Option<(&[f64], &[f64])>) -> PointSummar
         Some((x, v)) => (DVector::from_column_slice(x), DVector::from_column_slice(v)),
         None => (job.x0.clone(), job.v0.clone()),
     };
-    let mut reducer = Reducer::new(
-        sampling,
-        job.system.gaps.len(),
-        x0.as_slice(),
-        v0.as_slice(),
-    );
+    let mut reducer = Reducer::new(sampling, job.system.n_gaps, x0.as_slice(), v0.as_slice());
     let fail = |mut reducer: Reducer<'_>, e: SimError| {
         reducer.out.error = Some(e);
         reducer.finish()

@@ -5,11 +5,18 @@ use nalgebra::DVector;
 
 use crate::contact::MIN_IMPACT_SPEED;
 use crate::error::{invalid, SimError};
-use crate::gap::{evaluate_wall, Gap, Wall, WallState};
+use crate::gap::{
+    contact_state, evaluate_wall, radial_contact, Gap, Radial, RadialKinematics, Side, Wall,
+    WallState,
+};
 use crate::structure::{LinearStructure, Load};
 
 /// `M x'' + C x' + K x = F(t) − Σ_g φ_g b_gᵀ`, with `φ_g = Σ_walls s F` the generalized
 /// contact force on gap coordinate `u_g = b_g · x` (it pushes the coordinate out of the wall).
+///
+/// `gaps` are the gap coordinates: the user's gaps in their order (a radial gap as its x
+/// coordinate, which owns its wall), then the y coordinate of each radial gap
+/// ([`Side::RadialY`], no wall). Results have one column per user gap (`n_gaps`).
 #[derive(Debug, Clone)]
 pub struct System {
     pub structure: LinearStructure,
@@ -17,6 +24,34 @@ pub struct System {
     pub loads: Vec<Load>,
     pub walls: Vec<Wall>,
     pub has_damping: bool,
+    /// The user's gaps (the first `n_gaps` gap coordinates).
+    pub n_gaps: usize,
+    /// Per gap coordinate, the other coordinate of its radial gap, if any.
+    pub partner: Vec<Option<usize>>,
+    /// Some gap is radial (the Newton tangent then couples the pairs).
+    pub has_radial: bool,
+}
+
+/// The contact forces' derivatives per gap coordinate: the diagonal `∂φ_g/∂u_g`,
+/// `∂φ_g/∂u̇_g` and, for the coordinates of a radial gap, the coupling to its partner `p`:
+/// `cross_u[g] = ∂φ_p/∂u_g`, `cross_rate[g] = ∂φ_p/∂u̇_g` (0 elsewhere).
+#[derive(Debug, Clone)]
+pub struct Tangent {
+    pub d_u: Vec<f64>,
+    pub d_rate: Vec<f64>,
+    pub cross_u: Vec<f64>,
+    pub cross_rate: Vec<f64>,
+}
+
+impl Tangent {
+    pub fn new(n_coordinates: usize) -> Self {
+        Self {
+            d_u: vec![0.0; n_coordinates],
+            d_rate: vec![0.0; n_coordinates],
+            cross_u: vec![0.0; n_coordinates],
+            cross_rate: vec![0.0; n_coordinates],
+        }
+    }
 }
 
 impl System {
@@ -27,8 +62,44 @@ impl System {
     ) -> Result<Self, SimError> {
         let n = structure.n_dof();
         for (i, g) in gaps.iter().enumerate() {
+            if g.side == Side::RadialY {
+                return invalid(format!(
+                    "gaps[{i}].side: the y coordinate of a radial gap is not a gap of its own"
+                ));
+            }
             g.validate(i, n)?;
+            if let Side::Radial(r) = &g.side {
+                if r.friction > 0.0 && !structure.spin.is_constant() {
+                    return invalid(format!(
+                        "gaps[{i}].friction: {} on a radial gap during a run-up is not available \
+                         yet (its sliding speed R Ω would change with Ω(t)); expected friction = \
+                         0 or structure.spin_profile = 'constant'",
+                        r.friction
+                    ));
+                }
+            }
         }
+        let n_gaps = gaps.len();
+        let mut gaps = gaps;
+        let mut partner = vec![None; n_gaps];
+        for i in 0..n_gaps {
+            if let Side::Radial(r) = gaps[i].side {
+                let y = gaps.len();
+                let (ix, iy) = (gaps[i].dofs[0], gaps[i].dofs[1]);
+                gaps.push(Gap {
+                    dofs: vec![iy],
+                    coefficients: vec![1.0],
+                    side: Side::RadialY,
+                    ..gaps[i].clone()
+                });
+                let g = &mut gaps[i];
+                (g.dofs, g.coefficients) = (vec![ix], vec![1.0]);
+                g.side = Side::Radial(Radial { partner: y, ..r });
+                partner[i] = Some(y);
+                partner.push(Some(i));
+            }
+        }
+        let has_radial = gaps.len() > n_gaps;
         for (i, l) in loads.iter().enumerate() {
             l.validate(i, n)?;
         }
@@ -50,11 +121,59 @@ impl System {
             loads,
             walls,
             has_damping,
+            n_gaps,
+            partner,
+            has_radial,
         })
     }
 
     pub fn n_dof(&self) -> usize {
         self.structure.n_dof()
+    }
+
+    /// The user's gap a gap coordinate belongs to (a radial gap's y coordinate: its gap).
+    pub fn gap_of(&self, coordinate: usize) -> usize {
+        if coordinate < self.n_gaps {
+            coordinate
+        } else {
+            self.partner[coordinate].unwrap_or(coordinate)
+        }
+    }
+
+    /// The radial gap `g`'s kinematics at gap coordinates `u`, `u̇`.
+    #[inline]
+    pub fn radial_kinematics(
+        &self,
+        r: &Radial,
+        g: usize,
+        u: &[f64],
+        u_rate: &[f64],
+    ) -> RadialKinematics {
+        RadialKinematics::new(
+            [u[g] - r.center[0], u[r.partner] - r.center[1]],
+            [u_rate[g], u_rate[r.partner]],
+        )
+    }
+
+    /// The radial gap `g`'s kinematics at DOF displacements `x` and velocities `v`.
+    #[inline]
+    pub fn radial_at_dofs(&self, r: &Radial, g: usize, x: &[f64], v: &[f64]) -> RadialKinematics {
+        let (ix, iy) = (self.gaps[g].dofs[0], self.gaps[r.partner].dofs[0]);
+        RadialKinematics::new([x[ix] - r.center[0], x[iy] - r.center[1]], [v[ix], v[iy]])
+    }
+
+    /// Wall `j`'s penetration `δ` and rate `δ̇` at gap coordinates `u`, `u̇`.
+    #[inline]
+    pub fn wall_motion(&self, j: usize, u: &[f64], u_rate: &[f64]) -> (f64, f64) {
+        let wall = &self.walls[j];
+        let g = wall.gap;
+        match &self.gaps[g].side {
+            Side::Radial(r) => {
+                let k = self.radial_kinematics(r, g, u, u_rate);
+                (k.rho - wall.clearance, k.rate)
+            }
+            _ => (wall.sign * u[g] - wall.clearance, wall.sign * u_rate[g]),
+        }
     }
 
     /// `u_g = b_g · y` for every gap.
@@ -109,7 +228,7 @@ impl System {
 
     /// Evaluates every wall at gap coordinates `u`, `u̇` at the end of a step of length `h`
     /// that started from `start`; writes wall states and the generalized forces `φ` with
-    /// their derivatives `∂φ/∂u`, `∂φ/∂u̇`.
+    /// their derivatives ([`Tangent`]).
     #[allow(clippy::too_many_arguments)]
     #[inline]
     pub fn evaluate_contacts(
@@ -120,20 +239,66 @@ impl System {
         h: f64,
         walls: &mut [WallState],
         phi: &mut [f64],
-        d_phi_du: &mut [f64],
-        d_phi_drate: &mut [f64],
+        tangent: &mut Tangent,
     ) {
         phi.fill(0.0);
-        d_phi_du.fill(0.0);
-        d_phi_drate.fill(0.0);
+        tangent.d_u.fill(0.0);
+        tangent.d_rate.fill(0.0);
+        if self.has_radial {
+            tangent.cross_u.fill(0.0);
+            tangent.cross_rate.fill(0.0);
+        }
         for (j, wall) in self.walls.iter().enumerate() {
             let g = wall.gap;
-            let s = evaluate_wall(&self.gaps[g].law, wall, &start[j], u[g], u_rate[g], h);
+            let gap = &self.gaps[g];
+            if let Side::Radial(r) = &gap.side {
+                walls[j] = self.radial_wall(r, g, wall, &start[j], u, u_rate, h, phi, tangent);
+                continue;
+            }
+            let s = evaluate_wall(&gap.law, wall, &start[j], u[g], u_rate[g], h);
             phi[g] += wall.sign * s.force;
-            d_phi_du[g] += s.d_penetration;
-            d_phi_drate[g] += s.d_rate;
+            tangent.d_u[g] += s.d_penetration;
+            tangent.d_rate[g] += s.d_rate;
             walls[j] = s;
         }
+    }
+
+    /// A radial wall's state, its force added to `φ` and its 2×2 tangent to `tangent`.
+    #[allow(clippy::too_many_arguments)]
+    fn radial_wall(
+        &self,
+        r: &Radial,
+        g: usize,
+        wall: &Wall,
+        start: &WallState,
+        u: &[f64],
+        u_rate: &[f64],
+        h: f64,
+        phi: &mut [f64],
+        tangent: &mut Tangent,
+    ) -> WallState {
+        let k = self.radial_kinematics(r, g, u, u_rate);
+        let mut s = contact_state(&self.gaps[g].law, start, k.rho - wall.clearance, k.rate, h);
+        let spin = r.radius * self.structure.spin.start;
+        s.slide = k.slide;
+        s.slip = spin + k.slide;
+        if !s.closed() {
+            return s;
+        }
+        let f = radial_contact(r, &k, &s, spin);
+        s.friction = f.friction;
+        let p = r.partner;
+        phi[g] += f.phi[0];
+        phi[p] += f.phi[1];
+        tangent.d_u[g] += f.d_u[0][0];
+        tangent.d_u[p] += f.d_u[1][1];
+        tangent.cross_u[g] += f.d_u[1][0];
+        tangent.cross_u[p] += f.d_u[0][1];
+        tangent.d_rate[g] += f.d_rate[0][0];
+        tangent.d_rate[p] += f.d_rate[1][1];
+        tangent.cross_rate[g] += f.d_rate[1][0];
+        tangent.cross_rate[p] += f.d_rate[0][1];
+        s
     }
 }
 
@@ -170,7 +335,17 @@ impl State {
             (*rate, *accel) = (r, acc);
         }
         for (wall, state) in sys.walls.iter().zip(self.walls.iter_mut()) {
-            state.rate = wall.sign * self.u_rate[wall.gap];
+            if wall.sign == 0.0 {
+                let Side::Radial(r) = &sys.gaps[wall.gap].side else {
+                    unreachable!("a wall of sign 0 is radial")
+                };
+                let k = sys.radial_kinematics(r, wall.gap, &self.u, &self.u_rate);
+                state.rate = k.rate;
+                state.slide = k.slide;
+                state.slip = r.radius * sys.structure.spin.start + k.slide;
+            } else {
+                state.rate = wall.sign * self.u_rate[wall.gap];
+            }
         }
     }
 
@@ -188,22 +363,21 @@ impl State {
         sys.gap_coordinates(x0.as_slice(), &mut u);
         sys.gap_coordinates(v0.as_slice(), &mut u_rate);
         // A wall already closed at t0: its approach speed is the current closing speed.
-        let start: Vec<WallState> = sys
-            .walls
-            .iter()
-            .map(|w| WallState {
-                penetration: w.sign * u[w.gap] - w.clearance,
-                rate: w.sign * u_rate[w.gap],
-                impact_speed: (w.sign * u_rate[w.gap]).abs().max(MIN_IMPACT_SPEED),
-                ..WallState::default()
+        let start: Vec<WallState> = (0..sys.walls.len())
+            .map(|j| {
+                let (penetration, rate) = sys.wall_motion(j, &u, &u_rate);
+                WallState {
+                    penetration,
+                    rate,
+                    impact_speed: rate.abs().max(MIN_IMPACT_SPEED),
+                    ..WallState::default()
+                }
             })
             .collect();
         let mut walls = vec![WallState::default(); sys.walls.len()];
         let mut phi = vec![0.0; ng];
-        let (mut du, mut dv) = (vec![0.0; ng], vec![0.0; ng]);
-        sys.evaluate_contacts(
-            &start, &u, &u_rate, 1.0, &mut walls, &mut phi, &mut du, &mut dv,
-        );
+        let mut tangent = Tangent::new(ng);
+        sys.evaluate_contacts(&start, &u, &u_rate, 1.0, &mut walls, &mut phi, &mut tangent);
         let load: Vec<f64> = sys.loads.iter().map(|l| l.value(t0)).collect();
         let st = &sys.structure;
         let mut a = vec![0.0; n];

@@ -13,7 +13,7 @@ use pyo3::types::{PyDict, PyList};
 use crate::method::PyMethodSpec;
 use crate::{to_py_err, ModelError};
 use vibroimpact_core::contact::{law_entry, Law, ParameterValue, ParameterValues, ValueKind, LAWS};
-use vibroimpact_core::gap::{Gap, Side};
+use vibroimpact_core::gap::{FrictionLaw, Gap, Radial, Side};
 use vibroimpact_core::linalg::Csr;
 use vibroimpact_core::simulate::{Method, RunSettings};
 use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory, SpinProfile};
@@ -155,6 +155,27 @@ fn gap(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Gap> {
         "positive" => Side::Positive,
         "negative" => Side::Negative,
         "both" => Side::Both,
+        "radial" => {
+            let friction_law: String = item(d, "friction_law", &ctx)?;
+            Side::Radial(Radial {
+                center: item(d, "center", &ctx)?,
+                friction: item(d, "friction", &ctx)?,
+                radius: item(d, "radius", &ctx)?,
+                friction_law: match friction_law.as_str() {
+                    "coulomb" => FrictionLaw::Coulomb,
+                    "regularised" => FrictionLaw::Regularised {
+                        speed: item(d, "regularisation_speed", &ctx)?,
+                    },
+                    other => {
+                        return Err(ModelError::new_err(format!(
+                            "{ctx}.friction_law: '{other}' is not valid; expected coulomb or \
+                             regularised"
+                        )))
+                    }
+                },
+                partner: 0,
+            })
+        }
         other => {
             return Err(ModelError::new_err(format!(
                 "{ctx}.side: '{other}' is not valid; expected positive, negative or both"

@@ -425,7 +425,7 @@ pub(crate) fn rows_to_dict(
 /// A finished run as the dict `vibroimpact.Result.from_core` reads: `rows` are its time
 /// histories (those not handed out in blocks) with `n_gaps` gap columns, `balance` the energy
 /// balance error of the whole run. `impacts` and `stats` hold the fields of `ImpactTable`
-/// (`side`: 0 for the negative wall, 1 for the positive one) and `SolverStats`.
+/// (`side`: 0 for the negative wall, 1 for the positive one, 2 for a radial gap's) and `SolverStats`.
 pub(crate) fn output_to_dict<'py>(
     py: Python<'py>,
     out: RunOutput,
@@ -452,10 +452,14 @@ pub(crate) fn output_to_dict<'py>(
     )?;
     imp.set_item(
         intern!(py, "side"),
-        ints(&mut records.iter().map(|r| i64::from(r.side > 0.0))),
+        ints(&mut records.iter().map(|r| match r.side {
+            s if s > 0.0 => 1,
+            s if s < 0.0 => 0,
+            _ => 2,
+        })),
     )?;
     type Column = fn(&ImpactRecord) -> f64;
-    let columns: [(_, Column); 8] = [
+    let columns: [(_, Column); 9] = [
         (intern!(py, "t_start"), |r| r.t_start),
         (intern!(py, "t_end"), |r| r.t_end),
         (intern!(py, "v_in"), |r| r.v_in),
@@ -463,6 +467,7 @@ pub(crate) fn output_to_dict<'py>(
         (intern!(py, "restitution_effective"), |r| r.restitution()),
         (intern!(py, "delta_max"), |r| r.delta_max),
         (intern!(py, "force_max"), |r| r.force_max),
+        (intern!(py, "friction_max"), |r| r.friction_max),
         (intern!(py, "impulse"), |r| r.impulse),
     ];
     for (key, f) in columns {
@@ -491,6 +496,7 @@ pub(crate) fn output_to_dict<'py>(
                 SimError::EnergyGrowth { .. } => "energy-growth",
                 SimError::SingularTangent { .. } => "singular-tangent",
                 SimError::Interrupted { .. } => "interrupted",
+                SimError::Sticking { .. } => "sticking",
             };
             (Some(e.to_string()), Some(kind))
         }

@@ -62,7 +62,7 @@ pub(crate) fn flow_map<'py>(
         .map(|p| p.extract())
         .transpose()?;
     let parameter = path.map(|p| parameter_for(&system, method, &p));
-    let n_gaps = system.gaps.len();
+    let n_gaps = system.n_gaps;
     let mut extremes = Extremes {
         low: x0.iter().copied().collect(),
         high: x0.iter().copied().collect(),

@@ -129,7 +129,7 @@ pub(crate) fn start(
         chunk: chunk_rows,
         events,
     };
-    let (n_dofs, n_gaps) = (job.settings.record_dofs.len(), job.system.gaps.len());
+    let (n_dofs, n_gaps) = (job.settings.record_dofs.len(), job.system.n_gaps);
     Ok(Running {
         worker: Worker::Ready(Box::new((job, sink))),
         inline: chunk_rows.is_none() && work <= INLINE_WORK,
@@ -181,8 +181,10 @@ fn concat(mut blocks: Vec<Rows>) -> Rows {
 fn side(sign: f64) -> &'static str {
     if sign > 0.0 {
         "positive"
-    } else {
+    } else if sign < 0.0 {
         "negative"
+    } else {
+        "radial"
     }
 }
 

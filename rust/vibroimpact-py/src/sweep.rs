@@ -109,7 +109,7 @@ pub(crate) fn sweep<'py>(
                 j.sampling.samples,
                 j.sampling.dofs.len(),
                 j.sampling.max_impacts,
-                j.system.gaps.len(),
+                j.system.n_gaps,
                 j.system.n_dof(),
             )
         };
@@ -137,7 +137,7 @@ pub(crate) fn sweep<'py>(
             j.sampling.samples,
             j.sampling.dofs.len(),
             j.sampling.max_impacts,
-            j.system.gaps.len(),
+            j.system.n_gaps,
             j.system.n_dof(),
         )
     });

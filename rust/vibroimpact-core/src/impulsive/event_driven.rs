@@ -672,6 +672,7 @@ impl Driver<'_> {
             v_out: f64::NAN,
             delta_max: 0.0,
             force_max: f64::NAN,
+            friction_max: 0.0,
             impulse: 0.0,
         });
         self.records.len() - 1

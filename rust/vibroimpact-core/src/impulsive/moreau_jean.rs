@@ -178,6 +178,7 @@ impl StepPolicy for MoreauJeanSteps {
                         v_out: f64::NAN,
                         delta_max: 0.0,
                         force_max: f64::NAN,
+                        friction_max: 0.0,
                         impulse: 0.0,
                     });
                     records.len() - 1

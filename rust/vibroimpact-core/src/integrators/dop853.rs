@@ -29,8 +29,7 @@ use super::dop853_tableau::{A, A_DENSE, B, C, C_DENSE, D, DENSE_STAGES, E3, E5, 
 use crate::contact::{ContactLaw, Law, MIN_IMPACT_SPEED};
 use crate::driver::{Run, StepIntegrals, StepPolicy};
 use crate::error::SimError;
-use crate::gap::WallInterior;
-use crate::gap::WallState;
+use crate::gap::{radial_contact, Side, WallInterior, WallState};
 use crate::interpolation::QuinticSegment;
 use crate::observe::Turn;
 use crate::sensitivity::StateTransition;
@@ -160,6 +159,29 @@ impl<'s> Dynamics<'s> {
                 continue;
             }
             let gap = &sys.gaps[wall.gap];
+            if let Side::Radial(r) = &gap.side {
+                let k = sys.radial_at_dofs(r, wall.gap, x, v);
+                let penetration = (k.rho - wall.clearance).max(f64::MIN_POSITIVE);
+                let force = gap.law.force_in_contact(
+                    penetration,
+                    k.rate,
+                    c.impact_speed,
+                    c.max_penetration.max(penetration),
+                );
+                let state = WallState {
+                    force: force.force,
+                    d_penetration: force.d_penetration,
+                    d_rate: force.d_rate,
+                    ..WallState::default()
+                };
+                let rf = radial_contact(r, &k, &state, r.radius * st.spin.start);
+                let (ix, iy) = (gap.dofs[0], sys.gaps[r.partner].dofs[0]);
+                f[ix] -= rf.phi[0];
+                f[iy] -= rf.phi[1];
+                *wall_force = force.force;
+                contact += (force.force - force.elastic) * k.rate + rf.friction * k.slide;
+                continue;
+            }
             let (mut u, mut u_rate) = (0.0, 0.0);
             for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
                 u += coef * x[d];
@@ -592,8 +614,16 @@ fn toward_wall(sys: &System, j: usize, y: &[f64]) -> f64 {
     wall.sign * u
 }
 
-/// A wall's penetration, rate and acceleration at a state.
+/// A wall's penetration, rate and acceleration at a state (a radial wall's:
+/// `δ = ρ − c`, `δ̇ = n·ṗ`, `δ̈ = n·p̈ + (|ṗ|² − δ̇²)/ρ`).
 fn wall_motion(sys: &System, j: usize, x: &[f64], v: &[f64], a: &[f64]) -> [f64; 3] {
+    let wall = &sys.walls[j];
+    if let Side::Radial(r) = &sys.gaps[wall.gap].side {
+        let k = sys.radial_at_dofs(r, wall.gap, x, v);
+        let (ix, iy) = (sys.gaps[wall.gap].dofs[0], sys.gaps[r.partner].dofs[0]);
+        let accel = k.normal[0] * a[ix] + k.normal[1] * a[iy] + k.slide * k.slide / k.rho;
+        return [k.rho - wall.clearance, k.rate, accel];
+    }
     [
         toward_wall(sys, j, x) - sys.walls[j].clearance,
         toward_wall(sys, j, v),
@@ -619,7 +649,7 @@ fn switch_walls(
                 impact_speed: rate.max(MIN_IMPACT_SPEED),
                 max_penetration: delta.max(0.0),
                 peak_pending: true,
-                in_time: !smooth_in_root(&sys.gaps[sys.walls[j].gap].law),
+                in_time: !smooth_in_root(sys, j),
             };
             switched = true;
             closed = Some(j);
@@ -782,9 +812,14 @@ const MAX_ROOT_REJECTIONS: usize = 6;
 /// Whether a contact's start and end are integrated in `ζ = √δ`: the force is a power of
 /// `δ` times a smooth factor, so smooth in `ζ`. Not a tabulated law (kinks at its points) nor
 /// Kelvin–Voigt (linear, so already smooth in time; it ends where its clamp at `F = 0`
-/// kinks, before `δ = 0`).
-fn smooth_in_root(law: &Law) -> bool {
-    !matches!(law, Law::Tabulated(_) | Law::KelvinVoigt(_) | Law::Rigid(_))
+/// kinks, before `δ = 0`), nor a radial wall (its `δ` is not linear in the state).
+fn smooth_in_root(sys: &System, j: usize) -> bool {
+    let gap = &sys.gaps[sys.walls[j].gap];
+    !matches!(gap.side, Side::Radial(_))
+        && !matches!(
+            gap.law,
+            Law::Tabulated(_) | Law::KelvinVoigt(_) | Law::Rigid(_)
+        )
 }
 
 /// The phase that integrates wall `j`'s opening in `ζ` from `start`, if the wall is inside
@@ -855,13 +890,13 @@ impl<'s> Dop853Steps<'s> {
             .cur
             .walls
             .iter()
-            .zip(&sys.walls)
-            .map(|(w, wall)| Contact {
+            .enumerate()
+            .map(|(j, w)| Contact {
                 active: w.closed(),
                 impact_speed: w.impact_speed,
                 max_penetration: w.max_penetration,
                 peak_pending: w.closed() && w.rate > 0.0,
-                in_time: !smooth_in_root(&sys.gaps[wall.gap].law),
+                in_time: !smooth_in_root(sys, j),
             })
             .collect();
         let variational = run
@@ -1299,9 +1334,14 @@ fn commit(
     sys.gap_coordinates(&end.v, &mut s.u_rate);
     sys.gap_coordinates(&end.a, &mut s.u_accel);
     s.phi.fill(0.0);
-    for ((wall, c), w) in sys.walls.iter().zip(contacts).zip(s.walls.iter_mut()) {
-        let penetration = wall.sign * s.u[wall.gap] - wall.clearance;
-        let rate = wall.sign * s.u_rate[wall.gap];
+    for (j, ((wall, c), w)) in sys
+        .walls
+        .iter()
+        .zip(contacts)
+        .zip(s.walls.iter_mut())
+        .enumerate()
+    {
+        let (penetration, rate) = sys.wall_motion(j, &s.u, &s.u_rate);
         *w = WallState {
             penetration,
             rate,
@@ -1320,12 +1360,25 @@ fn commit(
                 c.impact_speed,
                 w.max_penetration,
             );
-            s.phi[wall.gap] += wall.sign * f.force;
             w.force = f.force;
             w.d_penetration = f.d_penetration;
             w.d_rate = f.d_rate;
             w.elastic_force = f.elastic;
             w.potential = f.potential;
+            if let Side::Radial(r) = &sys.gaps[wall.gap].side {
+                let k = sys.radial_kinematics(r, wall.gap, &s.u, &s.u_rate);
+                let rf = radial_contact(r, &k, w, r.radius * sys.structure.spin.start);
+                s.phi[wall.gap] += rf.phi[0];
+                s.phi[r.partner] += rf.phi[1];
+                w.friction = rf.friction;
+            } else {
+                s.phi[wall.gap] += wall.sign * f.force;
+            }
+        }
+        if let Side::Radial(r) = &sys.gaps[wall.gap].side {
+            let k = sys.radial_kinematics(r, wall.gap, &s.u, &s.u_rate);
+            w.slide = k.slide;
+            w.slip = r.radius * sys.structure.spin.start + k.slide;
         }
     }
     let integrals = StepIntegrals {
@@ -1392,6 +1445,12 @@ impl Dense<'_, '_, '_> {
     fn wall(&mut self, sys: &System, j: usize, s: f64) -> (f64, f64) {
         let wall = &sys.walls[j];
         let gap = &sys.gaps[wall.gap];
+        if let Side::Radial(r) = &gap.side {
+            let [x, v] = self.dof(gap.dofs[0], s);
+            let [y, w] = self.dof(sys.gaps[r.partner].dofs[0], s);
+            let k = crate::gap::RadialKinematics::new([x - r.center[0], y - r.center[1]], [v, w]);
+            return (k.rho - wall.clearance, k.rate);
+        }
         let (mut u, mut rate) = (0.0, 0.0);
         for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
             let [x, v] = self.dof(d, s);

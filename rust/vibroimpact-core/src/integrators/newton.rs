@@ -10,7 +10,7 @@
 
 use super::StepFailure;
 use crate::gap::{Wall, WallState};
-use crate::system::System;
+use crate::system::{System, Tangent};
 
 /// Stopping rule and limits of the Newton iterations.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -65,9 +65,11 @@ pub(crate) struct GapNewton {
     pub u: Vec<f64>,
     pub u_rate: Vec<f64>,
     residual: Vec<f64>,
-    d_phi_du: Vec<f64>,
-    d_phi_drate: Vec<f64>,
+    tangent: Tangent,
     stiffness: Vec<f64>,
+    /// A radial gap's coupling `K[p][g]` of coordinate `g` to its partner `p` (with `K` as
+    /// `stiffness` is its diagonal).
+    coupling: Vec<f64>,
     jacobian: Vec<f64>,
     step: Vec<f64>,
     increment: Vec<f64>,
@@ -109,6 +111,9 @@ impl GapNewton {
         if !sys.walls.iter().zip(p.start).all(open) {
             return false;
         }
+        if sys.has_radial && !self.radial_open(sys, p) {
+            return false;
+        }
         for (gi, force) in phi.iter_mut().enumerate().take(self.du.len()) {
             self.du[gi] = p.du_lin[gi];
             self.u[gi] = p.u0[gi] + p.du_lin[gi];
@@ -122,7 +127,25 @@ impl GapNewton {
                 ..WallState::default()
             };
         }
+        if sys.has_radial {
+            for (j, state) in walls.iter_mut().enumerate() {
+                if sys.walls[j].sign == 0.0 {
+                    (state.penetration, state.rate) = sys.wall_motion(j, &self.u, &self.u_rate);
+                }
+            }
+        }
         true
+    }
+
+    /// Every radial wall stays open at the linear predictor (the 1-D walls are checked by
+    /// [`Self::free_flight`]; a radial wall's sign 0 passes that check).
+    fn radial_open(&mut self, sys: &System, p: &GapProblem<'_>) -> bool {
+        for (u, (&u0, &du)) in self.u.iter_mut().zip(p.u0.iter().zip(p.du_lin)) {
+            *u = u0 + du;
+        }
+        (0..sys.walls.len())
+            .filter(|&j| sys.walls[j].sign == 0.0)
+            .all(|j| sys.wall_motion(j, &self.u, &self.u_rate).0 <= 0.0)
     }
 
     pub fn new(n_gaps: usize) -> Self {
@@ -132,9 +155,9 @@ impl GapNewton {
             u: vec![0.0; ng],
             u_rate: vec![0.0; ng],
             residual: vec![0.0; ng],
-            d_phi_du: vec![0.0; ng],
-            d_phi_drate: vec![0.0; ng],
+            tangent: Tangent::new(ng),
             stiffness: vec![0.0; ng],
+            coupling: vec![0.0; ng],
             jacobian: vec![0.0; ng * ng],
             step: vec![0.0; ng],
             increment: vec![0.0; ng],
@@ -194,8 +217,7 @@ impl GapNewton {
                 p.h,
                 walls,
                 phi,
-                &mut self.d_phi_du,
-                &mut self.d_phi_drate,
+                &mut self.tangent,
             );
             let mut residual_small = true;
             self.active.clear();
@@ -204,12 +226,17 @@ impl GapNewton {
                 let wphi: f64 = wrow.iter().zip(phi.iter()).map(|(w, p)| w * p).sum();
                 let r = self.du[gi] - du_lin[gi] + wphi;
                 self.residual[gi] = r;
-                self.stiffness[gi] = self.d_phi_du[gi] + c_v * self.d_phi_drate[gi];
+                self.stiffness[gi] = self.tangent.d_u[gi] + c_v * self.tangent.d_rate[gi];
                 let tol = settings.rtol * self.u[gi].abs() + settings.atol;
                 if r.abs() > tol {
                     residual_small = false;
                 }
-                if r != 0.0 || self.stiffness[gi] != 0.0 {
+                let coupled = sys.has_radial && {
+                    self.coupling[gi] =
+                        self.tangent.cross_u[gi] + c_v * self.tangent.cross_rate[gi];
+                    self.coupling[gi] != 0.0
+                };
+                if r != 0.0 || self.stiffness[gi] != 0.0 || coupled {
                     self.active.push(gi);
                 }
             }
@@ -217,7 +244,7 @@ impl GapNewton {
                 return Ok(iterations);
             }
             if iterations >= settings.max_iterations {
-                let gi = self.worst_gap(settings);
+                let gi = sys.gap_of(self.worst_gap(settings));
                 let penetration = sys
                     .walls
                     .iter()
@@ -233,12 +260,13 @@ impl GapNewton {
                 });
             }
             let solved = match p.rate {
+                RateMap::Diagonal(_) if sys.has_radial => self.coupled_step(w, &sys.partner),
                 RateMap::Diagonal(_) => self.diagonal_step(w),
                 RateMap::Full(s) => self.full_step(w, s),
             };
             if !solved {
                 return Err(StepFailure {
-                    gap: self.worst_gap(settings),
+                    gap: sys.gap_of(self.worst_gap(settings)),
                     penetration: 0.0,
                     iterations,
                     singular: false,
@@ -293,14 +321,47 @@ impl GapNewton {
         true
     }
 
+    /// [`Self::diagonal_step`] with radial gaps: `K` has the 2×2 blocks of their coordinate
+    /// pairs, so `(W K)[g][h] = W[g][h] K[h][h] + W[g][p] K[p][h]` (`p` the partner of `h`).
+    fn coupled_step(&mut self, w: &[f64], partner: &[Option<usize>]) -> bool {
+        let ng = self.du.len();
+        let m = self.active.len();
+        let wk = |gi: usize, hi: usize, stiffness: &[f64], coupling: &[f64]| {
+            w[gi * ng + hi] * stiffness[hi]
+                + partner[hi].map_or(0.0, |p| w[gi * ng + p] * coupling[hi])
+        };
+        for (ia, &gi) in self.active.iter().enumerate() {
+            for (ib, &hi) in self.active.iter().enumerate() {
+                self.jacobian[ia * m + ib] =
+                    wk(gi, hi, &self.stiffness, &self.coupling) + if ia == ib { 1.0 } else { 0.0 };
+            }
+            self.step[ia] = -self.residual[gi];
+        }
+        if !solve_small(&mut self.jacobian[..m * m], &mut self.step[..m], m) {
+            return false;
+        }
+        for gi in 0..ng {
+            self.increment[gi] = match self.active.iter().position(|&a| a == gi) {
+                Some(ia) => self.step[ia],
+                None => -self
+                    .active
+                    .iter()
+                    .enumerate()
+                    .map(|(ia, &hi)| wk(gi, hi, &self.stiffness, &self.coupling) * self.step[ia])
+                    .sum::<f64>(),
+            };
+        }
+        true
+    }
+
     /// Newton step with a full `S`: `(I + W (D_u + D_v S)) d = −r` on every gap.
     fn full_step(&mut self, w: &[f64], s: &[f64]) -> bool {
         let ng = self.du.len();
         for gi in 0..ng {
             for bi in 0..ng {
-                let mut j = w[gi * ng + bi] * self.d_phi_du[bi];
+                let mut j = w[gi * ng + bi] * self.tangent.d_u[bi];
                 for hi in 0..ng {
-                    j += w[gi * ng + hi] * self.d_phi_drate[hi] * s[hi * ng + bi];
+                    j += w[gi * ng + hi] * self.tangent.d_rate[hi] * s[hi * ng + bi];
                 }
                 self.jacobian[gi * ng + bi] = j + if gi == bi { 1.0 } else { 0.0 };
             }

@@ -45,7 +45,7 @@ use crate::error::{invalid, SimError};
 use crate::gap::WallState;
 use crate::linalg::axpy;
 use crate::structure::{DenseStructure, LinearStructure};
-use crate::system::{State, System};
+use crate::system::{State, System, Tangent};
 
 /// Settings of the precise integration method.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -330,8 +330,7 @@ pub struct PreciseStepper {
     u_rate: Vec<f64>,
     walls_pred: Vec<WallState>,
     phi_pred: Vec<f64>,
-    d_phi_du: Vec<f64>,
-    d_phi_drate: Vec<f64>,
+    tangent: Tangent,
     du_lin: Vec<f64>,
     rate_lin: Vec<f64>,
     gap_newton: GapNewton,
@@ -368,8 +367,7 @@ impl PreciseStepper {
             u_rate: vec![0.0; ng],
             walls_pred: vec![WallState::default(); sys.walls.len()],
             phi_pred: vec![0.0; ng],
-            d_phi_du: vec![0.0; ng],
-            d_phi_drate: vec![0.0; ng],
+            tangent: Tangent::new(ng),
             du_lin: vec![0.0; ng],
             rate_lin: vec![0.0; ng],
             gap_newton: GapNewton::new(ng),
@@ -480,8 +478,7 @@ impl Stepper for PreciseStepper {
             u_rate,
             walls_pred,
             phi_pred,
-            d_phi_du,
-            d_phi_drate,
+            tangent,
             du_lin,
             rate_lin,
             gap_newton,
@@ -512,8 +509,7 @@ impl Stepper for PreciseStepper {
         let mut gaps = GapBuffers {
             u: &mut u[..],
             u_rate: &mut u_rate[..],
-            d_phi_du: &mut d_phi_du[..],
-            d_phi_drate: &mut d_phi_drate[..],
+            tangent,
         };
 
         if !implicit && count == 3 {
@@ -637,8 +633,7 @@ impl Stepper for PreciseStepper {
 struct GapBuffers<'a> {
     u: &'a mut [f64],
     u_rate: &'a mut [f64],
-    d_phi_du: &'a mut [f64],
-    d_phi_drate: &'a mut [f64],
+    tangent: &'a mut Tangent,
 }
 
 impl GapBuffers<'_> {
@@ -656,15 +651,6 @@ impl GapBuffers<'_> {
     ) {
         sys.gap_coordinates(&z[..n], self.u);
         sys.gap_coordinates(&z[n..], self.u_rate);
-        sys.evaluate_contacts(
-            start,
-            self.u,
-            self.u_rate,
-            h,
-            walls,
-            phi,
-            self.d_phi_du,
-            self.d_phi_drate,
-        );
+        sys.evaluate_contacts(start, self.u, self.u_rate, h, walls, phi, self.tangent);
     }
 }
