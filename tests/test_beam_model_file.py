@@ -147,6 +147,9 @@ BAD = [
     ("tube_too_thick", lambda d: d["structure"]["section"].update(wall_thickness=0.2),
      ["structure.section.wall_thickness: 0.2 is not valid; expected a thickness <= "
       "outer_diameter / 2 = 0.095 m"]),
+    ("tube_absurd", lambda d: d["structure"]["section"].update(outer_diameter=1.16e77),
+     ["structure.section.outer_diameter: 1.16e+77 is not valid; expected a size in m <= 1e+60 "
+      "(its fourth power must be a finite number)"]),
     ("poisson", lambda d: d["structure"]["material"].update(poisson=0.6),
      ["structure.material.poisson: 0.6 is not valid; expected a number with -1 < poisson < 0.5"]),
     ("elements", lambda d: d["structure"].update(elements=1.5),

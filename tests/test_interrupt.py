@@ -4,11 +4,14 @@ and leaves no temporary file; exit codes 130 and 143."""
 
 from __future__ import annotations
 
+import functools
 import json
 import os
+import resource
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -23,7 +26,8 @@ from vibroimpact.paper import cases
 
 PAPER = Path(__file__).parents[1] / "examples" / "models" / "sdof_paper_ln.toml"
 
-pytestmark = pytest.mark.skipif(sys.platform == "win32", reason="POSIX signals")
+pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"),
+                                reason="POSIX signals and /proc")
 
 
 def _long_model(tmp_path: Path, every: int = 100000) -> Path:
@@ -35,6 +39,38 @@ def _long_model(tmp_path: Path, every: int = 100000) -> Path:
     return path
 
 
+@functools.cache
+def _startup_cpu_seconds() -> float:
+    """CPU seconds of a whole short ``vibroimpact run`` (imports, the run, the file written):
+    an upper bound on what a run spends before its time loop."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    with tempfile.TemporaryDirectory() as folder:
+        subprocess.run([sys.executable, "-m", "vibroimpact", "run", str(PAPER), "-o",
+                        str(Path(folder) / "short.nc"), "--quiet"], check=True,
+                       capture_output=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def _cpu_seconds(pid: int) -> float:
+    """CPU seconds (user + system) used so far by process ``pid`` (Linux ``/proc``)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def _signal_once_running(proc: subprocess.Popen[str], sig: int) -> None:
+    """Send ``sig`` once ``proc`` is in its time loop: when it has used a second of CPU more
+    than a whole short run does (CPU time, unlike a fixed sleep, does not stretch when the
+    machine is loaded)."""
+    threshold = _startup_cpu_seconds() + 1.0
+    deadline = time.monotonic() + 300
+    while proc.poll() is None and time.monotonic() < deadline:
+        if _cpu_seconds(proc.pid) >= threshold:
+            break
+        time.sleep(0.05)
+    proc.send_signal(sig)
+
+
 def _interrupt_cli(tmp_path: Path, sig: int, out: str) -> subprocess.CompletedProcess[str]:
     model = _long_model(tmp_path)
     proc = subprocess.Popen(
@@ -42,8 +78,7 @@ def _interrupt_cli(tmp_path: Path, sig: int, out: str) -> subprocess.CompletedPr
          "--json"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )
-    time.sleep(3.0)  # imports done, the run under way
-    proc.send_signal(sig)
+    _signal_once_running(proc, sig)
     started = time.monotonic()
     stdout, stderr = proc.communicate(timeout=60)
     assert time.monotonic() - started < 20, "the run did not stop promptly"
@@ -166,8 +201,7 @@ def test_a_streamed_run_keeps_the_rows_written(tmp_path: Path, sig: int, code: i
          *flags, "--quiet"],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )
-    time.sleep(3.0)
-    proc.send_signal(sig)
+    _signal_once_running(proc, sig)
     _, stderr = proc.communicate(timeout=60)
     assert proc.returncode == code, stderr
     assert "Traceback" not in stderr and "marked incomplete" in stderr

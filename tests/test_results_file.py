@@ -339,7 +339,9 @@ def test_run_streams_with_window(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert cli_main(["run", model, "-o", str(tmp_path / "w.h5"), "--window", "20000",
                      "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
-    assert summary["windows"] >= 5
+    # 100,000 steps in 5 blocks of 20,000 (+ the closing write); blocks that wait together in
+    # the core's channel of two (a loaded machine) are written as one, so at least 2 + 1
+    assert summary["windows"] >= 3
     assert cli_main(["run", model, "-o", str(tmp_path / "s.nc"), "--stream", "--quiet"]) == 0
     assert cli_main(["run", model, "-o", str(tmp_path / "m.nc"), "--quiet"]) == 0
     capsys.readouterr()

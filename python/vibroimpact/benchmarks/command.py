@@ -159,8 +159,9 @@ def _print_rotor_rub(repeats: int) -> None:
     from vibroimpact.benchmarks.rotor_rub import rub_benchmark
 
     b = rub_benchmark(repeats=repeats)
-    print(f"Rotor rub (Jeffcott in a radial gap with friction, examples/models/jeffcott_seal_rub.toml, "
-          f"DOP853 rtol {b['rtol']:g}): {b['revolutions']} revolutions ({b['contacts']} "
+    print(f"Rotor rub (Jeffcott in a radial gap with friction, "
+          f"examples/models/jeffcott_seal_rub.toml, DOP853 rtol {b['rtol']:g}): "
+          f"{b['revolutions']} revolutions ({b['contacts']} "
           f"contacts) {b['ours_s'] * 1e3:.2f} ms, SciPy solve_ivp DOP853 with located contact "
           f"events {b['scipy_s'] * 1e3:.0f} ms ({b['scipy_contacts']} contacts): "
           f"{b['speedup']:.0f}x (target >= {b['target_speedup']:.0f}x); final displacements "

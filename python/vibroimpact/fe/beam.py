@@ -112,6 +112,19 @@ def _positive(value: Any, name: str, unit: str) -> float:
     return x
 
 
+#: The largest section size (m) taken: its fourth power (second moments) stays a finite float.
+_LARGEST_SIZE = 1e60
+
+
+def _size(value: Any, name: str) -> float:
+    """A section's size (m): > 0 and small enough that its section properties are finite."""
+    x = _positive(value, name, "m")
+    if x > _LARGEST_SIZE:
+        raise ModelError(f"{name}: {value!r} is not valid; expected a size in m <= "
+                         f"{_LARGEST_SIZE:g} (its fourth power must be a finite number)")
+    return x
+
+
 # --------------------------------------------------------------------------------------------
 # Material and section
 # --------------------------------------------------------------------------------------------
@@ -214,7 +227,7 @@ class Section:
         """Circular tube: ``outer_diameter`` and either ``wall_thickness`` or ``inner_diameter``
         (m): ``A = π(D⁴ − d⁴)/4``, ``I = π(D⁴ − d⁴)/64``, ``J = 2I``."""
         p = "structure.section"
-        do = _positive(outer_diameter, f"{p}.outer_diameter", "m")
+        do = _size(outer_diameter, f"{p}.outer_diameter")
         if (wall_thickness is None) == (inner_diameter is None):
             raise ModelError(
                 f"{p}.wall_thickness: {wall_thickness!r} is not valid; expected exactly one of "
@@ -245,8 +258,8 @@ class Section:
         """Solid rectangle ``size_x`` × ``size_y`` (m; ``size_x`` along the planar deflection
         x): ``I_x = size_y·size_x³/12``, ``I_y = size_x·size_y³/12``, ``J = a b³ [1/3 −
         0.21 (b/a)(1 − b⁴/12a⁴)]`` with a ≥ b (Roark's Formulas, Table 10.7)."""
-        bx = _positive(size_x, "structure.section.size_x", "m")
-        by = _positive(size_y, "structure.section.size_y", "m")
+        bx = _size(size_x, "structure.section.size_x")
+        by = _size(size_y, "structure.section.size_y")
         a, b = max(bx, by), min(bx, by)
         j = a * b**3 * (1 / 3 - 0.21 * (b / a) * (1 - b**4 / (12 * a**4)))
         return cls("rectangle", bx * by, by * bx**3 / 12, bx * by**3 / 12, j, shear_coefficient)
