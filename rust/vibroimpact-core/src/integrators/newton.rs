@@ -260,8 +260,10 @@ impl GapNewton {
                 });
             }
             let solved = match p.rate {
-                RateMap::Diagonal(_) if sys.has_radial => self.coupled_step(w, &sys.partner),
-                RateMap::Diagonal(_) => self.diagonal_step(w),
+                RateMap::Diagonal(_) if sys.has_radial => {
+                    self.diagonal_step::<true>(w, &sys.partner)
+                }
+                RateMap::Diagonal(_) => self.diagonal_step::<false>(w, &[]),
                 RateMap::Full(s) => self.full_step(w, s),
             };
             if !solved {
@@ -292,43 +294,21 @@ impl GapNewton {
 
     /// Newton step with `S = c_v I`: solves `(I + W_AA K_A) d_A = −r_A` on the active gaps;
     /// the others follow, `d_N = −W_NA K_A d_A` (their `r_N` is zero), with
-    /// `K = ∂φ/∂u + c_v ∂φ/∂u̇`. Writes `d` for every gap into `self.increment`.
+    /// `K = ∂φ/∂u + c_v ∂φ/∂u̇`. Writes `d` for every gap into `self.increment`. `RADIAL`:
+    /// `K` has the 2×2 blocks of the radial gaps' coordinate pairs, so
+    /// `(W K)[g][h] = W[g][h] K[h][h] + W[g][p] K[p][h]` (`p` the partner of `h`); without
+    /// radial gaps (the constant `false`) the partner terms are compiled out.
     #[inline(always)]
-    fn diagonal_step(&mut self, w: &[f64]) -> bool {
-        let ng = self.du.len();
-        let m = self.active.len();
-        for (ia, &gi) in self.active.iter().enumerate() {
-            for (ib, &hi) in self.active.iter().enumerate() {
-                self.jacobian[ia * m + ib] =
-                    w[gi * ng + hi] * self.stiffness[hi] + if ia == ib { 1.0 } else { 0.0 };
-            }
-            self.step[ia] = -self.residual[gi];
-        }
-        if !solve_small(&mut self.jacobian[..m * m], &mut self.step[..m], m) {
-            return false;
-        }
-        for gi in 0..ng {
-            self.increment[gi] = match self.active.iter().position(|&a| a == gi) {
-                Some(ia) => self.step[ia],
-                None => -self
-                    .active
-                    .iter()
-                    .enumerate()
-                    .map(|(ia, &hi)| w[gi * ng + hi] * self.stiffness[hi] * self.step[ia])
-                    .sum::<f64>(),
-            };
-        }
-        true
-    }
-
-    /// [`Self::diagonal_step`] with radial gaps: `K` has the 2×2 blocks of their coordinate
-    /// pairs, so `(W K)[g][h] = W[g][h] K[h][h] + W[g][p] K[p][h]` (`p` the partner of `h`).
-    fn coupled_step(&mut self, w: &[f64], partner: &[Option<usize>]) -> bool {
+    fn diagonal_step<const RADIAL: bool>(&mut self, w: &[f64], partner: &[Option<usize>]) -> bool {
         let ng = self.du.len();
         let m = self.active.len();
         let wk = |gi: usize, hi: usize, stiffness: &[f64], coupling: &[f64]| {
-            w[gi * ng + hi] * stiffness[hi]
-                + partner[hi].map_or(0.0, |p| w[gi * ng + p] * coupling[hi])
+            let direct = w[gi * ng + hi] * stiffness[hi];
+            if RADIAL {
+                direct + partner[hi].map_or(0.0, |p| w[gi * ng + p] * coupling[hi])
+            } else {
+                direct
+            }
         };
         for (ia, &gi) in self.active.iter().enumerate() {
             for (ib, &hi) in self.active.iter().enumerate() {
