@@ -206,12 +206,17 @@ def test_verbose_logs_the_linear_solver_and_its_size(caplog: pytest.LogCaptureFi
     """The effective stiffness's solver is logged once per run: the dense predictor for the
     paper's SDOF case (n² values), a general sparse factor for a block of 5,880 DOFs of
     hexahedra (3-D: a wide band), whose stored values lie between the lower triangle of
-    ``K̃`` and a full triangle."""
+    ``K̃`` and a full triangle, and the banded factor for a 2,004-DOF tube of 3-D beam
+    elements (its bending planes, axial and torsional DOFs uncoupled: band 3, n (3 + 1)
+    values)."""
     from vibroimpact.benchmarks.large_models import hexahedral_block
+    from vibroimpact.fe.beam import Beam, Material, Section
 
     fe = hexahedral_block((40, 6, 6), (0.5, 0.06, 0.06))
+    tube = Beam(1.0, 333, Section.tube(0.19, 0.005), Material(207e9, 0.3, 7850.0),
+                dofs_per_node=6)
     models = [(cases.sdof_model("lankarani-nikravesh"), 1e-6),
-              (vi.Model(fe.to_structure()), 1e-5)]
+              (vi.Model(fe.to_structure()), 1e-5), (tube.model(), 1e-5)]
     found = []
     for model, dt in models:
         caplog.clear()
@@ -221,11 +226,14 @@ def test_verbose_logs_the_linear_solver_and_its_size(caplog: pytest.LogCaptureFi
                  rec.getMessage()]
         assert len(lines) == 1, lines
         m = re.fullmatch(r"solver: effective stiffness \((\d+) DOFs\) for steps of "
-                         r"([0-9.e+-]+) s: ([a-z-]+) factor, (\d+) stored values", lines[0])
+                         r"([0-9.e+-]+) s: ([a-z-]+) factor, (\d+) stored values"
+                         r"(?:, bandwidth (\d+))?", lines[0])
         assert m is not None, lines[0]
         assert int(m[1]) == model.n_dof and float(m[2]) == pytest.approx(dt)
         found.append((m[3], int(m[4])))
+        assert (m[5] is not None) == (m[3] == "banded"), lines[0]
     assert found[0] == ("dense", 1)
+    assert found[2] == ("banded", 4 * tube.n_dof)
     solver, stored = found[1]
     n = fe.n_dof
     lower = (fe.stiffness.nnz + n) // 2

@@ -4,6 +4,18 @@
 //! frames) or a general sparse one from `faer` (approximate minimum degree ordering,
 //! simplicial or supernodal: 3-D solids, whose bands are wide), whichever is estimated to
 //! solve faster ([`FactorPlan`]).
+//!
+//! Why the banded factor stays beside faer's: on the narrow bands of beams it is the faster
+//! one, measured in one process (`examples/factor_compare.rs`, `K + 4M/h²`, fastest of 40
+//! interleaved rounds, one core of an EPYC under load): the hollow shaft (42 DOFs, band 3)
+//! factors in 1.5 µs against 3.8 µs and solves in 0.35 against 0.39 µs; planar beams of
+//! 1,002 and 5,000 DOFs factor in 33 and 165 µs against 75 and 371 µs and solve in 8.6 and
+//! 42 µs against 10.3 and 51 µs; 3-D tubes of 2,004 and 5,004 DOFs (the imported model of
+//! `vibroimpact bench`) solve in 17 and 43 µs against 21 and 52 µs: faer's solve is
+//! 12–24 % slower, its factorisation 2–2.5× slower (its simplicial substitution goes
+//! through column indices; the band's rows are contiguous and unrolled). On the C3D20
+//! cantilever (1,140 DOFs, band 86) faer's factor stores 64 k values against the band's
+//! 99 k and solves in 53 µs against 60 µs, and is the one chosen.
 
 use std::sync::Arc;
 
@@ -50,10 +62,10 @@ impl FactorPlan {
     /// Rough cycles per solve: the banded substitution runs two passes of `n` rows of `bw`
     /// fused terms, each row waiting on the previous (~8 cycles, `16 n (1 + bw/4)`); the
     /// general one streams the factor's values twice (~1.5 cycles a value) plus ~8 cycles
-    /// per column and pass. Measured with one core of an EPYC (both within 30 % of these,
-    /// the general factor faster): a 2,004-DOF beam (band 11) 40 µs banded, 31 µs
-    /// simplicial; 3-D lattices of 3,000 and 12,288 DOFs 4 and 61 ms banded, 0.5 and 10 ms
-    /// supernodal.
+    /// per column and pass. Measured with one core of an EPYC:
+    /// a 5,000-DOF beam (band 3) 42 µs banded, 51 µs simplicial; 3-D lattices of 3,000 and
+    /// 12,288 DOFs 4 and 61 ms banded, 0.5 and 10 ms supernodal. The estimates order the
+    /// two factors as measured on every model of `examples/factor_compare.rs`.
     ///
     /// A factorisation costs about one cycle per multiply-add of the left-looking column
     /// updates, `Σⱼ cⱼ²` over the factor's column counts `cⱼ` ([`factor_flops`]; the band's
