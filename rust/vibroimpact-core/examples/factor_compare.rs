@@ -4,7 +4,8 @@
 //! `solve_permuted` on a preallocated work vector), and the sparse products of a step (our
 //! fused rows against faer's sparse × dense product).
 //! `cargo run --release --example factor_compare -p vibroimpact-core`
-//! (env `REPS`: timing rounds, default 7; each number is the fastest round).
+//! (env `REPS`: timing rounds, default 7; each number is the fastest round; `MODEL`: only the
+//! models whose name contains it, e.g. for instruction counts under callgrind).
 
 use std::time::Instant;
 
@@ -221,7 +222,8 @@ fn main() {
         "solve b µs",
         "solve s µs"
     );
-    for (name, (k, m)) in &models {
+    let only = std::env::var("MODEL").unwrap_or_default();
+    for (name, (k, m)) in models.iter().filter(|(name, _)| name.contains(&only)) {
         let n = k.n();
         let terms = [(1.0, k), (4.0 / (h * h), m)];
         let cheapest = FactorPlan::new(&[m, k], FactorChoice::Cheapest);

@@ -12,10 +12,12 @@
 //! 1,002 and 5,000 DOFs factor in 33 and 165 µs against 75 and 371 µs and solve in 8.6 and
 //! 42 µs against 10.3 and 51 µs; 3-D tubes of 2,004 and 5,004 DOFs (the imported model of
 //! `vibroimpact bench`) solve in 17 and 43 µs against 21 and 52 µs: faer's solve is
-//! 12–24 % slower, its factorisation 2–2.5× slower (its simplicial substitution goes
-//! through column indices; the band's rows are contiguous and unrolled). On the C3D20
-//! cantilever (1,140 DOFs, band 86) faer's factor stores 64 k values against the band's
-//! 99 k and solves in 53 µs against 60 µs, and is the one chosen.
+//! 11–24 % slower, its factorisation 2–2.5× slower (with about as many instructions).
+//! Instruction counts (callgrind) agree for the solve: faer's takes 26–46 % more on these
+//! beams (its simplicial substitution goes through column indices; the band's rows are
+//! contiguous and unrolled). On the C3D20 cantilever (1,140 DOFs, band 86) faer's factor
+//! stores 64 k values against the band's 99 k and solves in 53 µs against 60 µs, and is the
+//! one chosen.
 
 use std::sync::Arc;
 
