@@ -5,7 +5,10 @@
 //! Both stay beside `faer`'s sparse types because they are faster where they are used (see
 //! `factor.rs` and `examples/factor_compare.rs`): the banded factor on beams, and
 //! [`StackedRows`], which applies `K`, `C` (and `M`) in one pass over the rows, where faer
-//! multiplies one matrix at a time (a 5,000-DOF beam's `K x + C v`: 15 µs against 27 µs).
+//! multiplies one matrix at a time (a 5,000-DOF beam's `K x + C v`: 15 µs against 27 µs; on
+//! the 81-entry rows of a 3-D solid faer's products are faster, 39 µs against 59 µs for the
+//! C3D20 cantilever, our rows' one addition chain per operator being the limit, but there
+//! the step's cost is the solve's).
 
 use nalgebra::DMatrix;
 
