@@ -255,7 +255,7 @@ def test_cli_continue_json_and_netcdf(tmp_path, capsys) -> None:
     ("loads.0.frequency=0.3", "--param: 'loads.0.frequency=0.3' is not valid; expected "
                               "PATH=START:END"),
     ("loads.0.frequency=0.3:0.3", "--param: 'loads.0.frequency=0.3:0.3' is not valid"),
-    ("gaps.0.clearance=0.2:-1", "gaps[0].clearance: -1 is not valid; expected a value >= 0"),
+    ("gaps.0.clearance=0.2:-1", "gaps[0].clearance: -1 is not valid; expected a clearance >= 0"),
     ("gaps.0.law.stiffness=1:2", "--param gaps.0.law.stiffness: gap 0's rigid law has no "
                                  "number 'stiffness'"),
 ])

@@ -20,6 +20,7 @@ from vibroimpact import _core, contact, integrators
 from vibroimpact import docs as generated_docs
 from vibroimpact.errors import ModelError
 from vibroimpact.io import model_file
+from vibroimpact.simulate import _run_core
 from vibroimpact.sweeps import Param, Sweep, run_sweep
 from vibroimpact.sweeps.runner import _plan
 
@@ -44,13 +45,69 @@ def _docs_default(section: str, name: str) -> str:
 
 def _cases() -> list[tuple[str, str]]:
     return ([("method", n) for n in NAMES] + [("settings", "newton"), ("settings", "adaptive")]
-            + [("law", k) for k in contact.LAWS])
+            + [("law", k) for k in contact.LAWS] + [("model", p) for p in vi.model.MODEL_CATALOG])
+
+
+#: A valid instance of the class of each part of the model's catalog, and the table of the
+#: model file (its schema path and its docs section) that holds the part's fields.
+_MODEL_PARTS: dict[str, tuple[Any, str, str]] = {
+    "structure": (lambda: vi.Structure([[1.0]]), "structure", "## `[structure]`"),
+    "gap": (lambda: vi.Gap(dof=0, law=contact.Hertz(stiffness=1e9)), "gaps[]",
+            "## `[[gaps]]`"),
+    "radial-gap": (lambda: vi.model.RadialGap(dof=[0, 1], law=contact.Hertz(stiffness=1e9)),
+                   "gaps[]", "## `[[gaps]]`"),
+    "load.constant": (lambda: vi.ConstantLoad(dof=0, amplitude=1.0), "loads[]",
+                      "## `[[loads]]`"),
+    "load.harmonic": (lambda: vi.HarmonicLoad(dof=0, amplitude=1.0, frequency=2.0), "loads[]",
+                      "## `[[loads]]`"),
+    "load.table": (lambda: vi.TableLoad(dof=0, time=[0.0, 1.0], force=[0.0, 1.0]), "loads[]",
+                   "## `[[loads]]`"),
+    "load.unbalance": (lambda: vi.UnbalanceLoad(dof=[0, 1], magnitude=1e-3), "loads[]",
+                       "## `[[loads]]`"),
+}
+
+
+def _model_part_defaults(part: str) -> None:
+    """The defaults and choices of the fields of a part of the model (its structure's spin, a
+    gap, a radial gap, each kind of load) in the Python class (field, signature, repr), the
+    model-file schema and docs/model-file.md are the core's (``_core.model_catalog()``)."""
+    build, table, title = _MODEL_PARTS[part]
+    instance = build()
+    cls = type(instance)
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    signature = inspect.signature(cls).parameters
+    schema = {f.path: f for f in model_file.SCHEMA}
+    docs = _section((DOCS / "model-file.md").read_text(encoding="utf-8"), title)
+    for name, f in vi.model.MODEL_CATALOG[part].items():
+        core = f["default"]
+        entry = schema[f"{table}.{name}"]
+        assert list(entry.choices) == f["choices"], (part, name)
+        if core is None:  # required (or with the settings that use it): no value of its own
+            assert entry.default in (model_file.REQUIRED, None), (part, name)
+            assert signature[name].default in (inspect.Parameter.empty, None), (part, name)
+            continue
+        shown = tuple(core) if isinstance(core, list) else core
+        assert getattr(instance, name) == shown, (part, name)
+        assert f"{name}={shown!r}" in repr(instance), (part, name)
+        assert signature[name].default == shown, (part, name)
+        if cls is not vi.Structure:  # its fields are set by its __init__
+            assert fields[name].default == shown, (part, name)
+        assert entry.default == core and type(entry.default) is type(core), (part, name)
+        row = next(line for line in docs.splitlines() if line.startswith(f"| `{name}` |"))
+        assert row.split("|")[4].strip() == f"`{model_file._toml(core)}`", (part, name)
+    if part == "structure":  # a beam rotor's speed too
+        beam = {f.name: f for f in dataclasses.fields(vi.fe.beam.Beam)}
+        assert beam["spin_speed"].default == vi.model.model_default(part, "spin_speed")
 
 
 @pytest.mark.parametrize(("group", "name"), _cases())
 def test_every_default_python_shows_is_the_cores(group: str, name: str) -> None:
     """Dataclass field, signature and repr, the model-file schema and its reference, and the
-    docs page of every method, of Newton and adaptive stepping and of every law."""
+    docs page of every method, of Newton and adaptive stepping, of every law and of every part
+    of the model."""
+    if group == "model":
+        _model_part_defaults(name)
+        return
     integrators_page = (DOCS / "integrators.md").read_text(encoding="utf-8")
     reference = model_file.render_reference()
     if group == "law":
@@ -260,3 +317,87 @@ def test_the_docs_and_reference_are_generated_from_the_catalog() -> None:
     assert page == generated_docs.integrators_page()
     assert re.search(r"^\| `dop853` \| .*`adaptive` \(true\), `rtol` \(1e-08\)",
                      model_file.render_reference(), re.M)
+
+
+def _refused_model_fields() -> list[tuple[str, str, Any, Any]]:
+    """(part, field, refused value, a build with it) for each checked field of the model."""
+    hertz = contact.Hertz(stiffness=1e9)
+
+    def radial(**kw: Any) -> Any:
+        return lambda: vi.model.RadialGap(dof=[0, 1], law=hertz, **kw)
+
+    return [
+        ("gap", "clearance", -1e-3, lambda: vi.Gap(dof=0, law=hertz, clearance=-1e-3)),
+        ("gap", "side", "left", lambda: vi.Gap(dof=0, law=hertz, side="left")),
+        ("radial-gap", "clearance", -1.0, radial(clearance=-1.0)),
+        ("radial-gap", "friction", -0.1, radial(friction=-0.1)),
+        ("radial-gap", "radius", 0.0, radial(friction=0.1, radius=0.0)),
+        ("radial-gap", "friction_law", "viscous", radial(friction_law="viscous")),
+        ("radial-gap", "regularisation_speed", -2.0,
+         radial(friction_law="regularised", regularisation_speed=-2.0)),
+        ("radial-gap", "center", float("nan"), radial(center=[0.0, float("nan")])),
+        ("load.harmonic", "frequency", -2.0,
+         lambda: vi.HarmonicLoad(dof=0, amplitude=1.0, frequency=-2.0)),
+        ("load.harmonic", "phase", float("inf"),
+         lambda: vi.HarmonicLoad(dof=0, amplitude=1.0, frequency=2.0, phase=float("inf"))),
+        ("load.constant", "amplitude", float("nan"),
+         lambda: vi.ConstantLoad(dof=0, amplitude=float("nan"))),
+        ("load.unbalance", "magnitude", -1.0, lambda: vi.UnbalanceLoad(dof=[0, 1], magnitude=-1.0)),
+        ("load.table", "scale", float("inf"),
+         lambda: vi.TableLoad(dof=0, time=[0.0, 1.0], force=[0.0, 1.0], scale=float("inf"))),
+        ("structure", "spin_speed", float("nan"),
+         lambda: vi.Structure([[1.0]], spin_speed=float("nan"))),
+        ("structure", "spin_profile", "cubic", lambda: vi.Structure([[1.0]], spin_profile="cubic")),
+        ("structure", "run_up_time", 0.0,
+         lambda: vi.Structure([[1.0]]).run_up(spin_speed_end=1.0, run_up_time=0.0)),
+    ]
+
+
+@pytest.mark.parametrize(("part", "name", "value", "build"), _refused_model_fields(),
+                         ids=lambda v: v if isinstance(v, str) else None)
+def test_the_core_checks_the_models_fields_and_python_words_them(
+        part: str, name: str, value: Any, build: Any) -> None:
+    """The core refuses the value (``_core.model_field_accepts``, the check its own types run);
+    the Python class refuses it in one line naming the field, the value and the core's
+    ``expected``."""
+    assert not _core.model_field_accepts(part, name, value)
+    expected = vi.model.MODEL_CATALOG[part][name]["expected"]
+    field = "structure" if part == "structure" else part.split("-")[-1].split(".")[0]
+    with pytest.raises(ModelError, match=re.escape(f"{field}.{name}: {value!r} is not valid; "
+                                                   f"expected {expected}")):
+        build()
+
+
+def test_a_spec_takes_the_cores_defaults_and_checks() -> None:
+    """A model spec read by the core (``convert.rs``): a field left out takes the catalog's
+    default (the run equals the one with the default written), a bad one is refused naming
+    the gap or load and the catalog's ``expected``."""
+    model = vi.Model(vi.Structure.sdof(1.0, 1e4), gaps=[vi.Gap(
+        dof=0, clearance=1e-3, law=contact.Hertz(stiffness=1e9))], loads=[
+        vi.HarmonicLoad(dof=0, amplitude=5.0, frequency=20.0)], initial_velocity=0.3)
+    spec = model.to_spec()
+    short = dict(spec, gaps=[{k: v for k, v in g.items() if k != "side"} for g in spec["gaps"]],
+                 loads=[{k: v for k, v in ld.items() if k != "phase"} for ld in spec["loads"]])
+    for key in ("spin_speed", "spin_profile", "spin_speed_end", "run_up_time"):
+        short.pop(key)
+
+    def run(model_spec: dict[str, Any]) -> Any:
+        job = dict(model_spec, **vi.Newmark()._run_spec(), t_end=0.05, dt=1e-5, every=100,
+                   record_dofs=[0])
+        return _run_core(job, on_rows=None, chunk_rows=None, progress=None)[0]
+
+    full, defaulted = run(spec), run(short)
+    assert full["impacts"]["t_start"].size > 0  # the stop is hit: its side matters
+    for key in ("time", "displacement", "velocity"):
+        np.testing.assert_array_equal(defaulted[key], full[key])
+    bad = dict(spec, gaps=[dict(spec["gaps"][0], clearance=-1.0)])
+    with pytest.raises(ModelError, match=re.escape(
+            "gaps[0].clearance: -1 is not valid; expected a clearance >= 0 in m")):
+        _core.compile_system(bad)
+    bad = dict(spec, loads=[dict(spec["loads"][0], frequency=-3.0)])
+    with pytest.raises(ModelError, match=re.escape(
+            "loads[0].frequency: -3 is not valid; expected a frequency >= 0 in Hz")):
+        _core.compile_system(bad)
+    with pytest.raises(ModelError, match=re.escape("structure.spin_profile: 'cubic' is not "
+                                                   "valid; expected constant or linear")):
+        _core.compile_system(dict(spec, spin_profile="cubic"))

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Literal, TypeAlias
 
 import numpy as np
@@ -39,6 +39,7 @@ __all__ = [
     "Structure",
     "TableLoad",
     "UnbalanceLoad",
+    "model_default",
     "spd_solver",
     "spec_load_frequency",
 ]
@@ -50,8 +51,36 @@ Side = Literal["positive", "negative", "both"]
 #: mass-normalised mode, ``φᵀMφ = 1``: a Craig–Bampton interior mode).
 DOF_UNITS: tuple[str, ...] = ("m", "rad", "kg^0.5 m")
 
+#: The core's catalog of the model's fields besides its matrices and laws
+#: (``_core.model_catalog()``): by part (``structure``, ``gap``, ``radial-gap``,
+#: ``load.<kind>``), each field's ``default`` (``None``: none), ``unit``, ``expected`` (what a
+#: valid value is) and ``choices`` (the words a word field takes). The classes below take their
+#: defaults from it and ask the core to check those fields; they only word the messages.
+MODEL_CATALOG: dict[str, dict[str, dict[str, Any]]] = _core.model_catalog()
+
+
+def model_default(part: str, name: str) -> Any:
+    """The core's default of field ``name`` of ``part`` (:data:`MODEL_CATALOG`; a list as a
+    tuple; ``None``: none, it must be given)."""
+    default = MODEL_CATALOG[part][name]["default"]
+    return tuple(default) if isinstance(default, list) else default
+
+
+def _core_checked(part: str, name: str, value: Any, field_name: str) -> Any:
+    """``value`` (a number as a ``float``) if the core accepts it for field ``name`` of ``part``
+    (a number: finite and in range; a word: one of its choices), else the one-line
+    :class:`ModelError` naming ``field_name``."""
+    f = MODEL_CATALOG[part][name]
+    number = not f["choices"]
+    typed = (isinstance(value, (int, float, np.floating, np.integer))
+             and not isinstance(value, bool)) if number else isinstance(value, str)
+    require(typed and _core.model_field_accepts(part, name, value), field_name, value,
+            f["expected"])
+    return float(value) if number else value
+
+
 #: ``structure.spin_profile``: a constant spin speed, or a linear run-up (or run-down).
-SPIN_PROFILES = ("constant", "linear")
+SPIN_PROFILES: tuple[str, ...] = tuple(MODEL_CATALOG["structure"]["spin_profile"]["choices"])
 
 #: The spin profile's fields of a structure and of a model spec.
 SPIN_KEYS = ("spin_profile", "spin_speed_end", "run_up_time")
@@ -191,8 +220,8 @@ class Structure:
         dof_units: Sequence[str] | None = None,
         *,
         gyroscopic: ArrayLike | sp.sparray | sp.spmatrix | None = None,
-        spin_speed: float = 0.0,
-        spin_profile: str = "constant",
+        spin_speed: float = model_default("structure", "spin_speed"),
+        spin_profile: str = model_default("structure", "spin_profile"),
         spin_speed_end: float | None = None,
         run_up_time: float | None = None,
     ) -> None:
@@ -222,23 +251,19 @@ class Structure:
         object.__setattr__(self, "damping", c)
         object.__setattr__(self, "dof_units", check_dof_units(dof_units, n))
         object.__setattr__(self, "gyroscopic", g)
-        object.__setattr__(self, "spin_speed", _finite_number(
-            spin_speed, "structure.spin_speed", "a spin speed in rad/s"))
-        require(spin_profile in SPIN_PROFILES, "structure.spin_profile", spin_profile,
-                " or ".join(SPIN_PROFILES))
-        object.__setattr__(self, "spin_profile", spin_profile)
-        for name, value, expected in (
-                ("spin_speed_end", spin_speed_end, "a spin speed in rad/s"),
-                ("run_up_time", run_up_time, "a duration > 0 in s")):
+        object.__setattr__(self, "spin_speed", _core_checked(
+            "structure", "spin_speed", spin_speed, "structure.spin_speed"))
+        object.__setattr__(self, "spin_profile", _core_checked(
+            "structure", "spin_profile", spin_profile, "structure.spin_profile"))
+        for name, value in (("spin_speed_end", spin_speed_end), ("run_up_time", run_up_time)):
             if spin_profile == "constant":
                 require(value is None, f"structure.{name}", value,
                         "no value with spin_profile = 'constant' (a run-up: 'linear')")
             else:
+                expected = MODEL_CATALOG["structure"][name]["expected"]
                 require(value is not None, f"structure.{name}", value,
                         f"{expected} with spin_profile = 'linear'")
-                value = _finite_number(value, f"structure.{name}", expected)
-                require(name != "run_up_time" or value > 0, f"structure.{name}", value,
-                        expected)
+                value = _core_checked("structure", name, value, f"structure.{name}")
             object.__setattr__(self, name, value)
 
     @classmethod
@@ -375,8 +400,8 @@ class Gap:
 
     dof: int | Sequence[int]
     law: ContactLaw
-    clearance: float = 0.0
-    side: Side = "positive"
+    clearance: float = model_default("gap", "clearance")
+    side: Side = model_default("gap", "side")
     coefficients: Sequence[float] | None = None
     name: str | None = None
 
@@ -393,14 +418,8 @@ class Gap:
             f"{len(dofs)} finite numbers, not all zero (one per DOF)",
         )
         object.__setattr__(self, "coefficients", tuple(float(c) for c in coeffs))
-        c = _finite_number(self.clearance, "gap.clearance", "a clearance >= 0 in m")
-        require(c >= 0, "gap.clearance", self.clearance, "a clearance >= 0 in m")
-        require(
-            self.side in ("positive", "negative", "both"),
-            "gap.side",
-            self.side,
-            "positive, negative or both",
-        )
+        _core_checked("gap", "clearance", self.clearance, "gap.clearance")
+        _core_checked("gap", "side", self.side, "gap.side")
         require(isinstance(self.law, ContactLaw), "gap.law", self.law, "a vibroimpact.contact law")
 
     @property
@@ -433,11 +452,11 @@ class RadialGap(Gap):
 
     dof: int | Sequence[int] = ()
     law: ContactLaw = None  # type: ignore[assignment]
-    center: Sequence[float] = (0.0, 0.0)
-    friction: float = 0.0
-    radius: float | None = None
-    friction_law: FrictionLaw = "coulomb"
-    regularisation_speed: float | None = None
+    center: Sequence[float] = model_default("radial-gap", "center")
+    friction: float = model_default("radial-gap", "friction")
+    radius: float | None = model_default("radial-gap", "radius")
+    friction_law: FrictionLaw = model_default("radial-gap", "friction_law")
+    regularisation_speed: float | None = model_default("radial-gap", "regularisation_speed")
     side: Side = "radial"  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
@@ -448,32 +467,28 @@ class RadialGap(Gap):
         object.__setattr__(self, "dof", dofs)
         # the x direction's coefficients: what the contact time-scale estimates use
         object.__setattr__(self, "coefficients", (1.0, 0.0))
-        c = _finite_number(self.clearance, "gap.clearance", "a clearance >= 0 in m")
-        require(c >= 0, "gap.clearance", self.clearance, "a clearance >= 0 in m")
+        _core_checked("radial-gap", "clearance", self.clearance, "gap.clearance")
         require(self.side == "radial", "gap.side", self.side, "radial (a RadialGap's only side)")
         require(isinstance(self.law, ContactLaw) and not self.law.impulsive, "gap.law", self.law,
                 "a vibroimpact.contact force law (not rigid)")
         center = list(self.center) if isinstance(self.center, (list, tuple, np.ndarray)) else []
-        require(len(center) == 2, "gap.center", self.center, "two numbers [x_s, y_s] in m")
+        expected = MODEL_CATALOG["radial-gap"]["center"]["expected"]
+        require(len(center) == 2, "gap.center", self.center, expected)
         object.__setattr__(self, "center", tuple(
-            _finite_number(v, "gap.center", "two finite numbers [x_s, y_s] in m") for v in center))
-        mu = _finite_number(self.friction, "gap.friction", "a Coulomb coefficient >= 0")
-        require(mu >= 0, "gap.friction", self.friction, "a Coulomb coefficient >= 0")
+            _core_checked("radial-gap", "center", v, "gap.center") for v in center))
+        mu = _core_checked("radial-gap", "friction", self.friction, "gap.friction")
         if mu > 0:
             require(self.radius is not None, "gap.radius", self.radius,
-                    "the rotor's radius at the contact (> 0, m) when friction > 0")
+                    MODEL_CATALOG["radial-gap"]["radius"]["expected"])
         if self.radius is not None:
-            r = _finite_number(self.radius, "gap.radius", "a radius > 0 in m")
-            require(r > 0, "gap.radius", self.radius, "a radius > 0 in m")
-        require(self.friction_law in ("coulomb", "regularised"), "gap.friction_law",
-                self.friction_law, "coulomb or regularised")
+            _core_checked("radial-gap", "radius", self.radius, "gap.radius")
+        _core_checked("radial-gap", "friction_law", self.friction_law, "gap.friction_law")
         if self.friction_law == "regularised":
+            expected = MODEL_CATALOG["radial-gap"]["regularisation_speed"]["expected"]
             require(self.regularisation_speed is not None, "gap.regularisation_speed", None,
-                    "a speed > 0 in m/s with friction_law = 'regularised'")
-            v = _finite_number(self.regularisation_speed, "gap.regularisation_speed",
-                               "a speed > 0 in m/s")
-            require(v > 0, "gap.regularisation_speed", self.regularisation_speed,
-                    "a speed > 0 in m/s")
+                    f"{expected} with friction_law = 'regularised'")
+            _core_checked("radial-gap", "regularisation_speed", self.regularisation_speed,
+                          "gap.regularisation_speed")
         elif self.regularisation_speed is not None:
             require(False, "gap.regularisation_speed", self.regularisation_speed,
                     "no value with friction_law = 'coulomb' (or friction_law = 'regularised')")
@@ -534,11 +549,11 @@ class Load:
 class ConstantLoad(Load):
     """``F = amplitude`` (N)."""
 
-    amplitude: float = 0.0
+    amplitude: float
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        _finite_number(self.amplitude, "load.amplitude", "a force in N")
+        _core_checked("load.constant", "amplitude", self.amplitude, "load.amplitude")
 
     @property
     def peak(self) -> float:
@@ -557,16 +572,14 @@ class ConstantLoad(Load):
 class HarmonicLoad(Load):
     """``F = amplitude · sin(2π · frequency · t + phase)``: N, Hz, rad."""
 
-    amplitude: float = 0.0
-    frequency: float = 0.0
-    phase: float = 0.0
+    amplitude: float
+    frequency: float
+    phase: float = model_default("load.harmonic", "phase")
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        _finite_number(self.amplitude, "load.amplitude", "a force in N")
-        f = _finite_number(self.frequency, "load.frequency", "a frequency >= 0 in Hz")
-        require(f >= 0, "load.frequency", self.frequency, "a frequency >= 0 in Hz")
-        _finite_number(self.phase, "load.phase", "an angle in rad")
+        for name in ("amplitude", "frequency", "phase"):
+            _core_checked("load.harmonic", name, getattr(self, name), f"load.{name}")
 
     @property
     def peak(self) -> float:
@@ -599,16 +612,15 @@ class UnbalanceLoad:
 
     dof: Sequence[int]
     magnitude: float
-    phase: float = 0.0
+    phase: float = model_default("load.unbalance", "phase")
 
     def __post_init__(self) -> None:
         dofs = _dofs(self.dof, "load.dof")
         require(len(dofs) == 2 and dofs[0] != dofs[1], "load.dof", self.dof,
                 "two distinct DOFs [ix, iy] (x and y of one node)")
         object.__setattr__(self, "dof", dofs)
-        m = _finite_number(self.magnitude, "load.magnitude", "an unbalance m·e >= 0 in kg·m")
-        require(m >= 0, "load.magnitude", self.magnitude, "an unbalance m·e >= 0 in kg·m")
-        _finite_number(self.phase, "load.phase", "an angle in rad")
+        for name in ("magnitude", "phase"):
+            _core_checked("load.unbalance", name, getattr(self, name), f"load.{name}")
 
     @property
     def dofs(self) -> tuple[int, ...]:
@@ -637,9 +649,9 @@ class TableLoad(Load):
     """Tabulated force ``scale · F(t)``: ``time`` (s, increasing) and ``force`` (N), linearly
     interpolated and held at the end values outside the table."""
 
-    time: Sequence[float] = field(default_factory=tuple)
-    force: Sequence[float] = field(default_factory=tuple)
-    scale: float = 1.0
+    time: Sequence[float]
+    force: Sequence[float]
+    scale: float = model_default("load.table", "scale")
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -658,7 +670,7 @@ class TableLoad(Load):
             "strictly increasing times in s",
         )
         require(bool(np.all(np.isfinite(f))), "load.table.force", "NaN", "finite forces in N")
-        scale = _finite_number(self.scale, "load.scale", "a finite factor")
+        scale = _core_checked("load.table", "scale", self.scale, "load.scale")
         with np.errstate(over="ignore"):
             peak = scale * np.abs(f).max()
         if not math.isfinite(peak):
@@ -699,8 +711,11 @@ def spec_load_frequency(spec: dict[str, Any], i: int) -> float:
     ld = spec["loads"][i]
     if ld["kind"] == "harmonic":
         return float(ld["frequency"])
-    if ld["kind"] == "unbalance" and spec.get("spin_profile", "constant") == "constant":
-        return abs(float(spec.get("spin_speed", 0.0))) / (2 * math.pi)
+    profile = spec.get("spin_profile") or model_default("structure", "spin_profile")
+    if ld["kind"] == "unbalance" and profile == "constant":
+        speed = spec.get("spin_speed")
+        return abs(float(model_default("structure", "spin_speed") if speed is None
+                         else speed)) / (2 * math.pi)
     return 0.0
 
 
@@ -877,8 +892,8 @@ class Model:
         parameter path set in a spec (:func:`vibroimpact.sweeps.apply`) is as a model."""
         structure = Structure(spec["mass"], spec["stiffness"], spec["damping"],
                               dof_units=dof_units, gyroscopic=spec.get("gyroscopic"),
-                              spin_speed=spec.get("spin_speed", 0.0),
-                              **{k: spec[k] for k in SPIN_KEYS if spec.get(k) is not None})
+                              **{k: spec[k] for k in ("spin_speed", *SPIN_KEYS)
+                                 if spec.get(k) is not None})
         gaps = []
         for i, g in enumerate(spec["gaps"]):
             kind = g["law"]["kind"]

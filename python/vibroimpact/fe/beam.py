@@ -65,7 +65,7 @@ from vibroimpact.contact import ContactLaw
 from vibroimpact.errors import ModelError
 from vibroimpact.fe.damping import Damping, damping_from_table
 from vibroimpact.fe.dofs import DIRECTIONS, DofMap, FEStructure, direction_name
-from vibroimpact.model import Gap, Load, Model, Structure
+from vibroimpact.model import Gap, Load, Model, Structure, model_default
 
 __all__ = [
     "Beam",
@@ -560,7 +560,7 @@ class Beam:
     damping: Damping | None = None
     discs: Sequence[Disc] = ()
     bearings: Sequence[Bearing] = ()
-    spin_speed: float = 0.0
+    spin_speed: float = model_default("structure", "spin_speed")
     fe: FEStructure = field(init=False, repr=False, compare=False)
     free_dofs: NDArray[np.int64] = field(init=False, repr=False, compare=False)
 
@@ -1081,5 +1081,5 @@ def beam_from_table(s: Mapping[str, Any]) -> Beam:
         damping=damping,
         discs=discs,
         bearings=bearings,
-        spin_speed=s.get("spin_speed", 0.0),
+        spin_speed=s.get("spin_speed", model_default("structure", "spin_speed")),
     )

@@ -43,6 +43,7 @@ from vibroimpact.fe.dofs import DofMap, FEStructure
 from vibroimpact.fe.matrices import FORMATS, SUFFIXES, read_dof_map, read_matrix_files
 from vibroimpact.integrators import Integrator, method_from_options
 from vibroimpact.model import (
+    MODEL_CATALOG,
     ConstantLoad,
     Gap,
     HarmonicLoad,
@@ -52,6 +53,7 @@ from vibroimpact.model import (
     Structure,
     TableLoad,
     UnbalanceLoad,
+    model_default,
 )
 from vibroimpact.simulate import check_run, contact_periods
 
@@ -297,6 +299,11 @@ _DIRECTIONS = ("x", "y", "z", "rx", "ry", "rz")
 
 #: Every accepted key of a model file, in the order of the reference.
 # fmt: off
+def _choices(part: str, name: str) -> tuple[str, ...]:
+    """The words the core's field ``name`` of ``part`` takes (:data:`MODEL_CATALOG`)."""
+    return tuple(MODEL_CATALOG[part][name]["choices"])
+
+
 SCHEMA: tuple[Field, ...] = (
     Field("schema_version", "integer", "version of this file format", default=SCHEMA_VERSION,
           choices=(SCHEMA_VERSION,)),
@@ -320,11 +327,13 @@ SCHEMA: tuple[Field, ...] = (
     Field("structure.damping", "number-or-list", "damping to ground in each direction (one "
           "number, or [x, y])", unit="N·s/m", default=0.0, minimum=0, when=_JEFFCOTT),
     Field("structure.spin_speed", "number", "spin speed Ω of a rotor (its gyroscopic forces "
-          "Ω G x' and unbalance loads turn with it)", unit="rad/s", default=0.0,
+          "Ω G x' and unbalance loads turn with it)", unit="rad/s",
+          default=model_default("structure", "spin_speed"),
           when=_SPINNING),
     Field("structure.spin_profile", "string", "the spin speed over time: constant, or a "
           "linear run-up (or run-down) from spin_speed to spin_speed_end over run_up_time, "
-          "then held (docs/rotors.md)", default="constant", choices=("constant", "linear"),
+          "then held (docs/rotors.md)", default=model_default("structure", "spin_profile"),
+          choices=_choices("structure", "spin_profile"),
           when=_SPINNING),
     Field("structure.spin_speed_end", "number", "the speed a run-up ends at", unit="rad/s",
           default=None, when=_RUN_UP, required_when=_RUN_UP),
@@ -502,21 +511,25 @@ SCHEMA: tuple[Field, ...] = (
     Field("gaps[].coefficients", "numbers", "weights of the DOFs in u ([1, -1]: x[i] - x[j])",
           default_text="1 per DOF", rule="one per dof, not all zero", when=("kind", ("linear",))),
     Field("gaps[].clearance", "number", "distance to the wall(s) (radial: the radial clearance c, "
-          "δ = |(x − x_s, y − y_s)| − c)", unit="m", default=0.0, minimum=0),
+          "δ = |(x − x_s, y − y_s)| − c)", unit="m", default=model_default("gap", "clearance"),
+          minimum=0),
     Field("gaps[].side", "string", "wall at u = +clearance, at u = -clearance, or both",
-          default="positive", choices=("positive", "negative", "both"),
+          default=model_default("gap", "side"), choices=_choices("gap", "side"),
           when=("kind", ("linear",))),
-    Field("gaps[].center", "numbers", "stator centre [x_s, y_s]", unit="m", default=[0.0, 0.0],
+    Field("gaps[].center", "numbers", "stator centre [x_s, y_s]", unit="m",
+          default=list(model_default("radial-gap", "center")),
           rule="two", when=("kind", ("radial",))),
     Field("gaps[].friction", "number", "Coulomb coefficient μ of the rub (F_T = μ F_N against "
-          "the sliding speed v_rel = R Ω + ρ θ')", default=0.0, minimum=0,
+          "the sliding speed v_rel = R Ω + ρ θ')", default=model_default("radial-gap", "friction"),
+          minimum=0,
           when=("kind", ("radial",))),
     Field("gaps[].radius", "number", "the rotor's radius R at the contact", unit="m", minimum=0,
           minimum_inclusive=False, rule="required when friction > 0", when=("kind", ("radial",))),
     Field("gaps[].friction_law", "string", "coulomb: F_T = μ F_N sign(v_rel), the run stops "
           "where v_rel crosses 0 in contact (sticking is not modelled); regularised: "
-          "F_T = μ F_N tanh(v_rel / regularisation_speed)", default="coulomb",
-          choices=("coulomb", "regularised"), when=("kind", ("radial",))),
+          "F_T = μ F_N tanh(v_rel / regularisation_speed)",
+          default=model_default("radial-gap", "friction_law"),
+          choices=_choices("radial-gap", "friction_law"), when=("kind", ("radial",))),
     Field("gaps[].regularisation_speed", "number", "the speed v_reg of the regularised friction",
           unit="m/s", minimum=0, minimum_inclusive=False,
           rule="required for friction_law = \"regularised\"", when=("kind", ("radial",))),
@@ -535,7 +548,8 @@ SCHEMA: tuple[Field, ...] = (
           when=("kind", _kinds_with("exponent"))),
     Field("gaps[].law.compliance", "number", "a linear spring in series with the law (a "
           "flexible stop; set by the condensation on a node with a massless part)",
-          unit="m/N", minimum=0, default=0.0, when=("kind", _kinds_with("compliance"))),
+          unit="m/N", minimum=0, default=contact.catalog_default("hertz", "compliance"),
+          when=("kind", _kinds_with("compliance"))),
     Field("gaps[].law.restitution", "number", "coefficient of restitution ce", minimum=0,
           minimum_inclusive=False, maximum=1, when=("kind", _kinds_with("restitution")),
           required_when=("kind", _RESTITUTION_LAWS)),
@@ -592,7 +606,8 @@ SCHEMA: tuple[Field, ...] = (
     Field("loads[].kind", "string", "constant F = amplitude; harmonic F = amplitude·sin(2π·"
           "frequency·t + phase); table F = scale·F(t) from a CSV file; unbalance F = magnitude·"
           "Ω²·(cos(Ωt + phase), sin(Ωt + phase)) on [x, y] at structure.spin_speed Ω",
-          default=REQUIRED, choices=("constant", "harmonic", "table", "unbalance")),
+          default=REQUIRED, choices=tuple(
+              part.split(".", 1)[1] for part in MODEL_CATALOG if part.startswith("load."))),
     Field("loads[].dof", "dofs", "DOF(s) the force acts on (the same force on each)",
           required_when=_WITHOUT_NODES, rule="0 <= dof < number of DOFs; beam, matrices: or nodes"),
     Field("loads[].nodes", "nodes", "the nodes the force acts on (the same force on each; "
@@ -604,7 +619,8 @@ SCHEMA: tuple[Field, ...] = (
           when=("kind", ("constant", "harmonic"))),
     Field("loads[].frequency", "number", "frequency f", unit="Hz", default=REQUIRED, minimum=0,
           when=("kind", ("harmonic",))),
-    Field("loads[].phase", "number", "phase φ", unit="rad", default=0.0,
+    Field("loads[].phase", "number", "phase φ", unit="rad",
+          default=model_default("load.harmonic", "phase"),
           when=("kind", ("harmonic", "unbalance"))),
     Field("loads[].magnitude", "number", "unbalance m·e (mass times eccentricity)", unit="kg·m",
           default=REQUIRED, minimum=0, when=("kind", ("unbalance",))),
@@ -614,7 +630,8 @@ SCHEMA: tuple[Field, ...] = (
     Field("loads[].file", "csv", "CSV: time [s], force [N] per line (optional header line); "
           "path relative to the model file", default=REQUIRED,
           rule="times strictly increasing, at least 2 rows", when=("kind", ("table",))),
-    Field("loads[].scale", "number", "factor applied to the tabulated force", default=1.0,
+    Field("loads[].scale", "number", "factor applied to the tabulated force",
+          default=model_default("load.table", "scale"),
           when=("kind", ("table",))),
     # [solver]
     Field("solver.method", "string", "integrator (see Solver methods below); its options go "

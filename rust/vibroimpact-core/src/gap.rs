@@ -4,6 +4,7 @@
 use crate::contact::{ContactLaw, Law, MIN_IMPACT_SPEED};
 use crate::error::{invalid, SimError};
 use crate::interpolation::{parabola_peak, HermiteSegment};
+use crate::model_catalog;
 use crate::system::System;
 
 /// Which wall(s) the gap coordinate can hit.
@@ -130,12 +131,7 @@ impl Gap {
                 self.coefficients
             ));
         }
-        if !(self.clearance.is_finite() && self.clearance >= 0.0) {
-            return invalid(format!(
-                "{field}.clearance: {} is not valid; expected a value >= 0 in m",
-                self.clearance
-            ));
-        }
+        model_catalog::CLEARANCE.check(&field, self.clearance)?;
         if let Side::Radial(r) = self.side {
             r.validate(&field, self)?;
         }
@@ -162,32 +158,23 @@ impl Radial {
                 "{field}.law.kind: 'rigid' is not available on a radial gap; expected a force law"
             ));
         }
-        if self.center.iter().any(|c| !c.is_finite()) {
+        if !self
+            .center
+            .iter()
+            .all(|&c| model_catalog::CENTER.accepts(c))
+        {
             return invalid(format!(
-                "{field}.center: {:?} is not valid; expected two finite values in m",
-                self.center
+                "{field}.center: {:?} is not valid; expected {}",
+                self.center,
+                model_catalog::CENTER.expected
             ));
         }
-        if !(self.friction.is_finite() && self.friction >= 0.0) {
-            return invalid(format!(
-                "{field}.friction: {} is not valid; expected a Coulomb coefficient >= 0",
-                self.friction
-            ));
-        }
-        if self.friction > 0.0 && !(self.radius.is_finite() && self.radius > 0.0) {
-            return invalid(format!(
-                "{field}.radius: {} is not valid; expected the rotor's radius at the contact \
-                 (> 0, m) when friction > 0",
-                self.radius
-            ));
+        model_catalog::FRICTION.check(field, self.friction)?;
+        if self.friction > 0.0 {
+            model_catalog::RADIUS.check(field, self.radius)?;
         }
         if let FrictionLaw::Regularised { speed } = self.friction_law {
-            if !(speed.is_finite() && speed > 0.0) {
-                return invalid(format!(
-                    "{field}.regularisation_speed: {speed} is not valid; expected a speed > 0 \
-                     in m/s"
-                ));
-            }
+            model_catalog::REGULARISATION_SPEED.check(field, speed)?;
         }
         Ok(())
     }

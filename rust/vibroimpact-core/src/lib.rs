@@ -18,6 +18,7 @@ pub mod interrupt;
 pub mod linalg;
 pub mod method;
 pub mod method_catalog;
+pub mod model_catalog;
 pub mod observe;
 pub mod output;
 pub mod sensitivity;

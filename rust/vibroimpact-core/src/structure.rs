@@ -7,6 +7,7 @@ use nalgebra::DMatrix;
 use crate::error::{invalid, SimError};
 use crate::factor::SpdFactor;
 use crate::linalg::Csr;
+use crate::model_catalog;
 
 /// Largest structure (DOFs) that the dense-only methods (precise integration, Bathe, the
 /// impulsive methods, Newmark's dense predictor) take: their `n × n` matrices would need
@@ -142,11 +143,7 @@ impl LinearStructure {
     /// `gyroscopic` G (skew-symmetric, `max |G + Gᵀ| ≤ 1e-9 max |G|`): `damping` becomes
     /// `C + Ω G`. Without `G` only the speed is kept (for the loads and gaps that read it).
     pub fn spinning(mut self, gyroscopic: Option<Csr>, spin_speed: f64) -> Result<Self, SimError> {
-        if !spin_speed.is_finite() {
-            return invalid(format!(
-                "structure.spin_speed: {spin_speed} is not finite; expected a speed in rad/s"
-            ));
-        }
+        model_catalog::SPIN_SPEED.check("structure", spin_speed)?;
         self.spin = SpinProfile::constant(spin_speed);
         let Some(g) = gyroscopic else {
             return Ok(self);
@@ -190,16 +187,8 @@ impl LinearStructure {
     /// The structure run up (or down) linearly from its spin speed to `end` (rad/s) over
     /// `duration` (s), constant after: `Ω(t) = Ω₀ + (end − Ω₀) t / duration`.
     pub fn run_up(mut self, end: f64, duration: f64) -> Result<Self, SimError> {
-        if !end.is_finite() {
-            return invalid(format!(
-                "structure.spin_speed_end: {end} is not finite; expected a speed in rad/s"
-            ));
-        }
-        if !(duration.is_finite() && duration > 0.0) {
-            return invalid(format!(
-                "structure.run_up_time: {duration} is not valid; expected a duration > 0 in s"
-            ));
-        }
+        model_catalog::SPIN_SPEED_END.check("structure", end)?;
+        model_catalog::RUN_UP_TIME.check("structure", duration)?;
         self.spin = SpinProfile {
             start: self.spin.start,
             end,
@@ -373,25 +362,16 @@ impl Load {
                 "{field}.dof: {d} is out of range; expected 0 <= dof < {n_dof}"
             ));
         }
-        if !self.amplitude.is_finite() {
-            return invalid(format!(
-                "{field}.amplitude: {} is not finite; expected a force in N",
-                self.amplitude
-            ));
-        }
+        // a table's amplitude is its scale; an unbalance's, its m e (checked when built)
+        match &self.history {
+            LoadHistory::Table { .. } => model_catalog::SCALE.check(&field, self.amplitude)?,
+            _ => model_catalog::AMPLITUDE.check(&field, self.amplitude)?,
+        };
         match &self.history {
             LoadHistory::Constant => {}
             LoadHistory::Harmonic { frequency, phase } => {
-                if !(frequency.is_finite() && *frequency >= 0.0) {
-                    return invalid(format!(
-                        "{field}.frequency: {frequency} is not valid; expected a value >= 0 in Hz"
-                    ));
-                }
-                if !phase.is_finite() {
-                    return invalid(format!(
-                        "{field}.phase: {phase} is not finite; expected an angle in rad"
-                    ));
-                }
+                model_catalog::FREQUENCY.check(&field, *frequency)?;
+                model_catalog::PHASE.check(&field, *phase)?;
             }
             LoadHistory::Table { time, value } => {
                 if time.len() < 2 || time.len() != value.len() {
@@ -415,11 +395,7 @@ impl Load {
                 }
             }
             LoadHistory::Unbalance { phase, .. } => {
-                if !phase.is_finite() {
-                    return invalid(format!(
-                        "{field}.phase: {phase} is not finite; expected an angle in rad"
-                    ));
-                }
+                model_catalog::PHASE.check(&field, *phase)?;
             }
         }
         Ok(())

@@ -1,6 +1,8 @@
 //! Spec dict → core types: the model's arrays and lists, and the run's method as the typed
-//! `MethodSpec` (crate::method). The Python side has validated the model already; these checks
-//! repeat the essentials so that the core is never handed something malformed.
+//! `MethodSpec` (crate::method). The fields of the structure's spin, the gaps and the loads are
+//! read by their keys in the core's model catalog (`vibroimpact_core::model_catalog`), with its
+//! defaults for those left out and its checks; a law's parameters by its law catalog. The
+//! Python classes ask the core for the same checks, so a spec of a `vibroimpact.Model` passes.
 
 use std::sync::Arc;
 
@@ -15,6 +17,11 @@ use crate::{to_py_err, ModelError};
 use vibroimpact_core::contact::{law_entry, Law, ParameterValue, ParameterValues, ValueKind, LAWS};
 use vibroimpact_core::gap::{FrictionLaw, Gap, Radial, Side};
 use vibroimpact_core::linalg::Csr;
+use vibroimpact_core::model_catalog::{
+    Field, AMPLITUDE, CENTER, CLEARANCE, FREQUENCY, FRICTION, FRICTION_LAW, LOADS, MAGNITUDE,
+    PHASE, RADIUS, REGULARISATION_SPEED, RUN_UP_TIME, SCALE, SIDE, SPIN_PROFILE, SPIN_SPEED,
+    SPIN_SPEED_END,
+};
 use vibroimpact_core::simulate::{Method, RunSettings};
 use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory, SpinProfile};
 use vibroimpact_core::system::System;
@@ -59,6 +66,39 @@ fn opt<'py, T: FromPyObjectOwned<'py>>(
             ModelError::new_err(format!("{ctx}.{key}: {e}"))
         }),
     }
+}
+
+/// The number of catalog field `f` in `d`: its default when left out or `None` (the
+/// refusal of a missing field without one), checked.
+fn number_field(d: &Bound<'_, PyDict>, f: &Field, ctx: &str) -> PyResult<f64> {
+    let value = match opt(d, f.name, ctx)? {
+        Some(v) => v,
+        None => f
+            .default_number()
+            .ok_or_else(|| ModelError::new_err(format!("{ctx}.{}: missing", f.name)))?,
+    };
+    f.check(ctx, value).map_err(to_py_err)
+}
+
+/// The word of catalog choice field `f` in `d` (its default when left out or `None`), checked.
+fn choice_field(d: &Bound<'_, PyDict>, f: &Field, ctx: &str) -> PyResult<String> {
+    choice(opt(d, f.name, ctx)?, f, ctx)
+}
+
+/// `value` of catalog choice field `f` (its default if `None`), checked.
+fn choice(value: Option<String>, f: &Field, ctx: &str) -> PyResult<String> {
+    let value = value.unwrap_or_else(|| {
+        f.default_choice()
+            .expect("a choice field has a default")
+            .to_string()
+    });
+    if !f.accepts_choice(&value) {
+        return Err(ModelError::new_err(format!(
+            "{ctx}.{}: '{value}' is not valid; expected {}",
+            f.name, f.expected
+        )));
+    }
+    Ok(value)
 }
 
 /// A structure matrix of the spec: a dense 2-D array, or a SciPy CSR matrix (read through
@@ -150,78 +190,88 @@ pub(crate) fn law(d: &Bound<'_, PyDict>, ctx: &str) -> PyResult<Law> {
 
 fn gap(d: &Bound<'_, PyDict>, i: usize) -> PyResult<Gap> {
     let ctx = format!("gaps[{i}]");
-    let side: String = item(d, "side", &ctx)?;
-    let side = match side.as_str() {
-        "positive" => Side::Positive,
-        "negative" => Side::Negative,
-        "both" => Side::Both,
-        "radial" => {
-            let friction_law: String = item(d, "friction_law", &ctx)?;
-            Side::Radial(Radial {
-                center: item(d, "center", &ctx)?,
-                friction: item(d, "friction", &ctx)?,
-                radius: item(d, "radius", &ctx)?,
-                friction_law: match friction_law.as_str() {
-                    "coulomb" => FrictionLaw::Coulomb,
-                    "regularised" => FrictionLaw::Regularised {
-                        speed: item(d, "regularisation_speed", &ctx)?,
-                    },
-                    other => {
-                        return Err(ModelError::new_err(format!(
-                            "{ctx}.friction_law: '{other}' is not valid; expected coulomb or \
-                             regularised"
-                        )))
-                    }
-                },
-                partner: 0,
-            })
-        }
-        other => {
-            return Err(ModelError::new_err(format!(
-                "{ctx}.side: '{other}' is not valid; expected positive, negative or both"
-            )))
+    // a radial gap's `side` is "radial"; a linear gap's is one of the catalog's (or its default)
+    let side: Option<String> = opt(d, SIDE.name, &ctx)?;
+    let side = if side.as_deref() == Some("radial") {
+        let center: Vec<f64> = match opt(d, CENTER.name, &ctx)? {
+            Some(c) => c,
+            None => CENTER.default_numbers().expect("a default").to_vec(),
+        };
+        let center: [f64; 2] = center.try_into().map_err(|c: Vec<f64>| {
+            ModelError::new_err(format!(
+                "{ctx}.center: {c:?} is not valid; expected {}",
+                CENTER.expected
+            ))
+        })?;
+        let friction_law = match choice_field(d, &FRICTION_LAW, &ctx)?.as_str() {
+            "regularised" => FrictionLaw::Regularised {
+                speed: number_field(d, &REGULARISATION_SPEED, &ctx)?,
+            },
+            _ => FrictionLaw::Coulomb,
+        };
+        Side::Radial(Radial {
+            center,
+            friction: number_field(d, &FRICTION, &ctx)?,
+            // 0: none given (read only with friction, where `Gap::validate` requires one)
+            radius: opt(d, RADIUS.name, &ctx)?.unwrap_or(0.0),
+            friction_law,
+            partner: 0,
+        })
+    } else {
+        match choice(side, &SIDE, &ctx)?.as_str() {
+            "negative" => Side::Negative,
+            "both" => Side::Both,
+            _ => Side::Positive,
         }
     };
     let law_dict: Bound<'_, PyDict> = item(d, "law", &ctx)?;
     Ok(Gap {
         dofs: item(d, "dofs", &ctx)?,
         coefficients: item(d, "coefficients", &ctx)?,
-        clearance: item(d, "clearance", &ctx)?,
+        clearance: number_field(d, &CLEARANCE, &ctx)?,
         side,
         law: law(&law_dict, &format!("{ctx}.law"))?,
     })
 }
 
 /// The core's loads of a spec's load `i`: one, or an unbalance's two (x and y) at the
-/// structure's spin profile.
+/// structure's spin profile. A table's `amplitude` is its scale.
 fn load(d: &Bound<'_, PyDict>, i: usize, spin: SpinProfile) -> PyResult<Vec<Load>> {
     let ctx = format!("loads[{i}]");
     let kind: String = item(d, "kind", &ctx)?;
-    let history = match kind.as_str() {
-        "constant" => LoadHistory::Constant,
-        "harmonic" => LoadHistory::Harmonic {
-            frequency: item(d, "frequency", &ctx)?,
-            phase: item(d, "phase", &ctx)?,
-        },
-        "table" => LoadHistory::Table {
-            time: item(d, "time", &ctx)?,
-            value: item(d, "value", &ctx)?,
-        },
+    let (amplitude, history) = match kind.as_str() {
+        "constant" => (number_field(d, &AMPLITUDE, &ctx)?, LoadHistory::Constant),
+        "harmonic" => (
+            number_field(d, &AMPLITUDE, &ctx)?,
+            LoadHistory::Harmonic {
+                frequency: number_field(d, &FREQUENCY, &ctx)?,
+                phase: number_field(d, &PHASE, &ctx)?,
+            },
+        ),
+        "table" => (
+            opt(d, AMPLITUDE.name, &ctx)?.unwrap_or(SCALE.default_number().expect("a default")),
+            LoadHistory::Table {
+                time: item(d, "time", &ctx)?,
+                value: item(d, "value", &ctx)?,
+            },
+        ),
         "unbalance" => {
             let dofs: [usize; 2] = item(d, "dofs", &ctx)?;
-            let magnitude: f64 = item(d, "magnitude", &ctx)?;
-            return Ok(Load::unbalance(dofs, magnitude, item(d, "phase", &ctx)?, spin).into());
+            let magnitude = number_field(d, &MAGNITUDE, &ctx)?;
+            let phase = number_field(d, &PHASE, &ctx)?;
+            return Ok(Load::unbalance(dofs, magnitude, phase, spin).into());
         }
         other => {
+            let kinds: Vec<_> = LOADS.iter().map(|(k, _)| *k).collect();
             return Err(ModelError::new_err(format!(
-                "{ctx}.kind: '{other}' is not valid; expected constant, harmonic, table or \
-                 unbalance"
-            )))
+                "{ctx}.kind: '{other}' is not valid; expected one of {}",
+                kinds.join(", ")
+            )));
         }
     };
     Ok(vec![Load {
         dofs: item(d, "dofs", &ctx)?,
-        amplitude: item(d, "amplitude", &ctx)?,
+        amplitude,
         history,
     }])
 }
@@ -254,27 +304,18 @@ fn system(spec: &Bound<'_, PyDict>) -> PyResult<System> {
         Some(g) if !g.is_none() => Some(matrix(spec, "gyroscopic")?.into_csr()),
         _ => None,
     };
-    let spin_speed: f64 = opt(spec, "spin_speed", "structure")?.unwrap_or(0.0);
+    let spin_speed = number_field(spec, &SPIN_SPEED, "structure")?;
     let mut structure = structure
         .spinning(gyroscopic, spin_speed)
         .map_err(to_py_err)?;
     // a run-up (`spin_profile = "linear"`)
-    let profile: Option<String> = opt(spec, "spin_profile", "structure")?;
-    match profile.as_deref() {
-        None | Some("constant") => {}
-        Some("linear") => {
-            structure = structure
-                .run_up(
-                    item(spec, "spin_speed_end", "structure")?,
-                    item(spec, "run_up_time", "structure")?,
-                )
-                .map_err(to_py_err)?;
-        }
-        Some(other) => {
-            return Err(ModelError::new_err(format!(
-                "structure.spin_profile: '{other}' is not valid; expected constant or linear"
-            )))
-        }
+    if choice_field(spec, &SPIN_PROFILE, "structure")? == "linear" {
+        structure = structure
+            .run_up(
+                number_field(spec, &SPIN_SPEED_END, "structure")?,
+                number_field(spec, &RUN_UP_TIME, "structure")?,
+            )
+            .map_err(to_py_err)?;
     }
     let spin = structure.spin;
     let gaps_list: Bound<'_, PyList> = item(spec, "gaps", "model")?;

@@ -5,6 +5,7 @@
 mod convert;
 mod factor;
 mod method;
+mod model_catalog;
 mod orbit;
 mod running;
 mod sweep;
@@ -526,6 +527,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(contact_force, m)?)?;
     m.add_function(wrap_pyfunction!(law_catalog, m)?)?;
     m.add_function(wrap_pyfunction!(method::method_catalog, m)?)?;
+    m.add_function(wrap_pyfunction!(model_catalog::model_catalog, m)?)?;
+    m.add_function(wrap_pyfunction!(model_catalog::model_field_accepts, m)?)?;
     m.add_function(wrap_pyfunction!(method::method_spec, m)?)?;
     m.add_function(wrap_pyfunction!(method::check_settings, m)?)?;
     m.add_class::<method::PyMethodSpec>()?;
