@@ -99,7 +99,8 @@ def test_full_annular_rub_branch_and_its_loss_of_stability() -> None:
     """Continued in the spin speed from 150 to 300 rad/s (μ = 0.1), every point is the closed-
     form whirl at its speed (to 1e-9 of ρ) and the branch loses its stability at the one
     Neimark–Sacker point, where the rotating frame's largest real part crosses zero
-    (266.9 rad/s, to 1e-6), with its largest multipliers on the unit circle there (1e-5)."""
+    (266.9 rad/s, to 1e-6), with its largest multipliers on the unit circle there (1e-5) at
+    ``e^{±iωT}`` of the critical mode, a backward whirl."""
     mu = 0.1
     w = whirl(50.0, mu, OMEGA)
     start = inertial_state(w, OMEGA)
@@ -122,6 +123,17 @@ def test_full_annular_rub_branch_and_its_loss_of_stability() -> None:
     assert ns.point.value == pytest.approx(critical, rel=1e-6)
     assert np.abs(np.abs(ns.point.multipliers).max() - 1.0) < 1e-5
     assert branch.points[0].stable and not branch.points[-1].stable
+    # the critical mode, λ = iω in the rotating frame, whirls in the fixed frame at Ω ± ω:
+    # mostly backward (Ω − ω = −846 rad/s carries 3x the amplitude of Ω + ω), and its
+    # multipliers are e^{±iωT}
+    lam, vectors = np.linalg.eig(rotating_jacobian(50.0, mu, whirl(50.0, mu, critical),
+                                                   critical))
+    k = int(np.argmax(lam.imag * (np.abs(lam.real) < 1e-6)))
+    omega, v = lam[k].imag, vectors[:, k]
+    forward, backward = abs(v[0] + 1j * v[1]), abs(np.conj(v[0]) + 1j * np.conj(v[1]))
+    assert critical - omega < 0 and backward > 2 * forward
+    angle = omega * 2 * math.pi / critical
+    assert np.abs(ns.point.multipliers - np.exp(1j * angle)).min() < 1e-4
 
 
 def test_cli_orbit_of_a_seal_rub_gives_force_and_penetration(tmp_path: Path,
@@ -144,3 +156,55 @@ def test_cli_orbit_of_a_seal_rub_gives_force_and_penetration(tmp_path: Path,
     assert out["stable"] is True
     assert out["penetration_max"][0] == pytest.approx(penetration, rel=1e-7)
     assert out["force_max"][0] == pytest.approx(KS * penetration, rel=1e-7)
+
+
+def _orbit_line(path: Path, **options: object) -> np.ndarray:
+    """The (x, y) points of the orbit plot of the result file at ``path``."""
+    from vibroimpact.io.results_file import load
+    from vibroimpact.plotting import plot
+
+    fig = plot(load(path), "orbit", **options)
+    return np.asarray(fig.axes[0].lines[0].get_xydata())
+
+
+@pytest.mark.parametrize("stream", [False, True], ids=["in-memory", "streamed"])
+def test_orbit_plot_by_node_from_the_result_files_dof_map(tmp_path: Path, stream: bool) -> None:
+    """A result file of a beam rotor keeps its DOF map: ``--node 3`` draws the displacements
+    of the DOFs that ``Beam.dof(3, "x")`` and ``dof(3, "y")`` name (not the first two); a
+    Jeffcott rotor's node 0 is its x and y; a file without a map, a node without x and y, and
+    ``--node`` with ``--dof`` are refused in one line."""
+    from test_rotor import ROTOR_FILE
+    from vibroimpact.errors import ModelError
+
+    model_path = tmp_path / "shaft.toml"
+    model_path.write_text(ROTOR_FILE)
+    mf = vi.load_model(model_path)
+    ix, iy = mf.beam.dof(3, direction="x"), mf.beam.dof(3, direction="y")
+    out = tmp_path / "shaft.nc"
+    assert main(["run", str(model_path), "-o", str(out), "--quiet",
+                 *(["--stream"] if stream else [])]) == 0
+    result = mf.simulate()
+    expected = result.displacement[:, [ix, iy]]
+    assert np.abs(expected).max() > 0 and (ix, iy) != (0, 1)
+    assert np.array_equal(_orbit_line(out, node=3), expected)
+    png = tmp_path / "orbit.png"
+    assert main(["plot", str(out), "--kind", "orbit", "--node", "3", "-o", str(png)]) == 0
+    assert png.stat().st_size > 0
+
+    jeffcott = tmp_path / "rub.nc"
+    assert main(["run", str(ROOT / "examples/models/jeffcott_seal_rub.toml"), "-o",
+                 str(jeffcott), "--quiet"]) == 0
+    assert np.array_equal(_orbit_line(jeffcott, node=0), _orbit_line(jeffcott, dofs=[0, 1]))
+
+    sdof = tmp_path / "sdof.nc"
+    assert main(["run", str(ROOT / "examples/models/sdof_paper_ln.toml"), "-o", str(sdof),
+                 "--quiet"]) == 0
+    for path, options, start in (
+        (sdof, {"node": 0}, "--node: 0 cannot be found: the result file has no DOF map"),
+        (out, {"node": 99}, "--node: 99 has no x and y DOFs in the result's DOF map; expected "
+                            "a node with both (0, 1, 2, 3, 4, 5, 6, 7, 8)"),
+        (out, {"node": 3, "dofs": [0, 1]}, "--node: 3 is not valid; expected either --node N"),
+    ):
+        with pytest.raises(ModelError) as e:
+            _orbit_line(path, **options)
+        assert str(e.value).startswith(start) and "\n" not in str(e.value), str(e.value)
