@@ -234,6 +234,26 @@ class _Solution:
     tests: dict[str, NDArray[np.float64]] = field(default_factory=dict)
 
 
+#: A wall's measure at a state's displacements and velocities: its distance towards the wall
+#: and that distance's rate.
+_Measure = Callable[[NDArray[np.float64], NDArray[np.float64]], tuple[float, float]]
+
+
+def _wall_measure(gap: Any, sign: int, dofs: list[int],
+                  coefficients: NDArray[np.float64]) -> _Measure:
+    """Wall ``sign`` of ``gap``'s measure: the gap coordinate times ``sign``, or for a radial
+    gap's wall (``sign = 0``) the distance ``ρ`` from the stator's centre and ``δ̇``."""
+    if sign == 0:
+        def radius(x: NDArray[np.float64], v: NDArray[np.float64]) -> tuple[float, float]:
+            delta, rate = gap.penetration(x, v)
+            return delta + float(gap.clearance), rate
+        return radius
+
+    def coordinate(x: NDArray[np.float64], v: NDArray[np.float64]) -> tuple[float, float]:
+        return sign * float(x[dofs] @ coefficients), sign * float(v[dofs] @ coefficients)
+    return coordinate
+
+
 class _Continuation:
     """The continuation of one branch of ``shooting``'s orbits in ``path``."""
 
@@ -246,8 +266,10 @@ class _Continuation:
         n = shooting.n_state
         self.weights = np.append(np.full(n, 1.0 / z_scale), 1.0 / self.scale)
         self.tol = tol
+        # per wall its gap and sign (a radial gap's one wall: 0)
         self.walls = [(g, sign) for g, gap in enumerate(shooting.model.gaps)
-                      for sign in {"positive": (1,), "negative": (-1,), "both": (1, -1)}[gap.side]]
+                      for sign in {"positive": (1,), "negative": (-1,), "both": (1, -1),
+                                   "radial": (0,)}[gap.side]]
 
     # --- the map at a parameter value ----------------------------------------------------
 
@@ -340,16 +362,19 @@ class _Continuation:
                      refine: bool) -> NDArray[np.float64]:
         """Per wall, the grazing test function (module doc). The distance: for a gap on one
         DOF, from that DOF's extremes over the orbit (located inside the steps: exact for the
-        event-driven flights, DOP853's interpolant); for a gap coordinate of several DOFs,
-        from its largest recorded value, and with ``refine`` at the instant its rate
-        vanishes, found by the Illinois iteration on runs that end there."""
+        event-driven flights, DOP853's interpolant); for a gap coordinate of several DOFs (a
+        radial gap: the distance ``ρ`` from the stator's centre), from its largest recorded
+        value, and with ``refine`` at the instant its rate vanishes, found by the Illinois
+        iteration on runs that end there."""
         impacts = raw["impacts"]
         x = np.asarray(raw["displacement"], dtype=float)
+        v = np.asarray(raw["velocity"], dtype=float)
         t = np.asarray(raw["time"], dtype=float)
         margins = []
         for g, sign in self.walls:
             gap, numbers = self.shooting.model.gaps[g], shooting.spec["gaps"][g]
-            here = (impacts["gap"] == g) & (impacts["side"] == (1 if sign > 0 else 0))
+            side = {1: 1, -1: 0, 0: 2}[sign]
+            here = (impacts["gap"] == g) & (impacts["side"] == side)
             if here.any():
                 if gap.law.impulsive:
                     margins.append(-float(np.min(np.abs(impacts["v_in"][here]))))
@@ -358,32 +383,32 @@ class _Continuation:
                 continue
             dofs = tuple(numbers["dofs"])
             coefficients = np.asarray(numbers["coefficients"], dtype=float)
-            if len(dofs) == 1:
+            clearance = float(numbers["clearance"])
+            measure = _wall_measure(gap, sign, list(dofs), coefficients)
+            if len(dofs) == 1 and sign != 0:
                 c = sign * float(coefficients[0])
                 extreme = raw["displacement_max" if c > 0 else "displacement_min"]
-                margins.append(float(numbers["clearance"]) - c * float(extreme[dofs[0]]))
+                margins.append(clearance - c * float(extreme[dofs[0]]))
                 continue
-            u = sign * (x[:, list(dofs)] @ coefficients)
+            u = [measure(xi, vi)[0] for xi, vi in zip(x, v, strict=True)]
             k = int(np.argmax(u))
             peak = float(u[k])
             if refine:
-                peak = self._refined_peak(shooting, z, t, k, sign, dofs, coefficients)
-            margins.append(float(numbers["clearance"]) - peak)
+                peak = self._refined_peak(shooting, z, t, k, measure)
+            margins.append(clearance - peak)
         return np.array(margins)
 
     @staticmethod
     def _refined_peak(shooting: Shooting, z: NDArray[np.float64], t: NDArray[np.float64],
-                      k: int, sign: int, dofs: tuple[int, ...],
-                      coefficients: NDArray[np.float64]) -> float:
-        """The gap coordinate's largest value (times ``sign``) near the recorded step ``k``."""
+                      k: int, measure: _Measure) -> float:
+        """The largest value of a gap's ``measure`` (its value and rate at a state's
+        displacements and velocities) near the recorded step ``k``."""
         n, period = shooting.model.n_dof, shooting.duration
 
         def coordinate(s: float) -> tuple[float, float]:
             state = shooting.state_at(z, s - period if s > period else
                                       (s + period if s <= 0 else s))
-            dofs_ = list(dofs)
-            return (sign * float(state[:n][dofs_] @ coefficients),
-                    sign * float(state[n:][dofs_] @ coefficients))
+            return measure(state[:n], state[n:])
 
         last = t.size - 1
         left = t[k - 1] if k > 0 else t[last - 1] - period

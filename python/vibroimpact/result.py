@@ -222,6 +222,10 @@ class Result:
     model: Model | None = None
     method: Integrator | None = None
     dof_units: tuple[str, ...] = ()
+    #: The node and direction of each of the model's DOFs (a :class:`vibroimpact.fe.DofMap`:
+    #: a beam's, a matrices file's, a Jeffcott rotor's node 0 x and y), kept in the result
+    #: file so that ``plot --kind orbit --node N`` finds a node's x and y; None: unknown.
+    dof_map: Any = None
 
     def __post_init__(self) -> None:
         units = tuple(self.dof_units) or ("m",) * len(self.dofs)

@@ -59,6 +59,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     p.add_argument("--f-max", type=float, default=None, help="spectrum: highest frequency, Hz")
     p.add_argument("--n-modes", type=int, default=None,
                    help="mode-shapes: elastic modes to draw (default 4)")
+    p.add_argument("--node", type=int, default=None, metavar="N",
+                   help="orbit: the x and y of this node in the result's DOF map (a beam's, a "
+                   "matrices file's, a Jeffcott rotor's node 0)")
     p.add_argument("--clearance", type=float, default=None, metavar="C",
                    help="orbit: draw the stator's clearance circle of radius C, m")
     p.add_argument("--center", type=float, nargs=2, default=None, metavar=("X", "Y"),
@@ -99,7 +102,7 @@ def main(args: argparse.Namespace) -> int:
     kind = KINDS[args.kind]
     options: dict[str, Any] = {"t_min": args.t_min, "t_max": args.t_max}
     for name in ("dofs", "gaps", "x", "period", "quantity", "f_max", "n_modes", "clearance",
-                 "center"):
+                 "center", "node"):
         value = getattr(args, name)
         if value is None:
             continue

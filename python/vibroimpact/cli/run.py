@@ -191,7 +191,7 @@ def _run(mf: ModelFile, out: Path | None, stream: bool, args: argparse.Namespace
             summary = results_file.simulate_to_file(
                 mf.model, out, mf.t_end, mf.dt, mf.method, every=mf.every, dofs=mf.run_dofs,
                 window_steps=args.window or STREAM_WINDOW_STEPS, progress_bar=not args.quiet,
-                recovery=mf.recovery(),
+                recovery=mf.recovery(), dof_map=mf.dof_map,
             )
             return summary, [out]
         result = mf.simulate(progress=not args.quiet)

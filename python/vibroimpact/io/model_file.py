@@ -1810,7 +1810,16 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
         condensation=ck.context.get("condensation"),
         file_gaps=tuple(ck.context.get("file_gaps", ())),
         file_loads=tuple(ck.context.get("file_loads", ())),
+        dof_map=_file_dof_map(ck, top.get("structure", {}).get("kind")),
     )
+
+
+def _file_dof_map(ck: _Checker, kind: str | None) -> DofMap | None:
+    """The DOF map of a checked file's structure (:attr:`ModelFile.dof_map`)."""
+    if kind == "jeffcott":
+        return DofMap([0, 0], ["x", "y"])
+    owner = ck.context.get("beam") or ck.context.get("fe")
+    return getattr(owner, "dof_map", None)
 
 
 # --------------------------------------------------------------------------------------------
@@ -1847,6 +1856,10 @@ class ModelFile:
     file_gaps: tuple[Gap, ...] = ()
     #: The loads on the file's DOFs, whose part in the massless modes :meth:`recovery` adds.
     file_loads: tuple[Load, ...] = ()
+    #: The node and direction of each of the file's DOFs (a beam's, a matrices file's DOF
+    #: map, a Jeffcott rotor's node 0 x and y), which :meth:`simulate` gives its result; None
+    #: for other structures.
+    dof_map: DofMap | None = None
 
     @property
     def run_dofs(self) -> list[int] | None:
@@ -1872,15 +1885,20 @@ class ModelFile:
         from vibroimpact.simulate import simulate
 
         recovery = self.recovery()
+
+        def for_file(result: Result) -> Result:
+            result = result if recovery is None else recovery.result(result)
+            return dataclasses.replace(result, dof_map=self.dof_map)
+
         try:
             result = simulate(self.model, t_end=self.t_end, dt=self.dt, method=self.method,
                               every=self.every, dofs=self.run_dofs, throw=throw,
                               progress=progress)
         except SolverError as e:
-            if recovery is not None and e.partial is not None:
-                e.partial = recovery.result(e.partial)
+            if e.partial is not None:
+                e.partial = for_file(e.partial)
             raise
-        return result if recovery is None else recovery.result(result)
+        return for_file(result)
 
 
 _TOML_POSITION = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")

@@ -78,6 +78,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "CSV_TABLES",
+    "DOF_MAP_ATTRIBUTE",
     "ENERGY_TERMS",
     "NETCDF_SUFFIXES",
     "SUFFIXES",
@@ -88,6 +89,7 @@ __all__ = [
     "load",
     "model_from_dataset",
     "netcdf_engine",
+    "node_dofs",
     "run_metadata",
     "save",
     "simulate_to_file",
@@ -216,6 +218,9 @@ def run_metadata(result: Result) -> tuple[dict[str, Any], dict[str, tuple[tuple[
         for name, (key, unit) in _MODEL_VECTORS.items():
             variables[name] = (("model_dof",), np.asarray(spec[key], dtype=float),
                                {"units": unit, "long_name": name.replace("_", " ")})
+    if result.dof_map is not None:
+        attrs[DOF_MAP_ATTRIBUTE] = json.dumps({"nodes": list(result.dof_map.nodes),
+                                               "directions": list(result.dof_map.directions)})
     return attrs, variables
 
 
@@ -259,6 +264,30 @@ def metadata(ds: xr.Dataset) -> dict[str, Any]:
     out.setdefault("model_spec", {})
     out.setdefault("method_spec", {})
     return out
+
+
+#: The result file's attribute holding the DOF map: JSON ``{"nodes": [...], "directions":
+#: [...]}``, one entry per DOF of the model (or of the model file's DOFs, condensed ones too).
+DOF_MAP_ATTRIBUTE = "dof_map"
+
+
+def node_dofs(ds: xr.Dataset, node: int) -> tuple[int, int]:
+    """The DOFs ``(ix, iy)`` of ``node``'s x and y in the DOF map of a result file; a
+    :class:`ModelError` naming ``--node`` if the file has no map or the node no x and y."""
+    text = ds.attrs.get(DOF_MAP_ATTRIBUTE, "")
+    if not text:
+        raise ModelError(f"--node: {node} cannot be found: the result file has no DOF map "
+                         "(written by `vibroimpact run` from a beam, a matrices file with a DOF "
+                         "map or a Jeffcott rotor); expected --dof IX --dof IY")
+    numbers = json.loads(text)
+    pairs = list(zip(numbers["nodes"], numbers["directions"], strict=True))
+    found = {d: i for i, (n, d) in enumerate(pairs) if n == node and d in ("x", "y")}
+    if len(found) != 2:
+        nodes = sorted({n for n, d in pairs if d == "x"} & {n for n, d in pairs if d == "y"})
+        shown = ", ".join(str(n) for n in nodes[:20]) + (", ..." if len(nodes) > 20 else "")
+        raise ModelError(f"--node: {node} has no x and y DOFs in the result's DOF map; "
+                         f"expected a node with both ({shown or 'none has'})")
+    return found["x"], found["y"]
 
 
 def model_from_dataset(ds: xr.Dataset) -> tuple[Model, Integrator]:
@@ -759,6 +788,7 @@ def simulate_to_file(
     progress: Callable[[float], None] | None = None,
     progress_bar: bool = False,
     recovery: DofRecovery | None = None,
+    dof_map: Any = None,
 ) -> dict[str, Any]:
     """Run ``model`` from 0 to ``t_end`` and write its time histories to the NetCDF-4 file
     ``path`` (``.nc``/``.h5``) while it runs, so that memory holds a few blocks of rows, not
@@ -780,7 +810,7 @@ def simulate_to_file(
     ``progress_bar`` draws :class:`vibroimpact.simulate.ProgressBar` on a terminal.
     ``recovery`` (:meth:`vibroimpact.io.ModelFile.recovery`): write the DOFs of a condensed
     model's file instead, the massless ones recovered (the run records its ``record``, whatever
-    ``dofs`` says).
+    ``dofs`` says). ``dof_map``: the :attr:`vibroimpact.Result.dof_map` the file keeps.
     """
     from vibroimpact.simulate import simulate
 
@@ -823,8 +853,9 @@ def simulate_to_file(
                 result, failure = e.partial, e
             if recovery is not None:
                 result = recovery.result(result)
-                if failure is not None:
-                    failure.partial = result
+            result = dataclasses.replace(result, dof_map=dof_map)
+            if failure is not None:
+                failure.partial = result
             stream.finish(result)
             blocks += 1
             if progress is not None and failure is None:

@@ -95,9 +95,9 @@ KINDS: dict[str, Kind] = {
                        ("gaps", "x", "period")),
     "spectrum": Kind("spectrum", spectrum, "FFT amplitude spectrum",
                      ("quantity", "dofs", "gaps", "f_max")),
-    "orbit": Kind("orbit", orbit, "rotor orbit: y against x at two DOFs (--dof IX --dof IY), "
-                  "with the stator's clearance circle (--clearance, --center)",
-                  ("dofs", "clearance", "center")),
+    "orbit": Kind("orbit", orbit, "rotor orbit: y against x at two DOFs (--dof IX --dof IY) "
+                  "or at a node (--node N), with the stator's clearance circle (--clearance, "
+                  "--center)", ("dofs", "node", "clearance", "center")),
     "mode-shapes": Kind("mode-shapes", mode_shapes,
                         "mode shapes of the result's structure (from its M and K)",
                         ("n_modes", "include_rigid")),

@@ -21,6 +21,7 @@ def orbit(
     *,
     label: str | None = None,
     dofs: Sequence[int] | None = None,
+    node: int | None = None,
     clearance: float | None = None,
     center: Sequence[float] = (0.0, 0.0),
     t_min: float | None = None,
@@ -28,8 +29,14 @@ def orbit(
     **style: Any,
 ) -> None:
     """The orbit ``y(t)`` against ``x(t)`` at the recorded DOFs ``dofs = [ix, iy]`` (default:
-    the first two, a Jeffcott rotor's), equal axes; with ``clearance`` (m) the stator's circle
-    of that radius about ``center = (x_s, y_s)`` (m), dashed."""
+    the first two, a Jeffcott rotor's), or at the x and y of ``node`` in the result's DOF map
+    (:attr:`vibroimpact.Result.dof_map`), equal axes; with ``clearance`` (m) the stator's
+    circle of that radius about ``center = (x_s, y_s)`` (m), dashed."""
+    if node is not None:
+        from vibroimpact.io.results_file import node_dofs
+
+        require(dofs is None, "--node", node, "either --node N or --dof IX --dof IY, not both")
+        dofs = node_dofs(ds, node)
     if dofs is None:
         chosen = select(ds, "dof", None)[:2]
     else:

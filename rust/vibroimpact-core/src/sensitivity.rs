@@ -253,14 +253,16 @@ pub(crate) fn check_supported(
     method: Method,
     adaptive: bool,
 ) -> Result<(), SimError> {
-    if let Some(i) = sys
-        .gaps
-        .iter()
-        .position(|g| matches!(g.side, crate::gap::Side::Radial(_)))
-    {
+    if let (Some(i), false) = (
+        sys.gaps
+            .iter()
+            .position(|g| matches!(g.side, crate::gap::Side::Radial(_))),
+        matches!(method, Method::Dop853),
+    ) {
         return invalid(format!(
-            "gaps[{i}].kind: 'radial' has no state-transition matrix yet (its normal turns with \
-             the state and its friction is not differentiated); expected 1-D gaps"
+            "gaps[{i}].kind: 'radial' has no state-transition matrix with method '{}' yet; \
+             expected solver.method = 'dop853'",
+            method.name()
         ));
     }
     let newmark = method.newmark_family().is_some();

@@ -33,6 +33,7 @@ use nalgebra::{DMatrix, DVector, RowDVector};
 use super::super::dop853_tableau::{A, B, C, STAGES};
 use super::{dot, Contact, Stages, StepEnd, K};
 use crate::contact::{ContactLaw, MIN_IMPACT_SPEED};
+use crate::gap::{radial_contact, Side, WallState};
 use crate::sensitivity::{Parameter, StateTransition};
 use crate::system::System;
 
@@ -46,9 +47,12 @@ pub(super) struct Variational {
     /// `−M⁻¹K` and `−M⁻¹C`, `n × n`.
     minus_k: DMatrix<f64>,
     minus_c: DMatrix<f64>,
-    /// Per wall: its row `s b` (so that `δ = s b·x − d`) and `M⁻¹ s b`.
+    /// Per wall: its row `s b` (so that `δ = s b·x − d`) and `M⁻¹ s b` (zero for a radial
+    /// wall, whose normal turns with the state: [`RadialWall`]).
     rows: Vec<DVector<f64>>,
     m_inv_rows: Vec<DVector<f64>>,
+    /// Per wall: its radial gap's DOFs and `M⁻¹` columns, if it is radial.
+    radial: Vec<Option<RadialWall>>,
     /// Per wall in contact with a law that uses it: `∂v_imp/∂z₀`.
     impact_speed: Vec<Option<RowDVector<f64>>>,
     /// The stages' `dK_i`, `2n × 2n`.
@@ -102,6 +106,9 @@ impl Variational {
                 DVector::from_vec(r)
             })
             .collect();
+        let radial = (0..sys.walls.len())
+            .map(|j| RadialWall::of(sys, j))
+            .collect();
         Self {
             n,
             phi: StateTransition::start(n, parameter.is_some()),
@@ -109,6 +116,7 @@ impl Variational {
             minus_c,
             rows,
             m_inv_rows,
+            radial,
             impact_speed: vec![None; sys.walls.len()],
             dk: vec![DMatrix::zeros(2 * n, columns); STAGES],
             dk_h: vec![DVector::zeros(2 * n); STAGES],
@@ -162,17 +170,25 @@ impl Variational {
                 xs[d] = start.x[d] + h * dot(a_i, &stages.kx[d * K..(d + 1) * K]);
                 vs[d] = start.v[d] + h * dot(a_i, &stages.kv[d * K..(d + 1) * K]);
             }
-            let tangents: Vec<Option<(f64, f64, f64)>> = sys
+            let tangents: Vec<Option<WallTangent>> = sys
                 .walls
                 .iter()
                 .zip(contacts)
                 .enumerate()
                 .map(|(j, (wall, c))| {
                     c.active.then(|| {
+                        if self.radial[j].is_some() {
+                            return WallTangent::Radial(radial_tangent(sys, j, c, &xs, &vs));
+                        }
                         let row = &self.rows[j];
                         let raw = row.dot(&DVector::from_column_slice(&xs)) - wall.clearance;
                         let rate = row.dot(&DVector::from_column_slice(&vs));
-                        tangent(sys, j, c, raw, rate)
+                        let (f_delta, f_rate, f_speed) = tangent(sys, j, c, raw, rate);
+                        WallTangent::Line {
+                            f_delta,
+                            f_rate,
+                            f_speed,
+                        }
                     })
                 })
                 .collect();
@@ -228,10 +244,11 @@ impl Variational {
 
     /// The acceleration rows `−M⁻¹(K dx + C dv + Σ (F_δ bbᵀdx + F_δ̇ bbᵀdv))` of `J dy` for a
     /// stage with the active walls' `tangents` (and, with `full`, for `dy = [dΦ | dq]`: the
-    /// term of a law's approach speed and the parameter's `F_δ ∂δ/∂p`).
+    /// term of a law's approach speed and the parameter's `F_δ ∂δ/∂p`); a radial wall's
+    /// term is its 2×2 tangent's ([`RadialTangent`]).
     fn apply_jacobian(
         &self,
-        tangents: &[Option<(f64, f64, f64)>],
+        tangents: &[Option<WallTangent>],
         dy: &DMatrix<f64>,
         full: bool,
     ) -> DMatrix<f64> {
@@ -240,8 +257,17 @@ impl Variational {
         let dv = dy.rows(n, n);
         let mut bottom = &self.minus_k * dx + &self.minus_c * dv;
         for (j, t) in tangents.iter().enumerate() {
-            let Some((f_delta, f_rate, f_speed)) = *t else {
-                continue;
+            let (f_delta, f_rate, f_speed) = match t {
+                None => continue,
+                Some(WallTangent::Radial(t)) => {
+                    self.apply_radial(j, t, dy, full, &mut bottom);
+                    continue;
+                }
+                Some(WallTangent::Line {
+                    f_delta,
+                    f_rate,
+                    f_speed,
+                }) => (*f_delta, *f_rate, *f_speed),
             };
             let row = &self.rows[j];
             let mut along = (row.transpose() * dx) * f_delta + (row.transpose() * dv) * f_rate;
@@ -272,8 +298,8 @@ impl Variational {
             if before[j].active == after[j].active {
                 continue;
             }
-            let row = &self.rows[j];
-            let rate = row.dot(&DVector::from_column_slice(&start.v));
+            let (row, rate, rate_row) = self.switch_gradient(sys, j, start);
+            let row = &row;
             self.impact_speed[j] = None;
             // the landed step's end moves along d(end)/dh (≈ f⁻) with its length
             let Some(f_minus) = &self.rate_of_end else {
@@ -293,7 +319,11 @@ impl Variational {
             let law = &sys.gaps[sys.walls[j].gap].law;
             if after[j].active && law.uses_impact_speed() && rate > MIN_IMPACT_SPEED {
                 // v_imp = δ̇ at the onset, whose state Φ now is
-                self.impact_speed[j] = Some(row.transpose() * self.phi.matrix.rows(n, n));
+                let mut speed = row.transpose() * self.phi.matrix.rows(n, n);
+                if let Some(rate_row) = &rate_row {
+                    speed += rate_row.transpose() * self.phi.matrix.rows(0, n);
+                }
+                self.impact_speed[j] = Some(speed);
             }
             self.time_shift = Some(match self.time_shift.take() {
                 Some(earlier) => earlier + shift,
@@ -337,4 +367,157 @@ fn tangent(sys: &System, j: usize, c: &Contact, raw: f64, rate: f64) -> (f64, f6
         0.0
     };
     (f_delta, f.d_rate, f_speed)
+}
+
+/// A wall's contact tangent at a stage.
+enum WallTangent {
+    /// A 1-D gap's wall: `∂F/∂δ`, `∂F/∂δ̇` and `∂F/∂v_imp` along its fixed row.
+    Line {
+        f_delta: f64,
+        f_rate: f64,
+        f_speed: f64,
+    },
+    Radial(RadialTangent),
+}
+
+/// A radial wall's DOFs `(ix, iy)` and the columns `M⁻¹ e_ix`, `M⁻¹ e_iy` its force acts
+/// through.
+struct RadialWall {
+    dofs: [usize; 2],
+    m_inv: [DVector<f64>; 2],
+}
+
+impl RadialWall {
+    /// Wall `j`'s, if its gap is radial.
+    fn of(sys: &System, j: usize) -> Option<Self> {
+        let gap = sys.walls[j].gap;
+        let Side::Radial(r) = &sys.gaps[gap].side else {
+            return None;
+        };
+        let dofs = [sys.gaps[gap].dofs[0], sys.gaps[r.partner].dofs[0]];
+        let column = |d: usize| {
+            let mut e = vec![0.0; sys.n_dof()];
+            e[d] = 1.0;
+            sys.structure.solve_mass(&mut e);
+            DVector::from_vec(e)
+        };
+        Some(Self {
+            dofs,
+            m_inv: [column(dofs[0]), column(dofs[1])],
+        })
+    }
+}
+
+/// A radial wall's force `φ = F_N e` (`e = n + μ s(v_rel) t`, docs/rotors.md §Radial gaps) at
+/// a stage: its 2×2 tangents `∂φ/∂p`, `∂φ/∂ṗ` (the turning normal and the friction included,
+/// [`radial_contact`]), the direction `e` and the law's `∂F_N/∂δ`, `∂F_N/∂v_imp` (for the
+/// terms of a parameter's `∂δ/∂p` and of the approach speed, both along `e`).
+struct RadialTangent {
+    d_u: [[f64; 2]; 2],
+    d_rate: [[f64; 2]; 2],
+    direction: [f64; 2],
+    f_delta: f64,
+    f_speed: f64,
+}
+
+/// Radial wall `j`'s [`RadialTangent`] at DOF displacements `x` and velocities `v`, its
+/// normal force evaluated as [`super::Dynamics::accel`] does.
+fn radial_tangent(sys: &System, j: usize, c: &Contact, x: &[f64], v: &[f64]) -> RadialTangent {
+    let wall = &sys.walls[j];
+    let gap = &sys.gaps[wall.gap];
+    let Side::Radial(r) = &gap.side else {
+        unreachable!("a radial wall's gap is radial")
+    };
+    let k = sys.radial_at_dofs(r, wall.gap, x, v);
+    let raw = k.rho - wall.clearance;
+    let (f_delta, f_rate, f_speed) = tangent(sys, j, c, raw, k.rate);
+    let penetration = raw.max(f64::MIN_POSITIVE);
+    let force = gap.law.force_in_contact(
+        penetration,
+        k.rate,
+        c.impact_speed,
+        c.max_penetration.max(penetration),
+    );
+    let state = WallState {
+        force: force.force,
+        d_penetration: f_delta,
+        d_rate: f_rate,
+        ..WallState::default()
+    };
+    let spin = r.radius * sys.structure.spin.start;
+    let rf = radial_contact(r, &k, &state, spin);
+    let slip = if r.friction > 0.0 {
+        r.friction * r.friction_factor(spin + k.slide).0
+    } else {
+        0.0
+    };
+    RadialTangent {
+        d_u: rf.d_u,
+        d_rate: rf.d_rate,
+        direction: [
+            k.normal[0] + slip * k.tangent[0],
+            k.normal[1] + slip * k.tangent[1],
+        ],
+        f_delta,
+        f_speed,
+    }
+}
+
+impl Variational {
+    /// Subtracts radial wall `j`'s term `M⁻¹ [e_ix e_iy] dφ` from the acceleration rows
+    /// `bottom` of `J dy`, `dφ = ∂φ/∂p dp + ∂φ/∂ṗ dṗ` (with `full`: and the approach speed's
+    /// and the parameter's terms along `e`).
+    fn apply_radial(
+        &self,
+        j: usize,
+        t: &RadialTangent,
+        dy: &DMatrix<f64>,
+        full: bool,
+        bottom: &mut DMatrix<f64>,
+    ) {
+        let n = self.n;
+        let wall = self.radial[j].as_ref().expect("a radial wall");
+        for a in 0..2 {
+            let mut along = RowDVector::zeros(dy.ncols());
+            for (b, &d) in wall.dofs.iter().enumerate() {
+                along += dy.row(d) * t.d_u[a][b] + dy.row(n + d) * t.d_rate[a][b];
+            }
+            if full {
+                if let (Some(grad), true) = (&self.impact_speed[j], t.f_speed != 0.0) {
+                    along += grad * (t.direction[a] * t.f_speed);
+                }
+                if let Some((_, _, walls)) = &self.parameter {
+                    along[2 * n] += t.direction[a] * t.f_delta * walls[j];
+                }
+            }
+            *bottom -= &wall.m_inv[a] * along;
+        }
+    }
+
+    /// Wall `j`'s `∇_x δ` at the state `start`, its `δ̇` there and (a radial wall's) `∇_x δ̇`:
+    /// a 1-D wall's fixed row; a radial wall's normal `n` and `(ρθ̇/ρ) t` at its DOFs
+    /// (`∇_v δ̇ = ∇_x δ` for both).
+    fn switch_gradient(
+        &self,
+        sys: &System,
+        j: usize,
+        start: &StepEnd,
+    ) -> (DVector<f64>, f64, Option<DVector<f64>>) {
+        let Some(wall) = &self.radial[j] else {
+            let row = self.rows[j].clone();
+            let rate = row.dot(&DVector::from_column_slice(&start.v));
+            return (row, rate, None);
+        };
+        let gap = sys.walls[j].gap;
+        let Side::Radial(r) = &sys.gaps[gap].side else {
+            unreachable!("a radial wall's gap is radial")
+        };
+        let k = sys.radial_at_dofs(r, gap, &start.x, &start.v);
+        let (mut row, mut rate_row) = (DVector::zeros(self.n), DVector::zeros(self.n));
+        for (a, &d) in wall.dofs.iter().enumerate() {
+            row[d] = k.normal[a];
+            rate_row[d] = k.slide / k.rho * k.tangent[a];
+        }
+        (row, k.rate, Some(rate_row))
+    }
 }
