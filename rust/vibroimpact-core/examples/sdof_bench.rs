@@ -1,7 +1,8 @@
 //! Times the paper's SDOF case (0.02 s at dt = 1 µs) in the core alone, without Python:
 //! `cargo run --release --example sdof_bench -p vibroimpact-core`; `METHOD=dop853` times
 //! adaptive DOP853 (rtol 1e-8) instead of Newmark, `METHOD=floor` the benchmark's floor
-//! (`vibroimpact_core::floor`: the same Newmark steps as a bare loop).
+//! (`vibroimpact_core::floor`: the same Newmark steps as a bare loop), `SCHEME=generalized-alpha`
+//! generalized-α (ρ∞ = 0.8) instead of average acceleration.
 
 use std::time::Instant;
 
@@ -87,7 +88,18 @@ fn main() {
             };
             (Method::Dop853, Some(tol))
         } else {
-            let scheme = NewmarkFamily::average_acceleration();
+            // SCHEME=generalized-alpha: ρ∞ = 0.8, as `vibroimpact bench`'s integrator table
+            let scheme = if std::env::var("SCHEME").is_ok_and(|s| s == "generalized-alpha") {
+                let (alpha_m, alpha_f) = (0.6 / 1.8, 0.8 / 1.8);
+                NewmarkFamily {
+                    alpha_m,
+                    alpha_f,
+                    gamma: 0.5 - alpha_m + alpha_f,
+                    beta: 0.25 * (1.0 - alpha_m + alpha_f).powi(2),
+                }
+            } else {
+                NewmarkFamily::average_acceleration()
+            };
             (Method::Newmark(scheme), None)
         };
         let settings = RunSettings {

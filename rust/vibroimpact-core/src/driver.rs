@@ -23,6 +23,7 @@ use crate::error::{SimError, ENERGY_GROWTH_LIMIT};
 use crate::gap::{FrictionLaw, ImpactLog, ImpactRecord, Side, WallInterior};
 use crate::integrators::{StepFailure, Stepper};
 use crate::interrupt;
+use crate::linalg::Csr;
 use crate::observe::{Event, Sink, StepObserver, Turn};
 use crate::output::{Rows, RunOutput, Stats};
 use crate::sensitivity::StateTransition;
@@ -59,8 +60,9 @@ pub(crate) trait StepPolicy {
 
 /// The state of a run and everything accumulated from its accepted steps.
 pub(crate) struct Run<'o> {
-    pub cur: State,
-    pub trial: State,
+    /// Boxed, so that a commit swaps two pointers, not the states' vectors.
+    pub cur: Box<State>,
+    pub trial: Box<State>,
     /// The impact table from the closings and openings of the committed steps; `None` when
     /// the policy keeps its own (the impulsive methods: an impact is an instant).
     pub log: Option<ImpactLog>,
@@ -95,11 +97,14 @@ impl<'o> Run<'o> {
         record_dofs: Vec<usize>,
         n_rec: usize,
     ) -> Result<Self, SimError> {
-        let cur = State::initial(sys, x0, v0, 0.0)?;
+        let cur = Box::new(State::initial(sys, x0, v0, 0.0)?);
         let mut log = ImpactLog::new(sys.walls.len());
         log.start(&sys.walls, &cur.walls, 0.0);
         let account = Account::default();
         let mut out = Recorder::new(sys, record_dofs, n_rec);
+        for (m, &d) in out.max_abs.iter_mut().zip(&out.dofs) {
+            *m = cur.x[d].abs();
+        }
         out.record(sys, &cur, &account);
         let e0 = mechanical_energy(sys, &cur);
         Ok(Self {
@@ -293,7 +298,12 @@ impl<'o> Run<'o> {
         self.stats.newton_iterations += iterations;
         self.stats.steps += 1;
         let trial = &self.trial;
-        if trial.x.iter().chain(trial.v.iter()).any(|v| !v.is_finite()) {
+        if !trial
+            .x
+            .iter()
+            .zip(&trial.v)
+            .all(|(x, v)| x.is_finite() && v.is_finite())
+        {
             return Err(SimError::Diverged {
                 t: trial.t,
                 gap: busiest_gap(sys, &self.cur),
@@ -519,6 +529,11 @@ fn busiest_gap(sys: &System, s: &State) -> Option<usize> {
 /// Decimated output buffers, handed to the sink (if any) every `chunk` rows.
 pub(crate) struct Recorder<'o> {
     dofs: Vec<usize>,
+    /// The walls of each gap (adjacent in `System::walls`), one column each.
+    gap_walls: Vec<std::ops::Range<usize>>,
+    /// The kinetic and strain energies' forms (mass and stiffness).
+    kinetic: EnergyForm,
+    strain: EnergyForm,
     rows: Rows,
     max_abs: Vec<f64>,
     /// Time of the last recorded row (NaN before the first), s.
@@ -534,7 +549,17 @@ impl Recorder<'_> {
     }
 
     fn new(sys: &System, dofs: Vec<usize>, n_rec: usize) -> Self {
+        let mut gap_walls: Vec<std::ops::Range<usize>> = Vec::with_capacity(sys.n_gaps);
+        for (j, wall) in sys.walls.iter().enumerate() {
+            match gap_walls.last_mut() {
+                Some(r) if sys.walls[r.start].gap == wall.gap => r.end = j + 1,
+                _ => gap_walls.push(j..j + 1),
+            }
+        }
         Self {
+            gap_walls,
+            kinetic: EnergyForm::new(&sys.structure.mass),
+            strain: EnergyForm::new(&sys.structure.stiffness),
             rows: Rows::with_capacity(n_rec, dofs.len(), sys.n_gaps),
             max_abs: vec![0.0; dofs.len()],
             dofs,
@@ -556,9 +581,7 @@ impl Recorder<'_> {
         let rows = &mut self.rows;
         rows.time.push(s.t);
         self.last_time = s.t;
-        for (m, &d) in self.max_abs.iter_mut().zip(&self.dofs) {
-            *m = m.max(s.x[d].abs());
-        }
+        // (the peaks are kept by the commits, Run::commit and Run::jumped)
         for &d in &self.dofs {
             rows.displacement.push(s.x[d]);
             rows.velocity.push(s.v[d]);
@@ -566,11 +589,10 @@ impl Recorder<'_> {
         }
         // Walls of one gap are adjacent: one column per gap (deepest wall, summed force).
         let mut potential = 0.0;
-        let mut walls = sys.walls.iter().zip(&s.walls).peekable();
-        while let Some((wall, ws)) = walls.next() {
-            let (mut pen, mut force) = (ws.penetration, ws.force);
-            potential += ws.potential;
-            while let Some((_, other)) = walls.next_if(|(w, _)| w.gap == wall.gap) {
+        for walls in self.gap_walls.iter().map(|r| &s.walls[r.clone()]) {
+            let (mut pen, mut force) = (walls[0].penetration, walls[0].force);
+            potential += walls[0].potential;
+            for other in &walls[1..] {
                 pen = pen.max(other.penetration);
                 force += other.force;
                 potential += other.potential;
@@ -578,8 +600,8 @@ impl Recorder<'_> {
             rows.gap_penetration.push(pen);
             rows.gap_force.push(force);
         }
-        let kinetic = sys.structure.mass.quadratic_form(&s.v);
-        let strain = sys.structure.stiffness.quadratic_form(&s.x);
+        let kinetic = self.kinetic.value(&sys.structure.mass, &s.v);
+        let strain = self.strain.value(&sys.structure.stiffness, &s.x);
         let e = &mut rows.energy;
         e.kinetic.push(kinetic);
         e.strain.push(strain);
@@ -587,5 +609,82 @@ impl Recorder<'_> {
         e.external_work.push(account.external_work);
         e.damping_dissipated.push(account.damping_dissipated);
         e.contact_dissipated.push(account.contact_dissipated);
+    }
+}
+
+/// `½ yᵀ A y` of a structure matrix for every recorded row: by its diagonal when it has no
+/// other entries (lumped masses, grounded springs, the 1-DOF models), without the sparse
+/// form's setup per call, and with the same sums as [`Csr::quadratic_form`] (so the same
+/// values); by the sparse form otherwise.
+enum EnergyForm {
+    Diagonal(Vec<f64>),
+    Sparse,
+}
+
+impl EnergyForm {
+    fn new(a: &Csr) -> Self {
+        let (row_start, cols, vals) = a.parts();
+        let mut diagonal = vec![0.0; a.n()];
+        for (i, d) in diagonal.iter_mut().enumerate() {
+            match &cols[row_start[i]..row_start[i + 1]] {
+                [] => {}
+                [j] if *j == i => *d = vals[row_start[i]],
+                _ => return Self::Sparse,
+            }
+        }
+        Self::Diagonal(diagonal)
+    }
+
+    #[inline]
+    fn value(&self, a: &Csr, y: &[f64]) -> f64 {
+        match self {
+            // Csr::quadratic_form's row sum of one term is `0.0 + A_ii y_i`
+            Self::Diagonal(d) => {
+                0.5 * y
+                    .iter()
+                    .zip(d)
+                    .map(|(yi, di)| yi * (0.0 + di * yi))
+                    .sum::<f64>()
+            }
+            Self::Sparse => a.quadratic_form(y),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::DMatrix;
+
+    use super::*;
+
+    /// The recorder's diagonal form gives `Csr::quadratic_form`'s values (the same sums) for
+    /// diagonal matrices with empty rows and negative entries; any off-diagonal entry makes
+    /// the form the sparse one.
+    #[test]
+    fn diagonal_energy_form_equals_the_sparse_form() {
+        let y = [0.3, -1.7, 0.0, 2.5e-3, -4.0e5];
+        for diagonal in [
+            vec![100.0, 0.0, 3.0, 1e-9, 7.5],
+            vec![0.0; 5],
+            vec![-2.0, 1.0, 1.0, 0.0, 1e11],
+        ] {
+            let a = Csr::from_dense(&DMatrix::from_diagonal(&diagonal.clone().into()));
+            let form = EnergyForm::new(&a);
+            assert!(matches!(form, EnergyForm::Diagonal(_)));
+            for k in 1..=y.len() {
+                let sub = Csr::from_dense(&DMatrix::from_fn(k, k, |i, j| {
+                    if i == j {
+                        diagonal[i]
+                    } else {
+                        0.0
+                    }
+                }));
+                let got = EnergyForm::new(&sub).value(&sub, &y[..k]);
+                assert_eq!(got, sub.quadratic_form(&y[..k]), "{diagonal:?} {k}");
+            }
+            assert_eq!(form.value(&a, &y), a.quadratic_form(&y));
+        }
+        let coupled = Csr::from_dense(&DMatrix::from_row_slice(2, 2, &[2.0, -1.0, -1.0, 2.0]));
+        assert!(matches!(EnergyForm::new(&coupled), EnergyForm::Sparse));
     }
 }

@@ -335,8 +335,8 @@ impl<'s> AdaptiveSteps<'s> {
             just_closed: vec![false; sys.walls.len()],
             peak_pending: vec![false; sys.walls.len()],
             v_max: run.cur.v.iter().map(|v| v.abs()).collect(),
-            mid: run.cur.clone(),
-            fine: run.cur.clone(),
+            mid: State::clone(&run.cur),
+            fine: State::clone(&run.cur),
             scratch: Scratch::new(sys),
         }
     }
@@ -482,7 +482,7 @@ impl StepPolicy for AdaptiveSteps<'_> {
                 }
                 solves = 3;
                 // an event the half steps see inside them (not at their ends)
-                let event = [(&run.cur, &self.mid, 0.0), (&self.mid, &self.fine, half)]
+                let event = [(&*run.cur, &self.mid, 0.0), (&self.mid, &self.fine, half)]
                     .into_iter()
                     .filter_map(|(a, b, offset)| {
                         let crossing =

@@ -572,7 +572,7 @@ impl Stepper for NewmarkStepper {
         match &op.predictor {
             Predictor::Dense { operators, loads } => {
                 for (operator, input) in operators.iter().zip(inputs) {
-                    (self.mat_vec.sub)(operator, input, d);
+                    self.mat_vec.apply(operator, input, d);
                 }
                 for (l, col) in loads.iter().enumerate() {
                     let coef = s1.load[l] + c_f * s0.load[l];
