@@ -8,7 +8,8 @@
 //! `integrators::newmark_variational`) carry `Φ` from the run's start; the first two compose
 //! it, at every located event where the vector field or the state jumps, with the saltation
 //! matrix ([`saltation`]; DOP853 to first order: it differentiates the landing condition of
-//! the step that ends on the switch, `integrators::dop853_variational`). [`crate::simulate::simulate_with_sensitivity`] returns
+//! the step that ends on the switch — a wall's onset or end, a force's release inside the wall
+//! — `integrators::dop853_variational`). [`crate::simulate::simulate_with_sensitivity`] returns
 //! it in [`crate::output::RunOutput::state_transition`].
 //!
 //! Asked for a model [`Parameter`] too (a load's amplitude, frequency or phase, a gap's
@@ -310,30 +311,7 @@ pub(crate) fn check_supported(
             method.name()
         ));
     }
-    if let Some((i, g)) = sys
-        .gaps
-        .iter()
-        .enumerate()
-        .find(|(_, g)| !newmark && releases_inside(&g.law))
-    {
-        return invalid(format!(
-            "gaps[{i}].law: '{}' has no state-transition matrix with DOP853 yet (its force is \
-             clamped to zero inside the wall, a kink whose landing is not differentiated: \
-             multipliers off by ~1e-2); expected another compliant law, or a Newmark-family \
-             method (fixed steps)",
-            g.law.name()
-        ));
-    }
     Ok(())
-}
-
-/// Kelvin–Voigt's force `k δ + c δ̇` turns tensile before the wall opens and is clamped there:
-/// DOP853 lands on that release with a step whose length depends on the initial state, which
-/// (unlike a wall's onset and end, `integrators::dop853_variational`) is not differentiated.
-/// Measured against central differences of the map (the 1-DOF oscillator, `k = 1e4`,
-/// `c = 20`): 1.2e-2 at `rtol = 1e-12`, 4e-2 at `1e-10` (with `c = 1e-9`: 4e-9).
-fn releases_inside(law: &crate::contact::Law) -> bool {
-    matches!(law, crate::contact::Law::KelvinVoigt(_))
 }
 
 #[cfg(test)]
