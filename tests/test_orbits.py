@@ -5,6 +5,7 @@ orbit attracting a perturbed state in simulation, and the one-line errors."""
 
 from __future__ import annotations
 
+import itertools
 import json
 import math
 
@@ -14,7 +15,9 @@ import scipy.linalg
 import scipy.optimize
 import vibroimpact as vi
 import xarray as xr
+from vibroimpact.benchmarks.continuation import SHAFT_DT, shaft_on_sliders
 from vibroimpact.cli import main
+from vibroimpact.fe.reduction import reduce_model
 from vibroimpact.orbits import Shooting, forcing_period
 
 ZETA, W, D, R = 0.05, 1.1, 0.5, 0.8
@@ -407,3 +410,22 @@ def test_cli_orbit_refuses_a_model_without_a_periodic_load(tmp_path, capsys) -> 
     assert err == ["vibroimpact: error: loads: no harmonic load with a frequency > 0; expected "
                    "one (its period is the section of the periodic orbit)"]
     assert not out.exists()
+
+
+def test_reduced_basis_multipliers_converge_to_the_full_ones() -> None:
+    """A large structure's monodromy in a reduced basis: the shaft on its sliders (18 DOFs,
+    where the full state-transition matrix is allowed) reduced by Craig–Bampton to its slider
+    DOFs plus 0, 2, 4, 8 fixed-interface modes; the reduced orbit's leading multipliers (the
+    two least damped pairs) tend to the full model's as modes are added."""
+    model = shaft_on_sliders(8)
+    assert model.n_dof == 18
+    full = vi.periodic_orbit(model, transient=60, method=vi.Newmark(), dt=SHAFT_DT)
+    errors = []
+    for modes in (0, 2, 4, 8):
+        reduced, _cb = reduce_model(model, modes)
+        assert reduced.n_dof == 3 + modes
+        orbit = vi.periodic_orbit(reduced, transient=60, method=vi.Newmark(), dt=SHAFT_DT)
+        assert len(orbit.impacts) == len(full.impacts)
+        errors.append(float(np.max(np.abs(orbit.multipliers[:4] - full.multipliers[:4]))))
+    assert all(b < 0.5 * a for a, b in itertools.pairwise(errors)), errors
+    assert errors[0] > 1e-4 and errors[-1] < 2e-6, errors
