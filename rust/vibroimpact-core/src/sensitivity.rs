@@ -60,14 +60,20 @@ impl StateTransition {
 
     /// `Φ ← S Φ` for the saltation matrix `S` of an event ([`saltation`]) given as the rank-one
     /// update `S = R + u ∇hᵀ` with `R` the jump map's Jacobian (`None`: the state does not
-    /// jump, `R = I`), `u = (f⁺ − R f⁻)/(∇hᵀ f⁻)`.
+    /// jump, `R = I`), `u = (f⁺ − R f⁻)/(∇hᵀ f⁻)`; the parameter's column (if carried) takes
+    /// the switching function's own `∂h/∂p` too: `∂z⁺/∂p = R ∂z⁻/∂p + u (∇hᵀ ∂z⁻/∂p + ∂h/∂p)`.
     pub fn compose_event(
         &mut self,
         jump: Option<&DMatrix<f64>>,
         u: &DVector<f64>,
         grad_h: &DVector<f64>,
+        dh_dp: f64,
     ) {
-        let row = grad_h.transpose() * &self.matrix;
+        let mut row = grad_h.transpose() * &self.matrix;
+        let m = self.matrix.nrows();
+        if self.matrix.ncols() > m {
+            row[m] += dh_dp;
+        }
         if let Some(r) = jump {
             self.matrix = r * &self.matrix;
         }
@@ -230,21 +236,29 @@ impl Parameter {
     }
 }
 
-/// Whether `method` carries a [`Parameter`]'s column: DOP853 and the Newmark family.
-pub fn carries_parameter(method: Method) -> bool {
-    matches!(method, Method::Dop853) || method.newmark_family().is_some()
+/// Whether `method` carries `parameter`'s column: DOP853 and the Newmark family every
+/// [`Parameter`], the event-driven method a gap's clearance (its flights do not depend on it;
+/// its impacts' saltation takes `∂δ/∂p`).
+pub fn carries_parameter(method: Method, parameter: Parameter) -> bool {
+    match method {
+        Method::Dop853 => true,
+        Method::EventDriven(_) => matches!(parameter, Parameter::Clearance(_)),
+        _ => method.newmark_family().is_some(),
+    }
 }
 
 /// The parameter at `path` whose column `method` carries in `sys`, or why it does not (then
 /// the caller differentiates the map another way, e.g. by central differences).
 pub fn parameter_for(sys: &System, method: Method, path: &str) -> Result<Parameter, String> {
-    if !carries_parameter(method) {
+    let parameter = Parameter::of_path(sys, path)?;
+    if !carries_parameter(method, parameter) {
         return Err(format!(
-            "method '{}' does not carry a parameter's column (DOP853 and the Newmark family do)",
+            "method '{}' does not carry the column of '{path}' (DOP853 and the Newmark family \
+             carry every one with a column, the event-driven method a gap's clearance)",
             method.name()
         ));
     }
-    Parameter::of_path(sys, path)
+    Ok(parameter)
 }
 
 /// Refuses a run whose state-transition matrix the `method` (with adaptive steps if

@@ -321,3 +321,58 @@ fn dop853_kelvin_voigt_map_converges_with_the_tolerance() {
         );
     }
 }
+
+/// The event-driven method's column of the stop's clearance (its flights do not depend on it,
+/// its impacts' saltation takes `∂δ/∂d = −1`) equals the central differences of the simulated
+/// map over a period with two impacts of a rigid stop; a load's column is refused.
+#[test]
+fn event_driven_clearance_column_matches_finite_differences() {
+    let method = Method::EventDriven(EventDriven::default());
+    let law = Law::Rigid(Rigid::new(0.8).unwrap());
+    let z = [0.2, 1.0];
+    let (x0, v0) = (
+        DVector::from_element(1, z[0]),
+        DVector::from_element(1, z[1]),
+    );
+    let sys = with_clearance(law.clone(), 0.5);
+    let parameter = Parameter::of_path(&sys, "gaps.0.clearance").unwrap();
+    let run = |parameter| {
+        simulate_with_sensitivity(
+            &sys,
+            method,
+            &settings(method),
+            x0.clone(),
+            v0.clone(),
+            parameter,
+            None,
+        )
+    };
+    let out = run(Some(parameter)).unwrap();
+    assert_eq!(out.impacts.len(), 2, "{:?}", out.impacts);
+    let column = out.state_transition.unwrap().parameter_column().unwrap();
+    let h = 1e-6;
+    let at = |d: f64| {
+        end_state(
+            &with_clearance(law.clone(), d),
+            method,
+            &settings(method),
+            z,
+        )
+    };
+    let (up, down) = (at(0.5 + h), at(0.5 - h));
+    for i in 0..2 {
+        let fd = (up[i] - down[i]) / (2.0 * h);
+        assert!(
+            (fd - column[i]).abs() <= 1e-6 * column.amax().max(1.0),
+            "∂P/∂d[{i}] = {}, FD {fd}",
+            column[i]
+        );
+    }
+    assert!(column.amax() > 0.1, "{column}");
+    let amplitude = Parameter::of_path(&sys, "loads.0.amplitude").unwrap();
+    let err = run(Some(amplitude)).unwrap_err().to_string();
+    assert!(
+        err.starts_with("solver.method: 'event-driven' does not carry the column"),
+        "{err}"
+    );
+}
