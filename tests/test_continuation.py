@@ -109,6 +109,22 @@ def test_core_parameter_column_equals_the_difference_of_the_map(path: str,
     assert "'gaps.0.law.stiffness' has no exact column" in other["parameter_column_note"]
 
 
+
+def test_event_driven_clearance_column_equals_the_difference_of_the_map() -> None:
+    """The event-driven method carries a clearance's column (the impacts' saltation with
+    ``∂δ/∂d = −1``): the central difference of its map; a load's it does not."""
+    model = oscillator(vi.contact.Rigid(restitution=R), 1.1, 0.5)
+    orbit = vi.periodic_orbit(model, transient=30)
+    raw = orbit.shooting.at("gaps.0.clearance", 0.5).flow(orbit.state)[2]
+    assert raw["parameter_column_note"] == ""
+    fd = parameter_column(orbit.shooting, orbit.state, "gaps.0.clearance", 0.5, 0.5)
+    assert np.max(np.abs(raw["parameter_column"] - fd)) < 1e-6 * np.max(np.abs(fd))
+    assert np.max(np.abs(fd)) > 0.1
+    load = orbit.shooting.at("loads.0.amplitude", 1.0).flow(orbit.state)[2]
+    assert load["parameter_column"] is None
+    assert load["parameter_column_note"].startswith(
+        "method 'event-driven' does not carry the column of 'loads.0.amplitude'")
+
 def test_fold_of_a_hertz_stop_branch() -> None:
     model = oscillator(vi.contact.Hertz(stiffness=10.0, exponent=1.5), 0.8, 0.5)
     branch = vi.continue_orbit(model, FREQUENCY, 0.8 / (2 * np.pi), 2.5 / (2 * np.pi),

@@ -8,7 +8,8 @@
 //! `integrators::newmark_variational`) carry `Φ` from the run's start; the first two compose
 //! it, at every located event where the vector field or the state jumps, with the saltation
 //! matrix ([`saltation`]; DOP853 to first order: it differentiates the landing condition of
-//! the step that ends on the switch, `integrators::dop853_variational`). [`crate::simulate::simulate_with_sensitivity`] returns
+//! the step that ends on the switch — a wall's onset or end, a force's release inside the wall
+//! — `integrators::dop853_variational`). [`crate::simulate::simulate_with_sensitivity`] returns
 //! it in [`crate::output::RunOutput::state_transition`].
 //!
 //! Asked for a model [`Parameter`] too (a load's amplitude, frequency or phase, a gap's
@@ -59,14 +60,20 @@ impl StateTransition {
 
     /// `Φ ← S Φ` for the saltation matrix `S` of an event ([`saltation`]) given as the rank-one
     /// update `S = R + u ∇hᵀ` with `R` the jump map's Jacobian (`None`: the state does not
-    /// jump, `R = I`), `u = (f⁺ − R f⁻)/(∇hᵀ f⁻)`.
+    /// jump, `R = I`), `u = (f⁺ − R f⁻)/(∇hᵀ f⁻)`; the parameter's column (if carried) takes
+    /// the switching function's own `∂h/∂p` too: `∂z⁺/∂p = R ∂z⁻/∂p + u (∇hᵀ ∂z⁻/∂p + ∂h/∂p)`.
     pub fn compose_event(
         &mut self,
         jump: Option<&DMatrix<f64>>,
         u: &DVector<f64>,
         grad_h: &DVector<f64>,
+        dh_dp: f64,
     ) {
-        let row = grad_h.transpose() * &self.matrix;
+        let mut row = grad_h.transpose() * &self.matrix;
+        let m = self.matrix.nrows();
+        if self.matrix.ncols() > m {
+            row[m] += dh_dp;
+        }
         if let Some(r) = jump {
             self.matrix = r * &self.matrix;
         }
@@ -229,21 +236,29 @@ impl Parameter {
     }
 }
 
-/// Whether `method` carries a [`Parameter`]'s column: DOP853 and the Newmark family.
-pub fn carries_parameter(method: Method) -> bool {
-    matches!(method, Method::Dop853) || method.newmark_family().is_some()
+/// Whether `method` carries `parameter`'s column: DOP853 and the Newmark family every
+/// [`Parameter`], the event-driven method a gap's clearance (its flights do not depend on it;
+/// its impacts' saltation takes `∂δ/∂p`).
+pub fn carries_parameter(method: Method, parameter: Parameter) -> bool {
+    match method {
+        Method::Dop853 => true,
+        Method::EventDriven(_) => matches!(parameter, Parameter::Clearance(_)),
+        _ => method.newmark_family().is_some(),
+    }
 }
 
 /// The parameter at `path` whose column `method` carries in `sys`, or why it does not (then
 /// the caller differentiates the map another way, e.g. by central differences).
 pub fn parameter_for(sys: &System, method: Method, path: &str) -> Result<Parameter, String> {
-    if !carries_parameter(method) {
+    let parameter = Parameter::of_path(sys, path)?;
+    if !carries_parameter(method, parameter) {
         return Err(format!(
-            "method '{}' does not carry a parameter's column (DOP853 and the Newmark family do)",
+            "method '{}' does not carry the column of '{path}' (DOP853 and the Newmark family \
+             carry every one with a column, the event-driven method a gap's clearance)",
             method.name()
         ));
     }
-    Parameter::of_path(sys, path)
+    Ok(parameter)
 }
 
 /// Refuses a run whose state-transition matrix the `method` (with adaptive steps if
@@ -312,30 +327,7 @@ pub(crate) fn check_supported(
             method.name()
         ));
     }
-    if let Some((i, g)) = sys
-        .gaps
-        .iter()
-        .enumerate()
-        .find(|(_, g)| !newmark && releases_inside(&g.law))
-    {
-        return invalid(format!(
-            "gaps[{i}].law: '{}' has no state-transition matrix with DOP853 yet (its force is \
-             clamped to zero inside the wall, a kink whose landing is not differentiated: \
-             multipliers off by ~1e-2); expected another compliant law, or a Newmark-family \
-             method (fixed steps)",
-            g.law.name()
-        ));
-    }
     Ok(())
-}
-
-/// Kelvin–Voigt's force `k δ + c δ̇` turns tensile before the wall opens and is clamped there:
-/// DOP853 lands on that release with a step whose length depends on the initial state, which
-/// (unlike a wall's onset and end, `integrators::dop853_variational`) is not differentiated.
-/// Measured against central differences of the map (the 1-DOF oscillator, `k = 1e4`,
-/// `c = 20`): 1.2e-2 at `rtol = 1e-12`, 4e-2 at `1e-10` (with `c = 1e-9`: 4e-9).
-fn releases_inside(law: &crate::contact::Law) -> bool {
-    matches!(law, crate::contact::Law::KelvinVoigt(_))
 }
 
 #[cfg(test)]

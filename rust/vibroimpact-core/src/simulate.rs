@@ -55,7 +55,8 @@ pub fn simulate_observed(
 /// along (`RunOutput::state_transition`; `crate::sensitivity`): DOP853, the event-driven
 /// method and the Newmark family at fixed steps, refused before the run for the others
 /// (`sensitivity::check_supported`); with `parameter`, its column `∂z(t_end)/∂p` beside it
-/// (DOP853 and the Newmark family: `sensitivity::parameter_for`).
+/// (DOP853 and the Newmark family; the event-driven method for a clearance:
+/// `sensitivity::parameter_for`).
 pub fn simulate_with_sensitivity(
     sys: &System,
     method: Method,
@@ -66,10 +67,10 @@ pub fn simulate_with_sensitivity(
     observer: Option<&mut dyn StepObserver>,
 ) -> Result<RunOutput, SimError> {
     crate::sensitivity::check_supported(sys, method, settings.adaptive.is_some())?;
-    if parameter.is_some() && !crate::sensitivity::carries_parameter(method) {
+    if let Some(p) = parameter.filter(|&p| !crate::sensitivity::carries_parameter(method, p)) {
         return invalid(format!(
-            "solver.method: '{}' does not carry a parameter's column; expected 'dop853' or the \
-             Newmark family",
+            "solver.method: '{}' does not carry the column of {p:?}; expected 'dop853' or the \
+             Newmark family (or 'event-driven' for a gap's clearance)",
             method.name()
         ));
     }

@@ -1,11 +1,13 @@
 //! The state-transition matrix of a run (`simulate_with_sensitivity`) against central
 //! differences of the simulated map, over one forcing period of a forced oscillator that hits
 //! its stop: DOP853 with Hertz and Lankarani–Nikravesh (its force depends on the approach
-//! speed), the event-driven method with a rigid stop (restitution: velocity jump and
-//! saltation). Not yet Kelvin–Voigt: see docs/periodic-orbits.md, "Limits".
+//! speed), laws stiff at first touch (a linear spring, exponent-1 Hunt–Crossley) and
+//! Kelvin–Voigt (its force jumps at the onset and is clamped before the wall opens: the
+//! saltation at both switches), the event-driven method with a rigid stop (restitution:
+//! velocity jump and saltation).
 
 use nalgebra::{DMatrix, DVector};
-use vibroimpact_core::contact::{Hertz, Hysteretic, Law, Rigid};
+use vibroimpact_core::contact::{Hertz, Hysteretic, KelvinVoigt, Law, Rigid};
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::impulsive::EventDriven;
 use vibroimpact_core::integrators::NewtonSettings;
@@ -66,11 +68,16 @@ fn settings(method: Method) -> RunSettings {
 
 /// The state at the end of the period from `z`.
 fn map(sys: &System, method: Method, z: [f64; 2]) -> [f64; 2] {
+    end_state(sys, method, &settings(method), z)
+}
+
+/// The state at the end of the run `settings` from `z`.
+fn end_state(sys: &System, method: Method, settings: &RunSettings, z: [f64; 2]) -> [f64; 2] {
     let (x0, v0) = (
         DVector::from_element(1, z[0]),
         DVector::from_element(1, z[1]),
     );
-    let out = simulate(sys, method, &settings(method), x0, v0).unwrap();
+    let out = simulate(sys, method, settings, x0, v0).unwrap();
     assert!(out.error.is_none(), "{:?}", out.error);
     let rows = &out.rows;
     [
@@ -129,6 +136,25 @@ fn check(law: Law, method: Method, impacts_expected: usize) {
 #[test]
 fn dop853_hertz_stop_matches_finite_differences() {
     check(Law::Hertz(Hertz::new(1e4, 1.5).unwrap()), Method::Dop853, 2);
+}
+
+/// Stiff at first touch: the force's slope jumps at the wall.
+#[test]
+fn dop853_linear_spring_and_exponent_one_stops_match_finite_differences() {
+    check(Law::Hertz(Hertz::new(1e4, 1.0).unwrap()), Method::Dop853, 2);
+    let law = Hysteretic::new("hunt-crossley", 1e4, 1.0, 0.5).unwrap();
+    check(Law::Hysteretic(law), Method::Dop853, 2);
+}
+
+/// Kelvin–Voigt: the force `c δ̇` jumps at the onset (the saltation `S ≠ I`) and is clamped
+/// before the wall opens (its switching function is the force there), with a large and a
+/// vanishing dashpot.
+#[test]
+fn dop853_kelvin_voigt_stop_matches_finite_differences() {
+    for damping in [20.0, 1e-9] {
+        let law = Law::KelvinVoigt(KelvinVoigt::new(1e4, damping).unwrap());
+        check(law, Method::Dop853, 2);
+    }
 }
 
 #[test]
@@ -210,12 +236,13 @@ fn varied(law: &Law, path: &str, value: f64) -> (System, RunSettings) {
 
 /// DOP853's column `∂P/∂p` of a load's amplitude, frequency (the map over its forcing period)
 /// and phase and of the stop's clearance equals the central differences of the simulated map,
-/// over a period with two contacts of a Hertz and a Lankarani–Nikravesh stop.
+/// over a period with two contacts of a Hertz, a Lankarani–Nikravesh and a Kelvin–Voigt stop.
 #[test]
 fn dop853_parameter_columns_match_finite_differences() {
     let laws = [
         Law::Hertz(Hertz::new(1e4, 1.5).unwrap()),
         Law::Hysteretic(Hysteretic::new("lankarani-nikravesh", 1e4, 1.5, 0.7).unwrap()),
+        Law::KelvinVoigt(KelvinVoigt::new(1e4, 20.0).unwrap()),
     ];
     let z = [0.2, 1.0];
     let f0 = 0.8 / (2.0 * std::f64::consts::PI);
@@ -225,18 +252,7 @@ fn dop853_parameter_columns_match_finite_differences() {
         ("loads.0.phase", std::f64::consts::FRAC_PI_2),
         ("gaps.0.clearance", 0.5),
     ];
-    let end = |sys: &System, settings: &RunSettings| -> [f64; 2] {
-        let (x0, v0) = (
-            DVector::from_element(1, z[0]),
-            DVector::from_element(1, z[1]),
-        );
-        let out = simulate(sys, Method::Dop853, settings, x0, v0).unwrap();
-        assert!(out.error.is_none(), "{:?}", out.error);
-        [
-            *out.rows.displacement.last().unwrap(),
-            *out.rows.velocity.last().unwrap(),
-        ]
-    };
+    let end = |sys: &System, settings: &RunSettings| end_state(sys, Method::Dop853, settings, z);
     for law in &laws {
         for (path, p) in nominal {
             let (sys, settings) = varied(law, path, p);
@@ -282,4 +298,81 @@ fn dop853_parameter_columns_match_finite_differences() {
             );
         }
     }
+}
+
+/// A force that jumps at its wall's onset (Kelvin–Voigt's `c δ̇`) acts from the onset on: the
+/// plain run lands on it to round-off, so its map converges with the tolerance (switched up
+/// to `1e-5` of a step early, it was 5.6e-7 off in the velocity at `rtol = 1e-11`).
+#[test]
+fn dop853_kelvin_voigt_map_converges_with_the_tolerance() {
+    let sys = oscillator(Law::KelvinVoigt(KelvinVoigt::new(1e4, 20.0).unwrap()));
+    let at = |rtol: f64| {
+        let mut settings = settings(Method::Dop853);
+        settings.adaptive.as_mut().unwrap().rtol = rtol;
+        end_state(&sys, Method::Dop853, &settings, [0.2, 1.0])
+    };
+    let reference = at(1e-13);
+    for rtol in [1e-10, 1e-11, 1e-12] {
+        let z = at(rtol);
+        let error = (z[0] - reference[0]).abs().max((z[1] - reference[1]).abs());
+        assert!(
+            error < 100.0 * rtol,
+            "rtol {rtol:e}: {error:e} off the map at 1e-13"
+        );
+    }
+}
+
+/// The event-driven method's column of the stop's clearance (its flights do not depend on it,
+/// its impacts' saltation takes `∂δ/∂d = −1`) equals the central differences of the simulated
+/// map over a period with two impacts of a rigid stop; a load's column is refused.
+#[test]
+fn event_driven_clearance_column_matches_finite_differences() {
+    let method = Method::EventDriven(EventDriven::default());
+    let law = Law::Rigid(Rigid::new(0.8).unwrap());
+    let z = [0.2, 1.0];
+    let (x0, v0) = (
+        DVector::from_element(1, z[0]),
+        DVector::from_element(1, z[1]),
+    );
+    let sys = with_clearance(law.clone(), 0.5);
+    let parameter = Parameter::of_path(&sys, "gaps.0.clearance").unwrap();
+    let run = |parameter| {
+        simulate_with_sensitivity(
+            &sys,
+            method,
+            &settings(method),
+            x0.clone(),
+            v0.clone(),
+            parameter,
+            None,
+        )
+    };
+    let out = run(Some(parameter)).unwrap();
+    assert_eq!(out.impacts.len(), 2, "{:?}", out.impacts);
+    let column = out.state_transition.unwrap().parameter_column().unwrap();
+    let h = 1e-6;
+    let at = |d: f64| {
+        end_state(
+            &with_clearance(law.clone(), d),
+            method,
+            &settings(method),
+            z,
+        )
+    };
+    let (up, down) = (at(0.5 + h), at(0.5 - h));
+    for i in 0..2 {
+        let fd = (up[i] - down[i]) / (2.0 * h);
+        assert!(
+            (fd - column[i]).abs() <= 1e-6 * column.amax().max(1.0),
+            "∂P/∂d[{i}] = {}, FD {fd}",
+            column[i]
+        );
+    }
+    assert!(column.amax() > 0.1, "{column}");
+    let amplitude = Parameter::of_path(&sys, "loads.0.amplitude").unwrap();
+    let err = run(Some(amplitude)).unwrap_err().to_string();
+    assert!(
+        err.starts_with("solver.method: 'event-driven' does not carry the column"),
+        "{err}"
+    );
 }

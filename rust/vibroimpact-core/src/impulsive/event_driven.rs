@@ -876,8 +876,10 @@ pub(crate) struct EventDrivenSteps<'s> {
     k: usize,
     /// The state-transition matrix, when the run asks for it (`Run::wants_sensitivity`):
     /// `exp(A h)` of every flight (exact for the linear structure) and the saltation matrix
-    /// of every impact.
+    /// of every impact; with a clearance's column (`Run::sensitivity_parameter`), each wall's
+    /// `∂δ/∂p` for its impacts.
     transition: Option<StateTransition>,
+    clearance_derivative: Vec<f64>,
 }
 
 impl<'s> EventDrivenSteps<'s> {
@@ -928,9 +930,13 @@ impl<'s> EventDrivenSteps<'s> {
         };
         d.select();
         let p = d.point(0.0, x0, v0);
+        let parameter = run.sensitivity_parameter;
         let transition = run
             .wants_sensitivity
-            .then(|| StateTransition::identity(d.rig.n));
+            .then(|| StateTransition::start(d.rig.n, parameter.is_some()));
+        let clearance_derivative = (0..nw)
+            .map(|j| parameter.map_or(0.0, |p| p.penetration_derivative(sys, j)))
+            .collect();
         let mut policy = Self {
             d,
             p,
@@ -938,6 +944,7 @@ impl<'s> EventDrivenSteps<'s> {
             n_steps,
             k: 0,
             transition,
+            clearance_derivative,
         };
         policy.resolve(run, None, false);
         Ok(policy)
@@ -1019,7 +1026,7 @@ impl<'s> EventDrivenSteps<'s> {
             return unsupported("an impact at zero speed (grazing)");
         };
         let transition = self.transition.as_mut().expect("checked");
-        transition.compose_event(Some(&jump), &u, &grad);
+        transition.compose_event(Some(&jump), &u, &grad, self.clearance_derivative[j]);
         Ok(())
     }
 }

@@ -6,17 +6,21 @@
 //! the approach speed `v_imp` (fixed at the contact's onset) adds `∂F/∂v_imp · ∂v_imp/∂z₀`,
 //! the latter taken at the onset through the located switch.
 //!
-//! The step landed on a wall's switch (its contact's onset or end, `δ(z(t_s)) = 0`) ends at a
-//! time that depends on the initial state: `dt_s/dz₀ = −∇δᵀΦ/(∇δᵀf⁻)` with `f⁻` the vector
-//! field before the switch. [`Variational::switch`] keeps that row and moves `Φ` along `f⁻`
-//! onto the wall (`Φ ← Φ + f⁻ dt_s/dz₀`, so that `∇δᵀΦ = 0`); the step after it then starts on
-//! the wall at the perturbed time under the post-switch law (its stages carry `∂f/∂t · dt_s`,
-//! the loads' rate), and its end is brought back to the fixed time (`Φ ← Φ − f dt_s/dz₀`).
-//! To first order this is the saltation matrix `S = I + (f⁺ − f⁻) ∇δᵀ / δ̇` at the switch
-//! (Kelvin–Voigt's force jump `c δ̇` included), but no stage differentiates across the wall:
-//! the first stage after it sits on the wall with `∇δᵀ dY = 0`, where a linear spring's or
-//! Kelvin–Voigt's slope jumps and a power law's of exponent < 1 is infinite, none of which
-//! then enters (docs/periodic-orbits.md).
+//! The step landed on a wall's switch `h(z(t_s)) = 0` ends at a time that depends on the
+//! initial state: `dt_s/dz₀ = −∇hᵀΦ/(∇hᵀf⁻)` with `f⁻` the vector field before the switch. The
+//! switching function `h` is the penetration `δ` at a contact's onset or end, and the law's
+//! force formula `F(δ, δ̇, v_imp)` where it falls to zero while the wall is still in and is
+//! clamped there (Kelvin–Voigt's `k δ + c δ̇` before `δ` reaches 0: its release,
+//! `dop853::release_walls`). [`Variational::switch`] keeps that row and moves `Φ` along `f⁻`
+//! onto the surface (`Φ ← Φ + f⁻ dt_s/dz₀`, so that `∇hᵀΦ = 0`); the step after it then starts
+//! there at the perturbed time under the post-switch law (its stages carry `∂f/∂t · dt_s`, the
+//! loads' rate), and its end is brought back to the fixed time (`Φ ← Φ − f dt_s/dz₀`). To first
+//! order this is the saltation matrix `S = I + (f⁺ − f⁻) ∇hᵀ / (∇hᵀ f⁻)` at the switch
+//! (Kelvin–Voigt's force jump `c δ̇` at the onset included; `S = I` at its release, where the
+//! force is continuous and only its slope jumps), and no stage differentiates across the
+//! surface: the first stage after it sits on it with `∇hᵀ dY = 0`, where a linear spring's or
+//! Kelvin–Voigt's slope jumps, none of which then enters; every other stage is on one side
+//! (docs/periodic-orbits.md).
 //!
 //! With a [`Parameter`], a last column `∂z/∂p` rides along: its stages carry the forcing
 //! `[0; M⁻¹(∂F_ext/∂p − Σ s b F_δ ∂δ/∂p)]`, its switches `∂δ/∂p` in `dt_s/dp`, and a load
@@ -282,10 +286,12 @@ impl Variational {
         bottom
     }
 
-    /// Moves `Φ` onto every wall that switched at `start` (the end of the step landed on it)
-    /// from the contact set `before` to `after`, keeping the switch time's derivative for the
-    /// next step (see the module doc) and that of each new contact's approach speed. A grazing
-    /// switch (`δ̇ = 0`) has no derivative and is passed over.
+    /// Moves `Φ` onto every wall's switching surface that `start` (the end of the step landed
+    /// on it) lies on, from the contact set `before` to `after`: the penetration `δ = 0` of a
+    /// contact's onset or end, the force `F(δ, δ̇, v_imp) = 0` of a release inside the wall
+    /// (Kelvin–Voigt's clamp); keeps the switch time's derivative for the next step (see the
+    /// module doc) and that of each new contact's approach speed. A grazing switch (the
+    /// switching function's rate zero) has no derivative and is passed over.
     pub(super) fn switch(
         &mut self,
         sys: &System,
@@ -295,24 +301,46 @@ impl Variational {
     ) {
         let n = self.n;
         for j in 0..after.len() {
-            if before[j].active == after[j].active {
+            let onset_or_end = before[j].active != after[j].active;
+            let release = after[j].released && !before[j].released;
+            if !(onset_or_end || release) {
                 continue;
             }
             let (row, rate, rate_row) = self.switch_gradient(sys, j, start);
             let row = &row;
-            self.impact_speed[j] = None;
+            // the switching function's slopes in δ, δ̇ and v_imp
+            let (h_delta, h_rate, h_speed) = if onset_or_end {
+                self.impact_speed[j] = None;
+                (1.0, 0.0, 0.0)
+            } else {
+                let [delta, rate, _] = start.walls[j];
+                let (_, f_delta, f_rate, f_speed) = formula_slopes(sys, j, &after[j], delta, rate);
+                (f_delta, f_rate, f_speed)
+            };
             // the landed step's end moves along d(end)/dh (≈ f⁻) with its length
             let Some(f_minus) = &self.rate_of_end else {
                 continue;
             };
-            let transversal = row.dot(&f_minus.rows(0, n));
+            // ∇δ = (row, 0) and ∇δ̇ = (rate_row, row): a radial wall's δ̇ turns with its normal
+            let turn = rate_row
+                .as_ref()
+                .map_or(0.0, |r| r.dot(&f_minus.rows(0, n)));
+            let transversal = h_delta * row.dot(&f_minus.rows(0, n))
+                + h_rate * (row.dot(&f_minus.rows(n, n)) + turn);
             if transversal == 0.0 || !transversal.is_finite() {
                 continue;
             }
-            // dt_s/dz₀ from δ(z(t_s)) = 0, and Φ of the state at the perturbed switch time
-            let mut along = row.transpose() * self.phi.matrix.rows(0, n);
+            // dt_s/dz₀ from h(z(t_s)) = 0, and Φ of the state at the perturbed switch time
+            let mut along = (row.transpose() * self.phi.matrix.rows(0, n)) * h_delta
+                + (row.transpose() * self.phi.matrix.rows(n, n)) * h_rate;
+            if let (Some(r), true) = (&rate_row, h_rate != 0.0) {
+                along += (r.transpose() * self.phi.matrix.rows(0, n)) * h_rate;
+            }
+            if let (Some(grad), true) = (&self.impact_speed[j], h_speed != 0.0) {
+                along += grad * h_speed;
+            }
             if let Some((_, _, walls)) = &self.parameter {
-                along[2 * n] += walls[j];
+                along[2 * n] += h_delta * walls[j];
             }
             let shift = along * (-1.0 / transversal);
             self.phi.matrix += f_minus * &shift;
@@ -348,12 +376,34 @@ fn load_rate(sys: &System, t: f64) -> DVector<f64> {
 
 /// Wall `j`'s `∂F/∂δ`, `∂F/∂δ̇` and `∂F/∂v_imp` at the raw penetration `raw` and rate `rate`
 /// of a stage, as [`Dynamics::accel`] evaluates the force (from the smallest positive
-/// penetration, so with no slope below it).
+/// penetration, so with no slope below it; zero where the force is clamped).
 fn tangent(sys: &System, j: usize, c: &Contact, raw: f64, rate: f64) -> (f64, f64, f64) {
+    let (force, f_delta, f_rate, f_speed) =
+        formula_slopes(sys, j, c, raw.max(f64::MIN_POSITIVE), rate);
+    if force <= 0.0 {
+        return (0.0, 0.0, 0.0);
+    }
+    let f_delta = if raw > f64::MIN_POSITIVE {
+        f_delta
+    } else {
+        0.0
+    };
+    (f_delta, f_rate, f_speed)
+}
+
+/// Wall `j`'s force formula `F` (before the clamp to compressive) at the penetration
+/// `penetration > 0` and rate `rate` in the contact `c`, with `∂F/∂δ`, `∂F/∂δ̇` and
+/// `∂F/∂v_imp` (a central difference).
+fn formula_slopes(
+    sys: &System,
+    j: usize,
+    c: &Contact,
+    penetration: f64,
+    rate: f64,
+) -> (f64, f64, f64, f64) {
     let law = &sys.gaps[sys.walls[j].gap].law;
-    let penetration = raw.max(f64::MIN_POSITIVE);
     let max_penetration = c.max_penetration.max(penetration);
-    let force = |speed: f64| law.force_in_contact(penetration, rate, speed, max_penetration);
+    let force = |speed: f64| law.evaluate_in_contact(penetration, rate, speed, max_penetration);
     let f = force(c.impact_speed);
     let f_speed = if law.uses_impact_speed() {
         let dv = IMPACT_SPEED_STEP * c.impact_speed;
@@ -361,12 +411,7 @@ fn tangent(sys: &System, j: usize, c: &Contact, raw: f64, rate: f64) -> (f64, f6
     } else {
         0.0
     };
-    let f_delta = if raw > f64::MIN_POSITIVE {
-        f.d_penetration
-    } else {
-        0.0
-    };
-    (f_delta, f.d_rate, f_speed)
+    (f.force, f.d_penetration, f.d_rate, f_speed)
 }
 
 /// A wall's contact tangent at a stage.
