@@ -116,22 +116,23 @@ def test_dt_is_adjusted_to_a_whole_number_of_steps() -> None:
 
 
 def test_a_dense_model_compiled_at_its_first_run_gives_the_same_results() -> None:
-    """``Model._run_spec``: a dense model's structure, gaps and loads are compiled by the core
-    at its first run and reused by the next ones; those runs equal a run of a fresh model built
-    the same way, and the model still copies and pickles (without the compiled system)."""
+    """``Model._core_spec``: a dense model's structure, gaps and loads are read into the core's
+    ``ModelSpec`` once, compiled at its first run and reused by the next ones; those runs equal
+    a run of a fresh model built the same way, and the model still copies and pickles (without
+    the core's spec)."""
     import copy
     import pickle
 
     model = cases.sdof_model("hunt-crossley")
     first = vi.simulate(model, t_end=0.003, dt=1e-6)
-    assert "system" in model._run_spec()
+    assert model._run_spec()["model"] is model._core_spec()
     again = vi.simulate(model, t_end=0.003, dt=1e-6)
     fresh = vi.simulate(cases.sdof_model("hunt-crossley"), t_end=0.003, dt=1e-6)
     for r in (again, fresh):
         assert np.array_equal(r.displacement, first.displacement)
         assert np.array_equal(r.impacts.t_start, first.impacts.t_start)
     for twin in (copy.deepcopy(model), pickle.loads(pickle.dumps(model))):
-        assert twin == model and "_core_system" not in vars(twin)
+        assert twin == model and "_core_model" not in vars(twin)
         assert np.array_equal(vi.simulate(twin, t_end=0.003, dt=1e-6).displacement,
                               first.displacement)
 

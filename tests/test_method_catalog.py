@@ -393,11 +393,11 @@ def test_a_spec_takes_the_cores_defaults_and_checks() -> None:
     bad = dict(spec, gaps=[dict(spec["gaps"][0], clearance=-1.0)])
     with pytest.raises(ModelError, match=re.escape(
             "gaps[0].clearance: -1 is not valid; expected a clearance >= 0 in m")):
-        _core.compile_system(bad)
+        _core.ModelSpec(bad).check()
     bad = dict(spec, loads=[dict(spec["loads"][0], frequency=-3.0)])
     with pytest.raises(ModelError, match=re.escape(
             "loads[0].frequency: -3 is not valid; expected a frequency >= 0 in Hz")):
-        _core.compile_system(bad)
+        _core.ModelSpec(bad).check()
     with pytest.raises(ModelError, match=re.escape("structure.spin_profile: 'cubic' is not "
                                                    "valid; expected constant or linear")):
-        _core.compile_system(dict(spec, spin_profile="cubic"))
+        _core.ModelSpec(dict(spec, spin_profile="cubic")).check()

@@ -705,18 +705,12 @@ class TableLoad(Load):
 
 
 def spec_load_frequency(spec: dict[str, Any], i: int) -> float:
-    """The frequency (Hz) of load ``i`` of a model spec (:meth:`Model.to_spec`): a harmonic
-    load's, or an unbalance's ``|Ω| / 2π`` at a constant spin speed; 0 for any other (a
-    constant load, a table, an unbalance during a run-up: none that is periodic)."""
-    ld = spec["loads"][i]
-    if ld["kind"] == "harmonic":
-        return float(ld["frequency"])
-    profile = spec.get("spin_profile") or model_default("structure", "spin_profile")
-    if ld["kind"] == "unbalance" and profile == "constant":
-        speed = spec.get("spin_speed")
-        return abs(float(model_default("structure", "spin_speed") if speed is None
-                         else speed)) / (2 * math.pi)
-    return 0.0
+    """The frequency (Hz) of load ``i`` of a model spec (:meth:`Model.to_spec`, or the part of
+    it a result file stores): a harmonic load's, or an unbalance's ``|Ω| / 2π`` at a constant
+    spin speed; 0 for any other (a constant load, a table, an unbalance during a run-up: none
+    that is periodic). The core's ``load_frequency``, as the sweeps use it."""
+    return float(_core.load_frequency(spec["loads"][i], spec.get("spin_speed"),
+                                      spec.get("spin_profile")))
 
 
 def _initial(value: ArrayLike | None, n: int, field_name: str, unit: str) -> NDArray[np.float64]:
@@ -863,27 +857,30 @@ class Model:
             compliance = np.einsum("ig,ig->g", b, solve_stiffness(b))
         return flexibility, compliance
 
+    def _core_spec(self) -> _core.ModelSpec:
+        """The model as the core's typed ``ModelSpec`` (its structure, gaps, loads and
+        initial state, read once; compiled at the first run). With a dense structure (nothing
+        in the model can then change, as for :meth:`gap_flexibility`) it is made once and
+        kept, so later runs reuse the compiled system; a sparse one is read at each call."""
+        spec = self.__dict__.get("_core_model")
+        if spec is None:
+            spec = _core.ModelSpec(self.to_spec())
+            if not self.structure.is_sparse:
+                object.__setattr__(self, "_core_model", spec)
+        return spec
+
     def _run_spec(self) -> dict[str, Any]:
-        """:meth:`to_spec` for a run: with a dense structure (nothing in the model can then
-        change, as for :meth:`gap_flexibility`) the structure, gaps and loads are compiled by
-        the core once, at the first run, and its later runs pass only that and the initial
-        state (which may change: it is not compiled)."""
-        system = self.__dict__.get("_core_system")
-        if system is None:
-            spec = self.to_spec()
-            if self.structure.is_sparse:
-                return spec
-            system = _core.compile_system(spec)
-            object.__setattr__(self, "_core_system", system)
+        """The model's part of a run's spec for the core: :meth:`_core_spec` and the initial
+        state (which may change: it is not kept)."""
         return {
-            "system": system,
+            "model": self._core_spec(),
             "x0": np.asarray(self.initial_displacement, dtype=float),
             "v0": np.asarray(self.initial_velocity, dtype=float),
         }
 
     def __getstate__(self) -> dict[str, Any]:
-        """Pickled and copied without the core's compiled system (:meth:`_run_spec`)."""
-        return {k: v for k, v in self.__dict__.items() if k != "_core_system"}
+        """Pickled and copied without the core's spec (:meth:`_core_spec`)."""
+        return {k: v for k, v in self.__dict__.items() if k != "_core_model"}
 
     @classmethod
     def from_spec(cls, spec: dict[str, Any],

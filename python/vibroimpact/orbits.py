@@ -29,10 +29,10 @@ from numpy.typing import ArrayLike, NDArray
 from vibroimpact import _core
 from vibroimpact.errors import ModelError, SolverError
 from vibroimpact.integrators import Adaptive, Dop853, EventDriven, Integrator
-from vibroimpact.model import ConstantLoad, HarmonicLoad, Model, TableLoad, spec_load_frequency
+from vibroimpact.model import ConstantLoad, HarmonicLoad, Model, TableLoad
 from vibroimpact.result import ImpactTable, Result
 from vibroimpact.simulate import _run_core, check_run
-from vibroimpact.sweeps.grid import apply, canonical_path
+from vibroimpact.sweeps.grid import canonical_path
 
 __all__ = ["PeriodicOrbit", "Shooting", "contact_onsets", "forcing_period", "periodic_orbit",
            "solve_orbit"]
@@ -166,26 +166,21 @@ class Shooting:
 
     def at(self, path: str, value: float) -> Shooting:
         """This problem for the model with the number at ``path`` (the paths of ``sweep
-        --param``, set by :func:`vibroimpact.sweeps.apply`) equal to ``value``. A load's
+        --param``, set by the core: ``ModelSpec.with_value``) equal to ``value``. A load's
         frequency moves the forcing period, hence the section's period and the steps, which
         stay the same fraction of it; so does a rotor's spin speed (``structure.spin_speed``:
         the unbalance's period ``2π/Ω``, its ``Ω²`` force and the gyroscopic ``Ω G``). The
         core checks the value at the first :meth:`flow`
         (:class:`ModelError` naming the field)."""
-        spec = apply(self.spec, path, value)
-        period = _common_period(tuple(
-            f for i in range(len(spec["loads"])) if (f := spec_load_frequency(spec, i)) > 0))
+        core = self._spec["model"].with_value(canonical_path(path), float(value))
+        period = _common_period(tuple(f for f in core.load_frequencies() if f > 0))
         shooting = copy.copy(self)
-        shooting._model, shooting.spec = None, spec
+        shooting._model, shooting.spec = None, core.to_dict()
         shooting.parameter = (canonical_path(path), float(value))
         shooting.forcing_period = period
         shooting.duration = self.periods * period
         shooting.dt = self.dt * period / self.forcing_period
-        shooting._spec = dict(self._spec, t_end=shooting.duration, dt=shooting.dt)
-        if self._source.structure.is_sparse:  # as Model._run_spec: only a dense one compiles
-            shooting._spec.update(spec)
-        else:
-            shooting._spec["system"] = _core.compile_system(spec)
+        shooting._spec = dict(self._spec, model=core, t_end=shooting.duration, dt=shooting.dt)
         return shooting
 
     @property

@@ -1,5 +1,6 @@
 """Sweep parameters: a path to a numeric model parameter and its values, parsed from the
-command line (``loads.0.frequency=5:50:400``), and applied to a model spec.
+command line (``loads.0.frequency=5:50:400``), and applied to a model spec (by the core:
+``_core.ModelSpec.with_value``).
 
 Paths name a number of the model (the dict of :meth:`vibroimpact.Model.to_spec`), with the
 model file's names; ``gaps[0].law.restitution`` and ``gaps.0.law.restitution`` are the same:
@@ -35,9 +36,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sp
 from numpy.typing import NDArray
 
+from vibroimpact import _core
 from vibroimpact.errors import ModelError
 
 __all__ = ["Param", "apply", "canonical_path", "numeric_paths", "parse_param", "units_of"]
@@ -61,14 +62,6 @@ _UNITS = {
     "run_up_time": "s",
     "magnitude": "kg m",
 }
-
-_MATRICES = {"mass", "stiffness", "damping"}
-#: The structure's numbers that are not matrices: a rotor's spin (keys of the spec).
-_SPIN = ("spin_speed", "spin_speed_end", "run_up_time")
-#: The numbers of a load, by kind.
-_LOAD_NUMBERS = ("amplitude", "frequency", "phase", "magnitude")
-_INITIAL = {"displacement": "x0", "velocity": "v0"}
-
 
 def canonical_path(path: str) -> str:
     """``gaps[0].law.restitution`` → ``gaps.0.law.restitution`` (whitespace removed)."""
@@ -166,117 +159,15 @@ def parse_param(text: str) -> Param:
     return Param(path, values)
 
 
-def _is_number(x: Any) -> bool:
-    return isinstance(x, (int, float, np.integer, np.floating)) and not isinstance(x, bool)
-
-
 def numeric_paths(spec: Mapping[str, Any]) -> list[str]:
-    """Every parameter path of ``spec`` that a sweep can set."""
-    out: list[str] = []
-    for name in sorted(_MATRICES):
-        if np.shape(spec[name]) == (1, 1):
-            out.append(f"structure.{name}")
-        else:
-            out.append(f"structure.{name}.I.J")
-    rotor = (spec.get("gyroscopic") is not None or bool(spec.get("spin_speed"))
-             or any(ld["kind"] == "unbalance" for ld in spec.get("loads", [])))
-    out.extend(f"structure.{k}" for k in _SPIN if rotor and _is_number(spec.get(k)))
-    for key, name in (("x0", "displacement"), ("v0", "velocity")):
-        out.append(f"initial.{name}" if np.asarray(spec[key]).size == 1
-                   else f"initial.{name}.I")
-    for i, g in enumerate(spec.get("gaps", [])):
-        out.append(f"gaps.{i}.clearance")
-        out.extend(f"gaps.{i}.law.{k}" for k, v in g["law"].items() if _is_number(v))
-        out.append(f"gaps.{i}.coefficients.J")
-    for i, ld in enumerate(spec.get("loads", [])):
-        out.extend(f"loads.{i}.{k}" for k in _LOAD_NUMBERS if _is_number(ld.get(k)))
-    return out
+    """Every parameter path of ``spec`` (a :meth:`vibroimpact.Model.to_spec` dict) that a
+    sweep can set (the core's ``ModelSpec.numeric_paths``)."""
+    return _core.ModelSpec(dict(spec)).numeric_paths()
 
 
-def _fail(path: str, spec: Mapping[str, Any], why: str) -> ModelError:
-    return ModelError(f"--param {path}: {why}; expected one of "
-                      + ", ".join(numeric_paths(spec)))
-
-
-def _index(part: str, size: int, path: str, spec: Mapping[str, Any]) -> int:
-    if not part.isdigit() or int(part) >= size:
-        raise _fail(path, spec, f"{part!r} is not an index below {size}")
-    return int(part)
-
-
-def apply(spec: dict[str, Any], path: str, value: float) -> dict[str, Any]:
-    """A copy of ``spec`` with the parameter at ``path`` set to ``value`` (only the dicts,
-    lists and arrays on the path are copied). Raises :class:`ModelError` naming the path and
-    the paths that exist if ``path`` is not a numeric parameter of the model."""
-    parts = canonical_path(path).split(".")
-    value = float(value)
-    out = dict(spec)
-    head = parts[0]
-    if head == "structure" and len(parts) == 2 and parts[1] in _SPIN:
-        if not _is_number(spec.get(parts[1])):
-            raise _fail(path, spec, f"the structure has no {parts[1]} (spin_speed_end and "
-                        "run_up_time: a run-up, spin_profile = 'linear')")
-        out[parts[1]] = value
-        return out
-    if head == "structure":
-        if len(parts) < 2 or parts[1] not in _MATRICES:
-            raise _fail(path, spec, "not a structure matrix")
-        src = spec[parts[1]]
-        a = src.tolil() if sp.issparse(src) else np.array(src, dtype=float)
-        n = a.shape[0]
-        if len(parts) == 2:
-            if n != 1:
-                raise _fail(path, spec, f"the structure has {n} DOFs; name an entry I.J")
-            i = j = 0
-        elif len(parts) == 4:
-            i, j = (_index(p, n, path, spec) for p in parts[2:])
-        else:
-            raise _fail(path, spec, "not a matrix entry")
-        a[i, j] = a[j, i] = value
-        out[parts[1]] = sp.csr_array(a) if sp.issparse(src) else a
-        return out
-    if head == "initial":
-        if len(parts) < 2 or parts[1] not in _INITIAL:
-            raise _fail(path, spec, "not an initial state")
-        key = _INITIAL[parts[1]]
-        x = np.array(spec[key], dtype=float)
-        if len(parts) == 2:
-            if x.size != 1:
-                raise _fail(path, spec, f"the structure has {x.size} DOFs; name a DOF")
-            i = 0
-        elif len(parts) == 3:
-            i = _index(parts[2], x.size, path, spec)
-        else:
-            raise _fail(path, spec, "not an initial-state entry")
-        x[i] = value
-        out[key] = x
-        return out
-    if head in ("gaps", "loads"):
-        items = list(spec.get(head, []))
-        if len(parts) < 3:
-            raise _fail(path, spec, f"incomplete {head} path")
-        k = _index(parts[1], len(items), path, spec)
-        item = dict(items[k])
-        rest = parts[2:]
-        if head == "gaps" and rest[0] == "law" and len(rest) == 2:
-            law = dict(item["law"])
-            if not _is_number(law.get(rest[1])):
-                raise _fail(path, spec, f"gap {k}'s {law.get('kind')} law has no number "
-                            f"{rest[1]!r}")
-            law[rest[1]] = value
-            item["law"] = law
-        elif head == "gaps" and rest[0] == "coefficients" and len(rest) == 2:
-            coeffs = list(item["coefficients"])
-            coeffs[_index(rest[1], len(coeffs), path, spec)] = value
-            item["coefficients"] = coeffs
-        elif len(rest) == 1 and rest[0] in (("clearance",) if head == "gaps"
-                                            else _LOAD_NUMBERS):
-            if not _is_number(item.get(rest[0])):
-                raise _fail(path, spec, f"{head[:-1]} {k} has no {rest[0]}")
-            item[rest[0]] = value
-        else:
-            raise _fail(path, spec, "not a numeric parameter")
-        items[k] = item
-        out[head] = items
-        return out
-    raise _fail(path, spec, "not a model parameter")
+def apply(spec: Mapping[str, Any], path: str, value: float) -> dict[str, Any]:
+    """A copy of ``spec`` with the parameter at ``path`` set to ``value``: the core's
+    ``ModelSpec.with_value``, the one implementation of the paths, as a spec dict. Raises
+    :class:`ModelError` naming the path and the paths that exist if ``path`` is not a numeric
+    parameter of the model."""
+    return _core.ModelSpec(dict(spec)).with_value(canonical_path(path), float(value)).to_dict()

@@ -12,8 +12,9 @@ Example — the bifurcation diagram of an impact oscillator against the forcing 
     ds = run_sweep(sweep, output="sweep.nc")       # all cores; resumable
     ds.poincare_displacement.sel(dof=0)             # (loads.0.frequency, sample)
 
-How it runs: Python builds one spec dict per point (the model's spec with the swept numbers
-set, :func:`vibroimpact.sweeps.grid.apply`); points are grouped in chunks; each chunk is one
+How it runs: the model is read once into the core's typed spec (``_core.ModelSpec``); each
+point is a copy of it with the swept numbers set by the core (``ModelSpec.with_value``, the
+paths of :mod:`vibroimpact.sweeps.grid`); points are grouped in chunks; each chunk is one
 call of the core (``_core.sweep``), which runs its points on all cores with the GIL released
 and keeps, per point, only what the Dataset holds. Chunks run in this process (two at a time,
 so that no core idles at a chunk's end) or as tasks on Dask workers
@@ -31,6 +32,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import hashlib
 import json
 import math
@@ -53,9 +55,9 @@ from vibroimpact import _core
 from vibroimpact.errors import Interrupted, ModelError, require
 from vibroimpact.integrators import Integrator, Newmark
 from vibroimpact.io.results_file import atomic_write, netcdf_engine
-from vibroimpact.model import Model, spec_load_frequency
+from vibroimpact.model import Model
 from vibroimpact.result import DOF_UNIT_DESCRIPTION, dof_variable_units
-from vibroimpact.sweeps.grid import Param, apply
+from vibroimpact.sweeps.grid import Param
 
 if TYPE_CHECKING:
     import xarray as xr
@@ -242,28 +244,33 @@ class _Plan:
     def n_jobs(self) -> int:
         return len(self.directions) * self.n_grid
 
-    def point_spec(self, j: int) -> dict[str, Any]:
-        """The model spec of job ``j`` (its parameters set)."""
-        index = np.unravel_index(j % self.n_grid, self.shape)
-        spec = self.base
-        for path, values, i in zip(self.paths, self.values, index, strict=True):
-            spec = apply(spec, path, float(values[i]))
-        return spec
+    @functools.cached_property
+    def model(self) -> _core.ModelSpec:
+        """The model of :attr:`base` as the core's typed spec (read once, per process)."""
+        return _core.ModelSpec(self.base)
 
-    def period(self, spec: dict[str, Any]) -> float:
+    def point_model(self, j: int) -> _core.ModelSpec:
+        """The model of job ``j`` (its parameters set by the core: ``ModelSpec.with_value``)."""
+        index = np.unravel_index(j % self.n_grid, self.shape)
+        model = self.model
+        for path, values, i in zip(self.paths, self.values, index, strict=True):
+            model = model.with_value(path, float(values[i]))
+        return model
+
+    def period(self, model: _core.ModelSpec) -> float:
         """The forcing period (s) the sweep counts: load ``period_load``'s, else the first
-        periodic load's (:func:`~vibroimpact.model.spec_load_frequency`: a harmonic load, or
-        an unbalance at the spin speed: ``2π/Ω``)."""
-        loads = spec.get("loads", [])
+        periodic load's (a harmonic load, or an unbalance at the spin speed: ``2π/Ω``; the
+        core's ``load_frequency``)."""
+        frequencies = model.load_frequencies()
         if self.period_load is not None:
-            f = spec_load_frequency(spec, self.period_load)
+            f = frequencies[self.period_load]
             if f <= 0:
                 raise ModelError(f"--period-load: load {self.period_load} is not a harmonic "
                                  "load (or an unbalance) with a frequency > 0; expected the "
                                  "load whose period the sweep samples at")
             return 1.0 / f
-        for i in range(len(loads)):
-            if (f := spec_load_frequency(spec, i)) > 0:
+        for f in frequencies:
+            if f > 0:
                 return 1.0 / f
         raise ModelError("loads: no harmonic load (or unbalance at a constant spin speed) with "
                          "a frequency > 0; expected one, since --transient and --periods count "
@@ -271,9 +278,11 @@ class _Plan:
 
     def job_spec(self, j: int, start: tuple[np.ndarray, np.ndarray] | None = None
                  ) -> dict[str, Any]:
-        """The full spec of job ``j`` for the core, starting from ``start`` if given."""
-        spec = dict(self.point_spec(j))
-        period = self.period(spec)
+        """The full spec of job ``j`` for the core, starting from ``start`` if given (else
+        from the model's initial state)."""
+        model = self.point_model(j)
+        period = self.period(model)
+        spec: dict[str, Any] = {"model": model}
         if start is not None:
             spec["x0"], spec["v0"] = np.asarray(start[0]), np.asarray(start[1])
         # (adaptive stepping's limits: the core's defaults for a sweep, from the period)
@@ -800,7 +809,7 @@ def _dataset(sweep: Sweep, plan: _Plan, chunks: Sequence[_Chunk],
                                       f"{extra[-1]}_unit")[1]
         a = rows[key].reshape(*full_shape, *rows[key].shape[1:])
         data_vars[key] = ((*dims, *extra), a, {"units": unit, "long_name": text})
-    periods = np.array([plan.period(plan.point_spec(j)) for j in range(plan.n_grid)])
+    periods = np.array([plan.period(plan.point_model(j)) for j in range(plan.n_grid)])
     data_vars["forcing_period"] = (grid_dims, periods.reshape(shape),
                                    {"units": "s", "long_name": "sampling (forcing) period"})
     failed = np.array([bool(e) for e in errors]).reshape(full_shape)

@@ -88,7 +88,7 @@ impl Sampling {
 /// One point of a sweep: a model variant, how to run it and what to keep.
 #[derive(Debug, Clone)]
 pub struct SweepJob {
-    pub system: System,
+    pub system: Arc<System>,
     pub method: Method,
     /// `t_end`, `every` and `record_dofs` are set from `sampling`; with fixed steps `dt` is
     /// shortened so that a period is a whole number of steps (samples land on step ends).
@@ -558,7 +558,7 @@ mod tests {
 
     fn job(frequency: f64, clearance: f64) -> SweepJob {
         SweepJob {
-            system: oscillator(frequency, clearance),
+            system: Arc::new(oscillator(frequency, clearance)),
             method: Method::Newmark(NewmarkFamily::average_acceleration()),
             settings: RunSettings {
                 t_end: 1.0,

@@ -6,6 +6,7 @@ mod convert;
 mod factor;
 mod method;
 mod model_catalog;
+mod model_spec;
 mod orbit;
 mod running;
 mod sweep;
@@ -511,8 +512,8 @@ pub(crate) fn output_to_dict<'py>(
 fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(running::start, m)?)?;
     m.add_class::<running::Running>()?;
-    m.add_function(wrap_pyfunction!(convert::compile_system, m)?)?;
-    m.add_class::<convert::CompiledSystem>()?;
+    m.add_class::<model_spec::ModelSpec>()?;
+    m.add_function(wrap_pyfunction!(model_spec::load_frequency, m)?)?;
     m.add_class::<factor::CholeskyFactor>()?;
     m.add_function(wrap_pyfunction!(expm, m)?)?;
     m.add_function(wrap_pyfunction!(substitution_time, m)?)?;

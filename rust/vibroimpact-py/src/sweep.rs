@@ -1,6 +1,6 @@
-//! Binding of `vibroimpact_core::sweep`: a list of point specs (model spec dicts, as for
-//! `simulate`, each with a `sweep` dict saying what to keep) → core jobs → a parallel run with
-//! the GIL released → stacked numpy arrays, one row per point.
+//! Binding of `vibroimpact_core::sweep`: a list of point specs (run spec dicts with the point's
+//! `ModelSpec`, as for `simulate`, each with a `sweep` dict saying what to keep) → core jobs →
+//! a parallel run with the GIL released → stacked numpy arrays, one row per point.
 
 use numpy::{PyArray1, PyArrayMethods};
 use pyo3::exceptions::PyKeyboardInterrupt;
@@ -54,7 +54,7 @@ fn point_job(py: Python<'_>, spec: &Bound<'_, PyAny>, label: &str) -> PyResult<S
     let sampling = sampling(spec).map_err(prefix)?;
     let job = job_from_spec(spec, Some(sampling.period)).map_err(prefix)?;
     Ok(SweepJob {
-        system: std::sync::Arc::unwrap_or_clone(job.system),
+        system: job.system,
         method: job.method,
         settings: job.settings,
         x0: job.x0,

@@ -449,8 +449,14 @@ impl ParameterValues {
         self
     }
 
-    fn get(&self, name: &str) -> Option<&ParameterValue> {
+    /// The value given for parameter `name`.
+    pub fn get(&self, name: &str) -> Option<&ParameterValue> {
         self.0.iter().find(|(n, _)| *n == name).map(|(_, v)| v)
+    }
+
+    /// The parameters given, in the order they were set.
+    pub fn iter(&self) -> impl Iterator<Item = &(&'static str, ParameterValue)> {
+        self.0.iter()
     }
 }
 
