@@ -196,6 +196,10 @@ def test_a_new_hysteretic_entry_needs_nothing_else(monkeypatch: pytest.MonkeyPat
     assert cls.__name__ == "NewLaw" and cls.kind == "new-law"
     assert inspect.signature(cls) == inspect.signature(contact.LAWS["flores"])
     monkeypatch.setitem(contact.CATALOG, "new-law", new)
+    # the core would check its parameters as flores's, the entry it is made from
+    accepts = _core.law_parameter_accepts
+    monkeypatch.setattr(_core, "law_parameter_accepts", lambda kind, name, value: accepts(
+        "flores" if kind == "new-law" else kind, name, value))
     assert cls(stiffness=1e9, restitution=0.5).to_spec()["kind"] == "new-law"
     monkeypatch.setitem(contact.FORCE_LAWS, "new-law", cls)
     assert "new-law" in model_file._kinds_requiring("restitution")
@@ -225,3 +229,45 @@ def test_hunt_crossley_takes_one_of_its_alternatives_in_the_core() -> None:
     assert math.isclose(f, 1e9 * 1e-5 ** 1.5 * (1 + 0.75 * 0.1 / 0.3), rel_tol=1e-14)
     b, _, _ = _core.contact_force({**spec, "restitution": None}, 1e-5, 0.1, 0.3)
     assert math.isclose(b, 1e9 * 1e-5 ** 1.5 + 10.0 * 1e-5 ** 1.5 * 0.1, rel_tol=1e-14)
+
+
+#: Values each number parameter is probed with: both sides of the ranges the laws check (0, 1),
+#: inside and beyond them, and the non-finite numbers.
+PROBES = (0.0, -1.0, 0.5, 1.0, 1.5, math.nan, math.inf)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_python_refuses_exactly_what_the_core_refuses(kind: str) -> None:
+    """For every number parameter of every law and each probe, the Python class refuses the value
+    exactly when the core's constructor (``Law::from_parameters``, through
+    ``_core.contact_force``) does, which is what ``_core.law_parameter_accepts`` says, and words
+    the refusal with the catalog's ``expected``: a check that drifts on either side fails here."""
+    entry = _entry(kind)
+    refused = []
+    for p in entry["parameters"]:
+        if p["list"]:
+            continue
+        name = p["name"]
+        for value in PROBES:
+            params = {**_required(entry), name: value}
+            alternatives = {"restitution": "damping", "damping": "restitution"}
+            if kind == "hunt-crossley" and name in alternatives:  # the other is left out
+                params.pop(alternatives[name], None)
+            try:
+                _core.contact_force({"kind": kind, **params}, 1e-6, 0.0, 1.0)
+                core_refuses = False
+            except _core.ModelError as e:
+                core_refuses = True
+                assert f"{kind}: {name} = " in str(e) and p["expected"] in str(e), str(e)
+            assert _core.law_parameter_accepts(kind, name, value) == (not core_refuses)
+            try:
+                contact.LAWS[kind](**params)
+                python_refuses = False
+            except ModelError as e:
+                python_refuses = True
+                assert str(e) == (f"law.{name}: {value!r} is not valid; "
+                                  f"expected {p['expected']}"), str(e)
+            assert python_refuses == core_refuses, (kind, name, value)
+            refused.append(core_refuses)
+    # every law refuses some probe and takes some: the comparison above can fail both ways
+    assert any(refused) and not all(refused)

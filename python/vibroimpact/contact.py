@@ -56,6 +56,7 @@ __all__ = [
     "Rigid",
     "Tabulated",
     "catalog_default",
+    "check_parameter",
     "kelvin_voigt_damping",
     "law_from_name",
     "refuse_removed_law",
@@ -93,10 +94,26 @@ def _positive(value: Any, field: str, unit: str) -> None:
 CATALOG: dict[str, dict[str, Any]] = {entry["name"]: entry for entry in _core.law_catalog()}
 
 
+def _parameter(kind: str, parameter: str) -> dict[str, Any]:
+    return next(p for p in CATALOG[kind]["parameters"] if p["name"] == parameter)
+
+
 def catalog_default(kind: str, parameter: str) -> Any:
     """The core's default of ``parameter`` of law ``kind`` (``None``: none, it must be given or
     is one of alternatives)."""
-    return next(p["default"] for p in CATALOG[kind]["parameters"] if p["name"] == parameter)
+    return _parameter(kind, parameter)["default"]
+
+
+def check_parameter(kind: str, parameter: str, value: Any, field: str | None = None) -> None:
+    """Refuse ``value`` for number ``parameter`` of law ``kind`` unless the core accepts it: the
+    check is the core's (``_core.law_parameter_accepts``), the message names ``field`` (default
+    ``law.<parameter>``), the value and the catalog's ``expected`` text."""
+    require(
+        _is_number(value) and _core.law_parameter_accepts(kind, parameter, value),
+        field or f"law.{parameter}",
+        value,
+        _parameter(kind, parameter)["expected"],
+    )
 
 
 @dataclass(frozen=True)
@@ -250,15 +267,8 @@ class PowerLaw(ContactLaw):
     def __post_init__(self) -> None:
         _require_given(self)
         if not isinstance(self.stiffness, Geometry):
-            _positive(self.stiffness, "law.stiffness", "N/m^n")
-        require(
-            _is_number(self.exponent)
-            and math.isfinite(self.exponent)
-            and self.exponent >= 1,
-            "law.exponent",
-            self.exponent,
-            "a number >= 1 (1.5 for Hertzian point contact)",
-        )
+            check_parameter(self.kind, "stiffness", self.stiffness)
+        check_parameter(self.kind, "exponent", self.exponent)
         if isinstance(self.stiffness, Geometry) and self.exponent != self.stiffness.exponent:
             raise ModelError(
                 f"law.exponent: {self.exponent!r} is not valid with geometry "
@@ -278,15 +288,6 @@ class PowerLaw(ContactLaw):
         return {"kind": self.kind, "stiffness": self.contact_stiffness, "exponent": self.exponent}
 
 
-def _check_restitution(value: Any) -> None:
-    require(
-        _is_number(value) and 0 < value <= 1,
-        "law.restitution",
-        value,
-        "0 < restitution <= 1",
-    )
-
-
 @dataclass(frozen=True)
 class Hertz(PowerLaw):
     """``F = K δⁿ`` (Hertz 1882; paper eq. 3). Elastic: no energy lost, no damping.
@@ -300,13 +301,7 @@ class Hertz(PowerLaw):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        require(
-            _is_number(self.compliance) and math.isfinite(self.compliance)
-            and self.compliance >= 0,
-            "law.compliance",
-            self.compliance,
-            "a number >= 0 in m/N",
-        )
+        check_parameter(self.kind, "compliance", self.compliance)
 
     def to_spec(self) -> dict[str, Any]:
         return {**super().to_spec(), "compliance": float(self.compliance)}
@@ -336,13 +331,7 @@ class KelvinVoigt(PowerLaw):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        require(self.exponent == 1, "law.exponent", self.exponent, "1 for kelvin-voigt")
-        require(
-            _is_number(self.damping) and math.isfinite(self.damping) and self.damping >= 0,
-            "law.damping",
-            self.damping,
-            "a number >= 0 in N·s/m",
-        )
+        check_parameter(self.kind, "damping", self.damping)
 
     def to_spec(self) -> dict[str, Any]:
         return {**super().to_spec(), "damping": float(self.damping)}
@@ -366,8 +355,8 @@ def kelvin_voigt_damping(restitution: float, stiffness: float, mass: float) -> f
     past ``ζ = 1`` for ce < e⁻² ≈ 0.135), found by Brent's method; 0 for ce = 1."""
     from scipy.optimize import brentq
 
-    _check_restitution(restitution)
-    _positive(stiffness, "law.stiffness", "N/m")
+    check_parameter("hunt-crossley", "restitution", restitution)
+    check_parameter("kelvin-voigt", "stiffness", stiffness)
     _positive(mass, "mass", "kg")
     target = -math.log(restitution)
     if target == 0.0:
@@ -397,14 +386,9 @@ class HuntCrossley(PowerLaw):
                 f"got restitution={self.restitution!r}, damping={self.damping!r}"
             )
         if self.restitution is not None:
-            _check_restitution(self.restitution)
+            check_parameter(self.kind, "restitution", self.restitution)
         else:
-            require(
-                _is_number(self.damping) and math.isfinite(self.damping) and self.damping >= 0,
-                "law.damping",
-                self.damping,
-                "a number >= 0",
-            )
+            check_parameter(self.kind, "damping", self.damping)
 
     def to_spec(self) -> dict[str, Any]:
         return {**super().to_spec(), "restitution": self.restitution, "damping": self.damping}
@@ -421,7 +405,7 @@ class _RestitutionLaw(PowerLaw):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        _check_restitution(self.restitution)
+        check_parameter(self.kind, "restitution", self.restitution)
 
     def to_spec(self) -> dict[str, Any]:
         assert self.restitution is not None
@@ -512,11 +496,7 @@ class Tabulated(ContactLaw):
         object.__setattr__(self, "unloading_force", uf)
         require(lf[-1] > lf[-2], "law.loading_force", self.loading_force,
                 "a curve whose last two points rise (it is continued beyond them)")
-        require(
-            _is_number(self.reversal_band) and 0 < self.reversal_band <= 1,
-            "law.reversal_band", self.reversal_band,
-            "0 < reversal_band <= 1 (a fraction of the approach speed)",
-        )
+        check_parameter(self.kind, "reversal_band", self.reversal_band)
         # The core checks that the unloading points are not above the loading curve and that
         # the unloading curve ends at a force > 0.
         _core.contact_force(self.to_spec(), 1e-300, 0.0, 1.0)
@@ -568,12 +548,7 @@ class Rigid(ContactLaw):
     restitution: float
 
     def __post_init__(self) -> None:
-        require(
-            _is_number(self.restitution) and 0 <= self.restitution <= 1,
-            "law.restitution",
-            self.restitution,
-            "0 <= restitution <= 1",
-        )
+        check_parameter(self.kind, "restitution", self.restitution)
 
     @property
     def contact_stiffness(self) -> float:

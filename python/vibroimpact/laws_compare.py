@@ -39,6 +39,7 @@ from vibroimpact.contact import (
     HuntCrossley,
     KelvinVoigt,
     Tabulated,
+    check_parameter,
     kelvin_voigt_damping,
     refuse_removed_law,
 )
@@ -81,10 +82,7 @@ def _resolve_stiffness(
         n = stiffness.exponent if exponent is None else float(exponent)
         return stiffness, n, stiffness.stiffness()
     n = 1.5 if exponent is None else float(exponent)
-    require(
-        isinstance(stiffness, (int, float)) and math.isfinite(stiffness) and stiffness > 0,
-        "stiffness", stiffness, "a number > 0 in N/m^n",
-    )
+    check_parameter("hertz", "stiffness", stiffness, field="stiffness")
     return float(stiffness), n, float(stiffness)
 
 
@@ -99,10 +97,7 @@ def comparison_laws(
     """Each law (default: all of :data:`~vibroimpact.contact.FORCE_LAWS`, in that order) with the
     common stiffness, exponent (default: the geometry's, else 1.5) and restitution ``ce``;
     Kelvin–Voigt and the tabulated law get the equivalent parameters of the module docstring."""
-    require(
-        isinstance(restitution, (int, float)) and 0 < restitution <= 1,
-        "restitution", restitution, "0 < restitution <= 1",
-    )
+    check_parameter("hunt-crossley", "restitution", restitution, field="restitution")
     require(isinstance(mass, (int, float)) and math.isfinite(mass) and mass > 0,
             "mass", mass, "a mass > 0 in kg")
     require(isinstance(velocity, (int, float)) and math.isfinite(velocity) and velocity > 0,

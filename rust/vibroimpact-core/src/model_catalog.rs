@@ -84,15 +84,15 @@ impl Field {
     }
 }
 
-fn any(_: f64) -> bool {
+pub(crate) fn any(_: f64) -> bool {
     true
 }
 
-fn non_negative(v: f64) -> bool {
+pub(crate) fn non_negative(v: f64) -> bool {
     v >= 0.0
 }
 
-fn positive(v: f64) -> bool {
+pub(crate) fn positive(v: f64) -> bool {
     v > 0.0
 }
 

@@ -24,7 +24,7 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use vibroimpact_core::contact::{
-    ContactGeometry, ContactLaw, Material, Requirement, ValueKind, LAWS,
+    law_entry, ContactGeometry, ContactLaw, Material, Requirement, ValueKind, LAWS,
 };
 use vibroimpact_core::gap::ImpactRecord;
 use vibroimpact_core::integrators;
@@ -121,9 +121,24 @@ fn contact_force(
     Ok((f.force, f.d_penetration, f.d_rate))
 }
 
+/// Whether the core accepts the number `value` for parameter `name` of law `kind` (finite, and
+/// in the parameter's range: the check its constructor applies).
+#[pyfunction]
+fn law_parameter_accepts(kind: &str, name: &str, value: f64) -> PyResult<bool> {
+    law_entry(kind)
+        .and_then(|law| law.parameter(name))
+        .map(|p| p.accepts(value))
+        .ok_or_else(|| {
+            ModelError::new_err(format!(
+                "law_parameter_accepts: no parameter {name} of {kind}"
+            ))
+        })
+}
+
 /// The core's catalog of contact laws, in its order: for each a dict with `name`, `class_name`,
 /// `family`, `source`, `damping`, `doc` (empty when the Python class is written by hand) and
-/// `parameters`, each a dict with `name`, `unit`, `doc`, `list` (a list of numbers),
+/// `parameters`, each a dict with `name`, `unit`, `doc`, `expected` (what a valid value is,
+/// as messages word it), `list` (a list of numbers),
 /// `required` and `default` (`None` when required or one of alternatives).
 #[pyfunction]
 fn law_catalog(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
@@ -137,6 +152,7 @@ fn law_catalog(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
                     d.set_item("name", p.name)?;
                     d.set_item("unit", p.unit)?;
                     d.set_item("doc", p.doc)?;
+                    d.set_item("expected", p.expected)?;
                     d.set_item("list", p.kind == ValueKind::Numbers)?;
                     d.set_item("required", p.requirement == Requirement::Required)?;
                     let default = match p.requirement {
@@ -527,6 +543,7 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep::sweep_check, m)?)?;
     m.add_function(wrap_pyfunction!(contact_force, m)?)?;
     m.add_function(wrap_pyfunction!(law_catalog, m)?)?;
+    m.add_function(wrap_pyfunction!(law_parameter_accepts, m)?)?;
     m.add_function(wrap_pyfunction!(method::method_catalog, m)?)?;
     m.add_function(wrap_pyfunction!(model_catalog::model_catalog, m)?)?;
     m.add_function(wrap_pyfunction!(model_catalog::model_field_accepts, m)?)?;

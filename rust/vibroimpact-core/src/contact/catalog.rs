@@ -11,6 +11,7 @@
 use super::hysteretic::exact_hysteresis_factor;
 use super::{Hertz, HuntCrossley, Hysteretic, KelvinVoigt, Law, Rigid, Tabulated};
 use crate::error::{invalid, SimError};
+use crate::model_catalog::{any, non_negative, positive};
 
 /// How a law computes its force: what [`Law::from_parameters`] builds.
 #[derive(Debug, Clone, Copy)]
@@ -64,7 +65,7 @@ pub enum Requirement {
 }
 
 /// A parameter of a law.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy)]
 pub struct Parameter {
     /// Its name in model files, specs and the Python classes.
     pub name: &'static str,
@@ -74,6 +75,29 @@ pub struct Parameter {
     pub unit: &'static str,
     /// What it is, one line.
     pub doc: &'static str,
+    /// What a valid value is, as messages word it (`expected ...`).
+    pub expected: &'static str,
+    /// Whether a number (each number of a list) is valid; finiteness is checked first.
+    valid: fn(f64) -> bool,
+}
+
+impl Parameter {
+    /// Whether the number `value` is valid (finite, and in range).
+    pub fn accepts(&self, value: f64) -> bool {
+        value.is_finite() && (self.valid)(value)
+    }
+
+    /// `value`, or the one-line refusal naming law `law` and this parameter.
+    pub fn check(&self, law: &str, value: f64) -> Result<f64, SimError> {
+        if self.accepts(value) {
+            Ok(value)
+        } else {
+            invalid(format!(
+                "{law}: {} = {value} is not valid; expected {}",
+                self.name, self.expected
+            ))
+        }
+    }
 }
 
 /// A law of the catalog.
@@ -113,6 +137,8 @@ const fn number(
     requirement: Requirement,
     unit: &'static str,
     doc: &'static str,
+    expected: &'static str,
+    valid: fn(f64) -> bool,
 ) -> Parameter {
     Parameter {
         name,
@@ -120,6 +146,8 @@ const fn number(
         requirement,
         unit,
         doc,
+        expected,
+        valid,
     }
 }
 
@@ -130,6 +158,8 @@ const fn curve(name: &'static str, unit: &'static str, doc: &'static str) -> Par
         requirement: Requirement::Required,
         unit,
         doc,
+        expected: "a list of finite numbers",
+        valid: any,
     }
 }
 
@@ -138,19 +168,32 @@ const STIFFNESS: Parameter = number(
     Requirement::Required,
     "N/m^n",
     "contact stiffness K (or a geometry it is computed from)",
+    "a number > 0 in N/m^n",
+    positive,
 );
 const EXPONENT: Parameter = number(
     "exponent",
     Requirement::Default(1.5),
     "",
     "exponent n of the penetration δⁿ, n >= 1 (1.5 for Hertzian point contact)",
+    "a number >= 1 (1.5 for Hertzian point contact)",
+    |n| n >= 1.0,
 );
 const RESTITUTION: Parameter = number(
     "restitution",
     Requirement::Required,
     "",
     "coefficient of restitution ce, 0 < ce <= 1",
+    RESTITUTION_RANGE,
+    restitution_in_range,
 );
+
+/// The range of a restitution `ce` that the law's damping follows from.
+const RESTITUTION_RANGE: &str = "0 < restitution <= 1";
+
+fn restitution_in_range(ce: f64) -> bool {
+    ce > 0.0 && ce <= 1.0
+}
 
 /// The parameters of the laws whose damping follows from a restitution.
 const RESTITUTION_LAW: &[Parameter] = &[STIFFNESS, EXPONENT, RESTITUTION];
@@ -172,6 +215,8 @@ pub static LAWS: &[LawEntry] = &[
                 "m/N",
                 "compliance c of a linear spring in series with the law, >= 0 (0: none); \
                  the gap then penetrates δ_l + c F, F = K δ_lⁿ",
+                "a number >= 0 in m/N",
+                non_negative,
             ),
         ],
         doc: "",
@@ -184,14 +229,30 @@ pub static LAWS: &[LawEntry] = &[
         damping: "constant `c`: `F = k δ + c δ̇`, independent of ce and v_imp (the `c` \
             restituting ce for a mass: `kelvin_voigt_damping`)",
         parameters: &[
-            number("stiffness", Requirement::Required, "N/m", "spring stiffness k"),
+            number(
+                "stiffness",
+                Requirement::Required,
+                "N/m",
+                "spring stiffness k",
+                "a number > 0 in N/m",
+                positive,
+            ),
             number(
                 "exponent",
                 Requirement::Default(1.0),
                 "",
                 "1: the spring is linear (no other value is accepted)",
+                "1 for kelvin-voigt (a linear spring)",
+                |n| n == 1.0,
             ),
-            number("damping", Requirement::Required, "N·s/m", "dashpot coefficient c, >= 0"),
+            number(
+                "damping",
+                Requirement::Required,
+                "N·s/m",
+                "dashpot coefficient c, >= 0",
+                "a number >= 0 in N·s/m",
+                non_negative,
+            ),
         ],
         doc: "",
     },
@@ -209,12 +270,16 @@ pub static LAWS: &[LawEntry] = &[
                 Requirement::Optional,
                 "",
                 "coefficient of restitution ce, 0 < ce <= 1 (or give damping)",
+                RESTITUTION_RANGE,
+                restitution_in_range,
             ),
             number(
                 "damping",
                 Requirement::Optional,
                 "N·s/m^(n+1)",
                 "damping coefficient b of K δⁿ + b δⁿ δ̇, >= 0 (or give restitution)",
+                "a number >= 0 in N·s/m^(n+1)",
+                non_negative,
             ),
         ],
         doc: "",
@@ -397,6 +462,8 @@ pub static LAWS: &[LawEntry] = &[
                 Requirement::Default(0.01),
                 "",
                 "width w/v_imp of the passage between the curves, 0 < reversal_band <= 1",
+                "0 < reversal_band <= 1 (a fraction of the approach speed)",
+                |w| w > 0.0 && w <= 1.0,
             ),
         ],
         doc: "",
@@ -416,6 +483,8 @@ pub const RIGID: LawEntry = LawEntry {
         Requirement::Required,
         "",
         "Newton's coefficient of restitution e, 0 <= e <= 1 (0: plastic impact)",
+        "0 <= restitution <= 1",
+        |e| (0.0..=1.0).contains(&e),
     )],
     doc: "",
 };
@@ -423,6 +492,16 @@ pub const RIGID: LawEntry = LawEntry {
 /// The law called `name`.
 pub fn law_entry(name: &str) -> Option<&'static LawEntry> {
     LAWS.iter().find(|e| e.name == name)
+}
+
+/// `value` of parameter `parameter` of law `law`, or the one-line refusal (see
+/// [`Parameter::check`]); for the constructors of the laws, which name a law of [`LAWS`] and
+/// one of its parameters.
+pub(crate) fn check_parameter(law: &str, parameter: &str, value: f64) -> Result<f64, SimError> {
+    law_entry(law)
+        .and_then(|e| e.parameter(parameter))
+        .unwrap_or_else(|| panic!("{law}: no parameter {parameter} in the catalog"))
+        .check(law, value)
 }
 
 /// The names of the force laws `F(δ, δ̇, v_imp)`: every law but the massless bar.
@@ -473,11 +552,11 @@ impl Reader<'_> {
             .unwrap_or_else(|| panic!("{}: no parameter {name} in the catalog", self.law.name))
     }
 
-    /// A number, given or its default; `None` if optional and left out.
+    /// A number, given (and checked) or its default; `None` if optional and left out.
     fn optional(&self, name: &str) -> Result<Option<f64>, SimError> {
         let p = self.declared(name);
         match (self.values.get(name), p.requirement) {
-            (Some(ParameterValue::Number(v)), _) => Ok(Some(*v)),
+            (Some(ParameterValue::Number(v)), _) => p.check(self.law.name, *v).map(Some),
             (Some(ParameterValue::Numbers(_)), _) => invalid(format!(
                 "{}: {name} is a list; expected a number",
                 self.law.name
@@ -531,12 +610,7 @@ impl Law {
                 .in_series(r.number("compliance")?)
                 .map(Law::Hertz),
             Family::SpringDashpot => {
-                let exponent = r.number("exponent")?;
-                if exponent != 1.0 {
-                    return invalid(format!(
-                        "{name}: exponent = {exponent} is not valid; expected 1 (a linear spring)"
-                    ));
-                }
+                r.number("exponent")?; // checked when read: the spring is linear
                 KelvinVoigt::new(r.number("stiffness")?, r.number("damping")?).map(Law::KelvinVoigt)
             }
             Family::Hysteretic(_) => {
@@ -563,6 +637,59 @@ impl Law {
             )
             .map(Law::Tabulated),
             Family::Rigid => Rigid::new(r.number("restitution")?).map(Law::Rigid),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn values(given: &[(&'static str, f64)]) -> ParameterValues {
+        let mut v = ParameterValues::default();
+        for &(name, x) in given {
+            v.set(name, ParameterValue::Number(x));
+        }
+        v
+    }
+
+    #[test]
+    fn the_laws_refuse_a_parameter_with_the_catalogs_words() {
+        let kv = values(&[("stiffness", 1e6), ("damping", 1.0), ("exponent", 1.5)]);
+        let e = Law::from_parameters("kelvin-voigt", &kv)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("kelvin-voigt: exponent = 1.5 is not valid; expected 1 for kelvin-voigt"),
+            "{e}"
+        );
+        let e = Rigid::new(f64::NAN).unwrap_err().to_string();
+        assert!(e.contains("rigid: restitution = NaN is not valid; expected 0 <= restitution <= 1"));
+        let e = Hertz::new(1e9, 1.5)
+            .unwrap()
+            .in_series(-1.0)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("hertz: compliance = -1 is not valid; expected a number >= 0 in m/N"));
+        assert!(Rigid::new(0.0).is_ok() && Rigid::new(1.0).is_ok());
+        let flores = values(&[("stiffness", 1e9), ("restitution", 0.0)]);
+        assert!(Law::from_parameters("flores", &flores).is_err());
+    }
+
+    #[test]
+    fn every_number_parameter_has_its_words_and_refuses_non_finite_values() {
+        for law in LAWS {
+            for p in law
+                .parameters
+                .iter()
+                .filter(|p| p.kind == ValueKind::Number)
+            {
+                assert!(!p.expected.is_empty(), "{}.{}", law.name, p.name);
+                assert!(!p.accepts(f64::NAN) && !p.accepts(f64::INFINITY));
+                if let Requirement::Default(v) = p.requirement {
+                    assert!(p.accepts(v), "{}.{}: default {v} refused", law.name, p.name);
+                }
+            }
         }
     }
 }

@@ -1,4 +1,5 @@
-use super::{check_exponent, check_stiffness, ContactForce, ContactLaw};
+use super::catalog::check_parameter;
+use super::{ContactForce, ContactLaw};
 use crate::error::SimError;
 
 /// Hertz contact, `F = K δⁿ` (Hertz 1882; paper eq. 3). Elastic: no energy is lost.
@@ -21,8 +22,8 @@ pub struct Hertz {
 
 impl Hertz {
     pub fn new(stiffness: f64, exponent: f64) -> Result<Self, SimError> {
-        check_stiffness("hertz", stiffness)?;
-        check_exponent("hertz", exponent)?;
+        check_parameter("hertz", "stiffness", stiffness)?;
+        check_parameter("hertz", "exponent", exponent)?;
         Ok(Self {
             stiffness,
             exponent,
@@ -32,11 +33,7 @@ impl Hertz {
 
     /// The law in series with a linear spring of compliance `c ≥ 0`, m/N.
     pub fn in_series(self, compliance: f64) -> Result<Self, SimError> {
-        if !(compliance.is_finite() && compliance >= 0.0) {
-            return crate::error::invalid(format!(
-                "hertz: compliance = {compliance} is not valid; expected a finite value >= 0 in m/N"
-            ));
-        }
+        check_parameter("hertz", "compliance", compliance)?;
         Ok(Self { compliance, ..self })
     }
 

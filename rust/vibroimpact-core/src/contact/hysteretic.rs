@@ -8,11 +8,9 @@
 //! over the compression and the restitution phase gives
 //! `χ − ln(1 + χ) = −χ e − ln(1 − χ e)` (see [`exact_hysteresis_factor`]).
 
-use super::catalog::{law_entry, Family, LawEntry};
+use super::catalog::{check_parameter, law_entry, Family, LawEntry};
 use super::hertz::power_law;
-use super::{
-    check_exponent, check_restitution, check_stiffness, ContactForce, ContactLaw, MIN_IMPACT_SPEED,
-};
+use super::{ContactForce, ContactLaw, MIN_IMPACT_SPEED};
 use crate::error::{invalid, SimError};
 
 /// `K δⁿ (1 + χ δ̇ / v_imp)` and its derivatives.
@@ -139,9 +137,9 @@ impl Hysteretic {
         let Family::Hysteretic(relation) = law.family else {
             return invalid(format!("'{}' is not a hysteretic contact law", law.name));
         };
-        check_stiffness(law.name, stiffness)?;
-        check_exponent(law.name, exponent)?;
-        check_restitution(law.name, restitution)?;
+        check_parameter(law.name, "stiffness", stiffness)?;
+        check_parameter(law.name, "exponent", exponent)?;
+        check_parameter(law.name, "restitution", restitution)?;
         Ok(Self {
             law,
             stiffness,
@@ -198,13 +196,9 @@ pub struct HuntCrossley {
 
 impl HuntCrossley {
     pub fn new(stiffness: f64, exponent: f64, damping: f64) -> Result<Self, SimError> {
-        check_stiffness("hunt-crossley", stiffness)?;
-        check_exponent("hunt-crossley", exponent)?;
-        if !(damping.is_finite() && damping >= 0.0) {
-            return invalid(format!(
-                "hunt-crossley: damping = {damping} is not valid; expected a finite value >= 0"
-            ));
-        }
+        check_parameter("hunt-crossley", "stiffness", stiffness)?;
+        check_parameter("hunt-crossley", "exponent", exponent)?;
+        check_parameter("hunt-crossley", "damping", damping)?;
         Ok(Self {
             stiffness,
             exponent,

@@ -1,5 +1,6 @@
-use super::{check_stiffness, ContactForce, ContactLaw};
-use crate::error::{invalid, SimError};
+use super::catalog::check_parameter;
+use super::{ContactForce, ContactLaw};
+use crate::error::SimError;
 
 /// Linear spring–dashpot (Kelvin–Voigt), `F = k δ + c δ̇` while in contact: the paper's
 /// spring–damping description of a clearance (Fig. 1b). The force is clamped at zero
@@ -14,12 +15,8 @@ pub struct KelvinVoigt {
 
 impl KelvinVoigt {
     pub fn new(stiffness: f64, damping: f64) -> Result<Self, SimError> {
-        check_stiffness("kelvin-voigt", stiffness)?;
-        if !(damping.is_finite() && damping >= 0.0) {
-            return invalid(format!(
-                "kelvin-voigt: damping = {damping} is not valid; expected a finite value >= 0"
-            ));
-        }
+        check_parameter("kelvin-voigt", "stiffness", stiffness)?;
+        check_parameter("kelvin-voigt", "damping", damping)?;
         Ok(Self { stiffness, damping })
     }
 }

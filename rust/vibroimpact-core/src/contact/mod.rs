@@ -34,8 +34,6 @@ pub use kelvin_voigt::KelvinVoigt;
 pub use rigid::Rigid;
 pub use tabulated::{Curve, Tabulated};
 
-use crate::error::{invalid, SimError};
-
 /// Approach speeds below this (m/s) are raised to it in laws that divide by `v_imp`,
 /// so that a grazing contact gives a large but finite damping coefficient.
 pub const MIN_IMPACT_SPEED: f64 = 1e-8;
@@ -221,33 +219,6 @@ impl Law {
     pub fn is_rigid(&self) -> bool {
         matches!(self, Law::Rigid(_))
     }
-}
-
-pub(crate) fn check_stiffness(law: &str, stiffness: f64) -> Result<(), SimError> {
-    if !(stiffness.is_finite() && stiffness > 0.0) {
-        return invalid(format!(
-            "{law}: stiffness = {stiffness} is not valid; expected a finite value > 0"
-        ));
-    }
-    Ok(())
-}
-
-pub(crate) fn check_exponent(law: &str, exponent: f64) -> Result<(), SimError> {
-    if !(exponent.is_finite() && exponent >= 1.0) {
-        return invalid(format!(
-            "{law}: exponent = {exponent} is not valid; expected a finite value >= 1"
-        ));
-    }
-    Ok(())
-}
-
-pub(crate) fn check_restitution(law: &str, restitution: f64) -> Result<(), SimError> {
-    if !(restitution > 0.0 && restitution <= 1.0) {
-        return invalid(format!(
-            "{law}: restitution = {restitution} is not valid; expected 0 < restitution <= 1"
-        ));
-    }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -1,5 +1,6 @@
+use super::catalog::check_parameter;
 use super::{ContactForce, ContactLaw};
-use crate::error::{invalid, SimError};
+use crate::error::SimError;
 
 /// The massless bar (paper Fig. 1a; docs/rigid-impacts.md): a rigid wall with Newton's restitution
 /// law `δ̇⁺ = −e δ̇⁻`, applied as an instantaneous velocity jump through the generalized
@@ -15,11 +16,7 @@ pub struct Rigid {
 
 impl Rigid {
     pub fn new(restitution: f64) -> Result<Self, SimError> {
-        if !(0.0..=1.0).contains(&restitution) {
-            return invalid(format!(
-                "rigid: restitution = {restitution} is not valid; expected 0 <= restitution <= 1"
-            ));
-        }
+        check_parameter("rigid", "restitution", restitution)?;
         Ok(Self { restitution })
     }
 }

@@ -29,6 +29,7 @@
 //! conservative part reported to the energy account is `F_L` and its potential `∫₀^δ F_L`;
 //! what the force does below it is dissipated.
 
+use super::catalog::check_parameter;
 use super::{ContactForce, ContactLaw, MIN_IMPACT_SPEED};
 use crate::error::{invalid, SimError};
 
@@ -150,12 +151,7 @@ impl Tabulated {
                 loading.last_slope()
             ));
         }
-        if !(reversal_band > 0.0 && reversal_band <= 1.0) {
-            return invalid(format!(
-                "tabulated: reversal_band = {reversal_band} is not valid; expected \
-                 0 < reversal_band <= 1 (a fraction of the approach speed)"
-            ));
-        }
+        check_parameter("tabulated", "reversal_band", reversal_band)?;
         // Both curves are linear between the union of their points and beyond the last one.
         let tol = |f: f64| 1e-12 * f.abs().max(1e-300);
         for &x in loading.penetration.iter().chain(&unloading.penetration) {
