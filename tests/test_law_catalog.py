@@ -271,3 +271,23 @@ def test_python_refuses_exactly_what_the_core_refuses(kind: str) -> None:
             refused.append(core_refuses)
     # every law refuses some probe and takes some: the comparison above can fail both ways
     assert any(refused) and not all(refused)
+
+
+def test_the_model_file_schema_takes_every_value_the_core_takes(tmp_path: Path) -> None:
+    """The schema's range of a law parameter spans every kind that has it (each kind's own range
+    is checked by its class, i.e. by the core): the file reader never refuses a value the core
+    takes, such as the rigid law's restitution 0 (a plastic impact)."""
+    for entry in CATALOG:
+        for p in entry["parameters"]:
+            if p["list"]:
+                continue
+            field = _law_field(p["name"])
+            for value in PROBES:
+                if _core.law_parameter_accepts(entry["name"], p["name"], value):
+                    assert field.in_range(value), (entry["name"], p["name"], value)
+    path = tmp_path / "plastic.toml"
+    path.write_text('[structure]\nkind = "sdof"\nmass = 1.0\nstiffness = 100.0\n'
+                    '[[gaps]]\ndof = 0\nclearance = 0.01\n'
+                    '[gaps.law]\nkind = "rigid"\nrestitution = 0.0\n'
+                    '[solver]\nmethod = "event-driven"\nt_end = 1.0\ndt = 1e-3\n')
+    assert model_file.load_model(path).model.gaps[0].law.restitution == 0.0

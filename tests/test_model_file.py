@@ -370,7 +370,7 @@ def test_error_line_format() -> None:
     with pytest.raises(ModelFileError) as info:
         load_model(BAD / "law_restitution_above_one.toml")
     assert info.value.errors == [
-        "gaps[1].law.restitution: 1.2 is not valid; expected a number with 0 < restitution <= 1"
+        "gaps[1].law.restitution: 1.2 is not valid; expected a number with 0 <= restitution <= 1"
     ]
     with pytest.raises(ModelFileError) as info:
         load_model(BAD / "gap_unknown_key.toml")

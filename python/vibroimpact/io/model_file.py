@@ -550,8 +550,11 @@ SCHEMA: tuple[Field, ...] = (
           "flexible stop; set by the condensation on a node with a massless part)",
           unit="m/N", minimum=0, default=contact.catalog_default("hertz", "compliance"),
           when=("kind", _kinds_with("compliance"))),
+    # the range of every kind's restitution (rigid's takes 0, a plastic impact); each kind's own
+    # is checked by its class, which asks the core
     Field("gaps[].law.restitution", "number", "coefficient of restitution ce", minimum=0,
-          minimum_inclusive=False, maximum=1, when=("kind", _kinds_with("restitution")),
+          maximum=1, rule="0 < restitution but for rigid",
+          when=("kind", _kinds_with("restitution")),
           required_when=("kind", _RESTITUTION_LAWS)),
     Field("gaps[].law.damping", "number", "damping (hunt-crossley: b in N·s/m^(n+1))",
           unit="N·s/m", minimum=0, when=("kind", _kinds_with("damping")),
@@ -2218,7 +2221,7 @@ def render_reference() -> str:
         "",
         "<!-- fragment: what three bad model files print (vibroimpact run exits with 2) -->",
         "```text",
-        "gaps[0].law.restitution: 1.2 is not valid; expected a number with 0 < restitution <= 1",
+        "gaps[0].law.restitution: 1.2 is not valid; expected a number with 0 <= restitution <= 1",
         "gaps[0].clearence: unknown key; did you mean 'clearance'? expected one of: dof, "
         "coefficients, clearance, side, name, law",
         "solver.dt: missing; expected a number > 0 in s",
