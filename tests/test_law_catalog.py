@@ -223,7 +223,8 @@ def test_no_generated_law_is_written_in_python() -> None:
 
 def test_hunt_crossley_takes_one_of_its_alternatives_in_the_core() -> None:
     spec = {"kind": "hunt-crossley", "stiffness": 1e9, "restitution": 0.5, "damping": 10.0}
-    with pytest.raises(_core.ModelError, match="both restitution and damping"):
+    with pytest.raises(_core.ModelError, match="hunt-crossley: damping is not valid; expected "
+                       "exactly one of restitution or damping"):
         _core.contact_force(spec, 1e-5, 0.1, 0.3)
     f, _, _ = _core.contact_force({**spec, "damping": None}, 1e-5, 0.1, 0.3)
     assert math.isclose(f, 1e9 * 1e-5 ** 1.5 * (1 + 0.75 * 0.1 / 0.3), rel_tol=1e-14)
@@ -291,3 +292,68 @@ def test_the_model_file_schema_takes_every_value_the_core_takes(tmp_path: Path) 
                     '[gaps.law]\nkind = "rigid"\nrestitution = 0.0\n'
                     '[solver]\nmethod = "event-driven"\nt_end = 1.0\ndt = 1e-3\n')
     assert model_file.load_model(path).model.gaps[0].law.restitution == 0.0
+
+
+def _refusals(spec: dict[str, Any], build: Any) -> tuple[str | None, str | None]:
+    """What the core (``_core.contact_force``) and Python (``build()``) say of ``spec``: each
+    message, ``None`` when it is taken."""
+    said: list[str | None] = []
+    for attempt, error in ((lambda: _core.contact_force(spec, 1e-6, 0.0, 1.0), _core.ModelError),
+                           (build, ModelError)):
+        try:
+            attempt()
+            said.append(None)
+        except error as e:
+            said.append(str(e))
+    return said[0], said[1]
+
+
+@pytest.mark.parametrize(("given", "field"), [
+    ({"restitution": 0.5, "damping": 10.0}, "damping"),
+    ({}, "restitution"),
+    ({"restitution": 0.5}, None),
+    ({"damping": 10.0}, None),
+])
+def test_python_and_the_core_refuse_the_same_hunt_crossley_alternatives(
+    given: dict[str, float], field: str | None
+) -> None:
+    """Exactly one of restitution or damping: the rule is the core's
+    (``_core.law_alternatives_fault``), worded once."""
+    core, python = _refusals({"kind": "hunt-crossley", "stiffness": 1e9, **given},
+                             lambda: contact.HuntCrossley(stiffness=1e9, **given))
+    if field is None:
+        assert core is None and python is None
+        return
+    expected = "expected exactly one of restitution or damping"
+    assert core == f"hunt-crossley: {field} is not valid; {expected}"
+    assert python == f"law.{field}: {given.get(field)!r} is not valid; {expected}"
+
+
+#: Malformed tabulated curves: the parameters changed from VALID and the one to be named.
+BAD_CURVES = [
+    ({"loading_penetration": [0.0]}, "loading_penetration"),
+    ({"loading_force": [0.0, 10.0]}, "loading_force"),
+    ({"unloading_penetration": [1e-6, 1e-5, 2e-5]}, "unloading_penetration"),
+    ({"loading_force": [1.0, 10.0, 30.0]}, "loading_force"),
+    ({"loading_penetration": [0.0, 2e-5, 1e-5]}, "loading_penetration"),
+    ({"loading_penetration": [0.0, 1e-5, math.inf]}, "loading_penetration"),
+    ({"unloading_force": [0.0, 5.0, math.nan]}, "unloading_force"),
+    ({"loading_force": [0.0, 30.0, 10.0]}, "loading_force"),
+    ({"loading_force": [0.0, 30.0, 30.0]}, "loading_force"),
+]
+
+
+@pytest.mark.parametrize(("change", "field"), BAD_CURVES)
+def test_python_and_the_core_refuse_the_same_malformed_curves(
+    change: dict[str, list[float]], field: str
+) -> None:
+    """The curve shape is the core's rule (``_core.tabulated_curve_fault``): both sides name the
+    same parameter with the same expected words."""
+    curves = {k: v for k, v in VALID.items() if k.endswith(("_penetration", "_force"))}
+    curves.update(change)
+    core, python = _refusals({"kind": "tabulated", **curves},
+                             lambda: contact.Tabulated(**curves))
+    assert core is not None and python is not None
+    _, expected = python.split("; expected ", 1)
+    assert python.startswith(f"law.{field}: {curves[field]!r} is not valid; ")
+    assert core.startswith(f"tabulated: {field} = ") and core.endswith(f"; expected {expected}")

@@ -27,7 +27,6 @@ Example::
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -380,11 +379,11 @@ class HuntCrossley(PowerLaw):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if (self.restitution is None) == (self.damping is None):
-            raise ModelError(
-                "law: hunt-crossley needs exactly one of restitution or damping; "
-                f"got restitution={self.restitution!r}, damping={self.damping!r}"
-            )
+        fault = _core.law_alternatives_fault(self.restitution is not None,
+                                             self.damping is not None)
+        if fault is not None:
+            field, expected = fault
+            require(False, f"law.{field}", getattr(self, field), expected)
         if self.restitution is not None:
             check_parameter(self.kind, "restitution", self.restitution)
         else:
@@ -440,23 +439,20 @@ def _hysteretic_class(entry: dict[str, Any]) -> type[_RestitutionLaw]:
 def _curve(
     name: str, penetration: Sequence[float], force: Sequence[float]
 ) -> tuple[tuple[float, ...], tuple[float, ...]]:
-    px, fx = f"law.{name}_penetration", f"law.{name}_force"
-    for field, values in ((px, penetration), (fx, force)):
+    """Curve ``name`` (``loading`` or ``unloading``) as tuples of floats; its shape is the
+    core's rule (``_core.tabulated_curve_fault``)."""
+    given = {f"{name}_penetration": penetration, f"{name}_force": force}
+    for field, values in given.items():
         require(
-            isinstance(values, (list, tuple, np.ndarray)) and len(values) >= 2
-            and all(_is_number(v) or isinstance(v, np.floating) for v in values)
-            and all(math.isfinite(v) for v in values),
-            field, values, "a list of at least 2 finite numbers",
+            isinstance(values, (list, tuple, np.ndarray))
+            and all(_is_number(v) or isinstance(v, np.floating) for v in values),
+            f"law.{field}", values, "a list of numbers",
         )
     x, f = tuple(float(v) for v in penetration), tuple(float(v) for v in force)
-    require(len(x) == len(f), fx, force,
-            f"{len(x)} numbers, one per {name}_penetration value")
-    require(x[0] == 0 and f[0] == 0, f"law.{name}", ((x[0], f[0]), "..."),
-            "a curve starting at penetration 0 with force 0")
-    require(all(b > a for a, b in itertools.pairwise(x)), px, penetration,
-            "increasing penetrations in m, from 0")
-    require(all(b >= a for a, b in itertools.pairwise(f)), fx, force,
-            "forces in N that do not decrease with penetration")
+    fault = _core.tabulated_curve_fault(name, x, f)
+    if fault is not None:
+        field, expected = fault
+        require(False, f"law.{field}", given[field], expected)
     return x, f
 
 
@@ -494,8 +490,6 @@ class Tabulated(ContactLaw):
         object.__setattr__(self, "loading_force", lf)
         object.__setattr__(self, "unloading_penetration", ux)
         object.__setattr__(self, "unloading_force", uf)
-        require(lf[-1] > lf[-2], "law.loading_force", self.loading_force,
-                "a curve whose last two points rise (it is continued beyond them)")
         check_parameter(self.kind, "reversal_band", self.reversal_band)
         # The core checks that the unloading points are not above the loading curve and that
         # the unloading curve ends at a force > 0.

@@ -24,7 +24,8 @@ use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
 use vibroimpact_core::contact::{
-    law_entry, ContactGeometry, ContactLaw, Material, Requirement, ValueKind, LAWS,
+    alternatives_fault, curve_fault, law_entry, ContactGeometry, ContactLaw, Material, Requirement,
+    ValueKind, LAWS, ONE_OF_RESTITUTION_OR_DAMPING,
 };
 use vibroimpact_core::gap::ImpactRecord;
 use vibroimpact_core::integrators;
@@ -133,6 +134,27 @@ fn law_parameter_accepts(kind: &str, name: &str, value: f64) -> PyResult<bool> {
                 "law_parameter_accepts: no parameter {name} of {kind}"
             ))
         })
+}
+
+/// The core's rule for a law with alternatives (hunt-crossley): `None` when exactly one of
+/// `restitution` or `damping` is given, else the parameter to name and what it expects.
+#[pyfunction]
+fn law_alternatives_fault(
+    restitution: bool,
+    damping: bool,
+) -> Option<(&'static str, &'static str)> {
+    alternatives_fault(restitution, damping).map(|field| (field, ONE_OF_RESTITUTION_OR_DAMPING))
+}
+
+/// The core's rule for curve `which` (`loading` or `unloading`) of the tabulated law: `None`
+/// when the points make a curve, else the parameter to name and what it expects.
+#[pyfunction]
+fn tabulated_curve_fault(
+    which: &str,
+    penetration: Vec<f64>,
+    force: Vec<f64>,
+) -> Option<(String, String)> {
+    curve_fault(which, &penetration, &force)
 }
 
 /// The core's catalog of contact laws, in its order: for each a dict with `name`, `class_name`,
@@ -544,6 +566,8 @@ fn _core(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(contact_force, m)?)?;
     m.add_function(wrap_pyfunction!(law_catalog, m)?)?;
     m.add_function(wrap_pyfunction!(law_parameter_accepts, m)?)?;
+    m.add_function(wrap_pyfunction!(law_alternatives_fault, m)?)?;
+    m.add_function(wrap_pyfunction!(tabulated_curve_fault, m)?)?;
     m.add_function(wrap_pyfunction!(method::method_catalog, m)?)?;
     m.add_function(wrap_pyfunction!(model_catalog::model_catalog, m)?)?;
     m.add_function(wrap_pyfunction!(model_catalog::model_field_accepts, m)?)?;

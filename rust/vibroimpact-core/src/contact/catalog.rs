@@ -504,6 +504,20 @@ pub(crate) fn check_parameter(law: &str, parameter: &str, value: f64) -> Result<
         .check(law, value)
 }
 
+/// What a law with alternatives (`hunt-crossley`: a `restitution` or a `damping`) expects.
+pub const ONE_OF_RESTITUTION_OR_DAMPING: &str = "exactly one of restitution or damping";
+
+/// The parameter to name when a law with alternatives is given `restitution` and `damping`
+/// as flagged (`damping` when both are given, `restitution` when neither); `None` when exactly
+/// one is. What it expects is [`ONE_OF_RESTITUTION_OR_DAMPING`].
+pub fn alternatives_fault(restitution: bool, damping: bool) -> Option<&'static str> {
+    match (restitution, damping) {
+        (true, true) => Some("damping"),
+        (false, false) => Some("restitution"),
+        _ => None,
+    }
+}
+
 /// The names of the force laws `F(δ, δ̇, v_imp)`: every law but the massless bar.
 pub fn force_law_names() -> impl Iterator<Item = &'static str> {
     LAWS.iter().filter(|e| e.name != RIGID.name).map(|e| e.name)
@@ -619,11 +633,18 @@ impl Law {
                     Some(_) => r.optional("damping")?,
                     None => None,
                 };
-                match (coefficient, r.optional("restitution")?) {
-                    (Some(_), Some(_)) => invalid(format!(
-                        "{name}: both restitution and damping are given; expected one of them"
-                    )),
-                    (Some(b), None) => HuntCrossley::new(k, n, b).map(Law::HuntCrossley),
+                let restitution = r.optional("restitution")?;
+                if law.parameter("damping").is_some() {
+                    if let Some(field) =
+                        alternatives_fault(restitution.is_some(), coefficient.is_some())
+                    {
+                        return invalid(format!(
+                            "{name}: {field} is not valid; expected {ONE_OF_RESTITUTION_OR_DAMPING}"
+                        ));
+                    }
+                }
+                match (coefficient, restitution) {
+                    (Some(b), _) => HuntCrossley::new(k, n, b).map(Law::HuntCrossley),
                     (None, Some(ce)) => Hysteretic::build(law, k, n, ce).map(Law::Hysteretic),
                     (None, None) => r.missing(r.declared("restitution")),
                 }

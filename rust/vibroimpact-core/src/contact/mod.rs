@@ -22,8 +22,8 @@ mod rigid;
 mod tabulated;
 
 pub use catalog::{
-    force_law_names, law_entry, Family, LawEntry, Parameter, ParameterValue, ParameterValues,
-    Requirement, ValueKind, LAWS, RIGID,
+    alternatives_fault, force_law_names, law_entry, Family, LawEntry, Parameter, ParameterValue,
+    ParameterValues, Requirement, ValueKind, LAWS, ONE_OF_RESTITUTION_OR_DAMPING, RIGID,
 };
 pub use geometry::{
     combined_modulus, johnson_cylinder_in_hole_approach, ContactGeometry, Material,
@@ -32,7 +32,7 @@ pub use hertz::Hertz;
 pub use hysteretic::{exact_hysteresis_factor, restitution_of_factor, HuntCrossley, Hysteretic};
 pub use kelvin_voigt::KelvinVoigt;
 pub use rigid::Rigid;
-pub use tabulated::{Curve, Tabulated};
+pub use tabulated::{curve_fault, Curve, Tabulated};
 
 /// Approach speeds below this (m/s) are raised to it in laws that divide by `v_imp`,
 /// so that a grazing contact gives a large but finite damping coefficient.
@@ -294,7 +294,10 @@ mod tests {
         let both = Law::from_parameters("hunt-crossley", &v)
             .unwrap_err()
             .to_string();
-        assert!(both.contains("both restitution and damping"), "{both}");
+        assert_eq!(
+            both,
+            "hunt-crossley: damping is not valid; expected exactly one of restitution or damping"
+        );
         let mut b = ParameterValues::default();
         b.set("stiffness", ParameterValue::Number(2e9));
         b.set("damping", ParameterValue::Number(5.0));

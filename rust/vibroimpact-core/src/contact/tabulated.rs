@@ -44,39 +44,62 @@ pub struct Curve {
     integral: Vec<f64>,
 }
 
+/// The first fault of curve `which` (`loading` or `unloading`) of a [`Tabulated`] law: the
+/// parameter to name (`<which>_penetration` or `<which>_force`) and what it expects; `None`
+/// when the points make a curve (at least 2 finite points, as many forces as penetrations,
+/// from `(0, 0)`, increasing penetrations, non-decreasing forces; a loading curve whose last
+/// two points rise, as it is continued beyond them).
+pub fn curve_fault(which: &str, penetration: &[f64], force: &[f64]) -> Option<(String, String)> {
+    let (px, fx) = (format!("{which}_penetration"), format!("{which}_force"));
+    let n = penetration.len();
+    let fault = |field: &String, expected: String| Some((field.clone(), expected));
+    if n < 2 {
+        return fault(&px, "at least 2 penetrations, in m".into());
+    }
+    if force.len() != n {
+        return fault(&fx, format!("{n} forces, one per {px} value, in N"));
+    }
+    if penetration[0] != 0.0 || force[0] != 0.0 {
+        let field = if penetration[0] != 0.0 { &px } else { &fx };
+        return fault(
+            field,
+            "a curve from (0, 0) (no force at first touch)".into(),
+        );
+    }
+    if !penetration
+        .windows(2)
+        .all(|w| w[1].is_finite() && w[1] > w[0])
+    {
+        return fault(&px, "finite penetrations increasing from 0, in m".into());
+    }
+    if !force.windows(2).all(|w| w[1].is_finite() && w[1] >= w[0]) {
+        return fault(
+            &fx,
+            "finite forces from 0 that do not decrease with penetration, in N".into(),
+        );
+    }
+    if which == "loading" && force[n - 1] <= force[n - 2] {
+        return fault(
+            &fx,
+            "a curve whose last two points rise (it is continued beyond them)".into(),
+        );
+    }
+    None
+}
+
 impl Curve {
     fn new(which: &str, penetration: Vec<f64>, force: Vec<f64>) -> Result<Self, SimError> {
+        if let Some((field, expected)) = curve_fault(which, &penetration, &force) {
+            let value = if field.ends_with("_force") {
+                &force
+            } else {
+                &penetration
+            };
+            return invalid(format!(
+                "tabulated: {field} = {value:?} is not valid; expected {expected}"
+            ));
+        }
         let n = penetration.len();
-        if n < 2 || force.len() != n {
-            return invalid(format!(
-                "tabulated: {which}_penetration has {n} values and {which}_force {}; expected \
-                 the same number, at least 2",
-                force.len()
-            ));
-        }
-        if penetration[0] != 0.0 || force[0] != 0.0 {
-            return invalid(format!(
-                "tabulated: {which} curve starts at ({}, {}); expected (0, 0) (no force at first \
-                 touch)",
-                penetration[0], force[0]
-            ));
-        }
-        for i in 1..n {
-            let (x0, x1) = (penetration[i - 1], penetration[i]);
-            if !(x1.is_finite() && x1 > x0) {
-                return invalid(format!(
-                    "tabulated: {which}_penetration[{i}] = {x1} is not valid; expected finite \
-                     values increasing from 0, in m"
-                ));
-            }
-            let (f0, f1) = (force[i - 1], force[i]);
-            if !(f1.is_finite() && f1 >= f0) {
-                return invalid(format!(
-                    "tabulated: {which}_force[{i}] = {f1} is not valid; expected finite values \
-                     >= 0 that do not decrease with penetration, in N"
-                ));
-            }
-        }
         let mut slope = Vec::with_capacity(n - 1);
         let mut integral = Vec::with_capacity(n);
         integral.push(0.0);
@@ -106,10 +129,6 @@ impl Curve {
         let s = self.slope[i];
         let f = self.force[i] + s * dx;
         (f, s, self.integral[i] + dx * (self.force[i] + 0.5 * s * dx))
-    }
-
-    fn last_slope(&self) -> f64 {
-        self.slope[self.slope.len() - 1]
     }
 
     /// The points `(δ, F)` the curve was built from.
@@ -144,13 +163,6 @@ impl Tabulated {
     ) -> Result<Self, SimError> {
         let loading = Curve::new("loading", loading_penetration, loading_force)?;
         let unloading = Curve::new("unloading", unloading_penetration, unloading_force)?;
-        if loading.last_slope() <= 0.0 {
-            return invalid(format!(
-                "tabulated: loading_force ends flat (slope {}); expected the last two points \
-                 to rise, so that the curve can be continued beyond them",
-                loading.last_slope()
-            ));
-        }
         check_parameter("tabulated", "reversal_band", reversal_band)?;
         // Both curves are linear between the union of their points and beyond the last one.
         let tol = |f: f64| 1e-12 * f.abs().max(1e-300);
@@ -403,7 +415,14 @@ mod tests {
         // Unloading above loading.
         assert!(Tabulated::new(ok(), f(), ok(), vec![0.0, 11.0, 30.0], 0.01).is_err());
         // Not starting at 0.
-        assert!(Tabulated::new(vec![1e-6, 1e-5, 2e-5], f(), ok(), f(), 0.01).is_err());
+        let msg = Tabulated::new(vec![1e-6, 1e-5, 2e-5], f(), ok(), f(), 0.01)
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            msg,
+            "tabulated: loading_penetration = [1e-6, 1e-5, 2e-5] is not valid; expected a curve \
+             from (0, 0) (no force at first touch)"
+        );
         // Decreasing force, non-increasing penetration, length mismatch, bad band.
         assert!(Tabulated::new(ok(), vec![0.0, 10.0, 5.0], ok(), f(), 0.01).is_err());
         assert!(Tabulated::new(vec![0.0, 1e-5, 1e-5], f(), ok(), f(), 0.01).is_err());
