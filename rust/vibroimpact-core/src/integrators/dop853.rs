@@ -26,10 +26,10 @@
 //! stiff high modes are better served by the implicit methods.
 
 use super::dop853_tableau::{A, A_DENSE, B, C, C_DENSE, D, DENSE_STAGES, E3, E5, STAGES};
-use crate::contact::{ContactLaw, Law, MIN_IMPACT_SPEED};
+use crate::contact::{ContactForce, ContactLaw, Law, MIN_IMPACT_SPEED};
 use crate::driver::{Run, StepIntegrals, StepPolicy};
 use crate::error::SimError;
-use crate::gap::{radial_contact, Side, WallInterior, WallState};
+use crate::gap::{radial_contact, Radial, RadialKinematics, Side, WallInterior, WallState};
 use crate::interpolation::QuinticSegment;
 use crate::observe::Turn;
 use crate::sensitivity::StateTransition;
@@ -166,14 +166,7 @@ impl<'s> Dynamics<'s> {
             }
             let gap = &sys.gaps[wall.gap];
             if let Side::Radial(r) = &gap.side {
-                let k = sys.radial_at_dofs(r, wall.gap, x, v);
-                let penetration = (k.rho - wall.clearance).max(f64::MIN_POSITIVE);
-                let force = gap.law.force_in_contact(
-                    penetration,
-                    k.rate,
-                    c.impact_speed,
-                    c.max_penetration.max(penetration),
-                );
+                let (k, force) = radial_normal_force(sys, j, r, c, x, v);
                 let state = WallState {
                     force: force.force,
                     d_penetration: force.d_penetration,
@@ -1652,6 +1645,29 @@ fn golden_max(f: impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
         }
     }
     0.5 * (a + b)
+}
+
+/// Radial wall `j`'s kinematics and its normal force at the DOF state `x`, `v`, from the
+/// smallest positive penetration as a 1-D wall's (what [`Dynamics::accel`] applies and the
+/// variational equations differentiate).
+fn radial_normal_force(
+    sys: &System,
+    j: usize,
+    r: &Radial,
+    c: &Contact,
+    x: &[f64],
+    v: &[f64],
+) -> (RadialKinematics, ContactForce) {
+    let wall = &sys.walls[j];
+    let k = sys.radial_at_dofs(r, wall.gap, x, v);
+    let penetration = (k.rho - wall.clearance).max(f64::MIN_POSITIVE);
+    let force = sys.gaps[wall.gap].law.force_in_contact(
+        penetration,
+        k.rate,
+        c.impact_speed,
+        c.max_penetration.max(penetration),
+    );
+    (k, force)
 }
 
 #[cfg(test)]

@@ -35,7 +35,7 @@
 use nalgebra::{DMatrix, DVector, RowDVector};
 
 use super::super::dop853_tableau::{A, B, C, STAGES};
-use super::{dot, Contact, Stages, StepEnd, K};
+use super::{dot, radial_normal_force, Contact, Stages, StepEnd, K};
 use crate::contact::{ContactLaw, MIN_IMPACT_SPEED};
 use crate::gap::{radial_contact, Side, WallState};
 use crate::sensitivity::{Parameter, StateTransition};
@@ -473,16 +473,8 @@ fn radial_tangent(sys: &System, j: usize, c: &Contact, x: &[f64], v: &[f64]) -> 
     let Side::Radial(r) = &gap.side else {
         unreachable!("a radial wall's gap is radial")
     };
-    let k = sys.radial_at_dofs(r, wall.gap, x, v);
-    let raw = k.rho - wall.clearance;
-    let (f_delta, f_rate, f_speed) = tangent(sys, j, c, raw, k.rate);
-    let penetration = raw.max(f64::MIN_POSITIVE);
-    let force = gap.law.force_in_contact(
-        penetration,
-        k.rate,
-        c.impact_speed,
-        c.max_penetration.max(penetration),
-    );
+    let (k, force) = radial_normal_force(sys, j, r, c, x, v);
+    let (f_delta, f_rate, f_speed) = tangent(sys, j, c, k.rho - wall.clearance, k.rate);
     let state = WallState {
         force: force.force,
         d_penetration: f_delta,
