@@ -1,40 +1,15 @@
 //! End-to-end checks of the engine against closed forms.
 
-use nalgebra::{DMatrix, DVector};
 use vibroimpact_core::contact::{Hertz, Hysteretic, Law};
 use vibroimpact_core::gap::{Gap, Side};
-use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings};
-use vibroimpact_core::simulate::{simulate, Method, RunOutput, RunSettings};
-use vibroimpact_core::structure::LinearStructure;
-use vibroimpact_core::system::System;
+use vibroimpact_core::integrators::NewmarkFamily;
+use vibroimpact_core::simulate::Method;
 
-fn sdof(mass: f64, stiffness: f64, damping: f64, gaps: Vec<Gap>) -> System {
-    let s = LinearStructure::new(
-        DMatrix::from_element(1, 1, mass),
-        DMatrix::from_element(1, 1, damping),
-        DMatrix::from_element(1, 1, stiffness),
-    )
-    .unwrap();
-    System::new(s, gaps, vec![]).unwrap()
-}
+mod common;
+use common::{largest_displacement_error, run, sdof};
 
-fn run(sys: &System, t_end: f64, dt: f64, x0: f64, v0: f64) -> RunOutput {
-    let settings = RunSettings {
-        t_end,
-        dt,
-        every: 1,
-        record_dofs: vec![0],
-        newton: NewtonSettings::default(),
-        adaptive: None,
-    };
-    simulate(
-        sys,
-        Method::Newmark(NewmarkFamily::average_acceleration()),
-        &settings,
-        DVector::from_element(1, x0),
-        DVector::from_element(1, v0),
-    )
-    .unwrap()
+fn newmark() -> Method {
+    Method::Newmark(NewmarkFamily::average_acceleration())
 }
 
 /// Hertz impact on a wall touched at t = 0: δ_max = (5 m v0² / 4K)^(2/5) and
@@ -49,11 +24,11 @@ fn hertz_impact_matches_closed_form() {
         side: Side::Positive,
         law: Law::Hertz(Hertz::new(k, 1.5).unwrap()),
     };
-    let sys = sdof(m, 0.0, 0.0, vec![gap]);
+    let sys = sdof(m, 0.0, 0.0, vec![gap], vec![]);
     let delta_max = (5.0 * m * v0 * v0 / (4.0 * k)).powf(0.4);
     // 2·(2/5)·B(2/5, 1/2) = 2.9432752 (Γ(2/5)Γ(1/2)/Γ(9/10) = B(2/5, 1/2))
     let duration = 2.943_275_2 * delta_max / v0;
-    let out = run(&sys, 1.2 * duration, duration / 4000.0, 0.0, v0);
+    let out = run(&sys, newmark(), 1.2 * duration, duration / 4000.0, 0.0, v0);
     assert!(out.error.is_none());
     assert_eq!(out.impacts.len(), 1);
     let imp = &out.impacts[0];
@@ -92,19 +67,12 @@ fn newmark_free_vibration_converges_at_second_order() {
     let exact = |t: f64| {
         (-zeta * wn * t).exp() * (x0 * (wd * t).cos() + (v0 + zeta * wn * x0) / wd * (wd * t).sin())
     };
-    let sys = sdof(m, k, c, vec![]);
+    let sys = sdof(m, c, k, vec![], vec![]);
     let t_end = 1.0;
     let mut errors = vec![];
     for &dt in &[2e-3, 1e-3, 5e-4] {
-        let out = run(&sys, t_end, dt, x0, v0);
-        let err = out
-            .rows
-            .time
-            .iter()
-            .zip(&out.rows.displacement)
-            .map(|(&t, &x)| (x - exact(t)).abs())
-            .fold(0.0, f64::max);
-        errors.push(err);
+        let out = run(&sys, newmark(), t_end, dt, x0, v0);
+        errors.push(largest_displacement_error(&out, exact));
     }
     let slope1 = (errors[0] / errors[1]).log2();
     let slope2 = (errors[1] / errors[2]).log2();
@@ -126,8 +94,8 @@ fn bilateral_clearance_energy_account_balances() {
         side: Side::Both,
         law: Law::Hysteretic(Hysteretic::new("lankarani-nikravesh", k, 1.5, 0.9).unwrap()),
     };
-    let sys = sdof(100.0, 0.0, 0.0, vec![gap]);
-    let out = run(&sys, 0.02, 1e-6, 0.0, 8.0);
+    let sys = sdof(100.0, 0.0, 0.0, vec![gap], vec![]);
+    let out = run(&sys, newmark(), 0.02, 1e-6, 0.0, 8.0);
     assert!(out.error.is_none());
     assert!(out.impacts.len() >= 8);
     for w in out.impacts.windows(2) {

@@ -9,9 +9,12 @@ use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::integrators::{
     Bathe, NewmarkFamily, NewmarkStepper, NewtonSettings, PreciseIntegration, Stepper,
 };
-use vibroimpact_core::simulate::{simulate, Method, RunOutput, RunSettings};
+use vibroimpact_core::simulate::{simulate, Method, RunSettings};
 use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
 use vibroimpact_core::system::{State, System};
+
+mod common;
+use common::{largest_displacement_error, run, sdof};
 
 const ADAMS: Method = Method::Precise(PreciseIntegration {
     predictor_corrector: false,
@@ -20,35 +23,6 @@ const PREDICTOR_CORRECTOR: Method = Method::Precise(PreciseIntegration {
     predictor_corrector: true,
 });
 const BATHE: Method = Method::Bathe(Bathe { gamma: 0.5 });
-
-fn sdof(mass: f64, damping: f64, stiffness: f64, gaps: Vec<Gap>, loads: Vec<Load>) -> System {
-    let s = LinearStructure::new(
-        DMatrix::from_element(1, 1, mass),
-        DMatrix::from_element(1, 1, damping),
-        DMatrix::from_element(1, 1, stiffness),
-    )
-    .unwrap();
-    System::new(s, gaps, loads).unwrap()
-}
-
-fn run(sys: &System, method: Method, t_end: f64, dt: f64, x0: f64, v0: f64) -> RunOutput {
-    let settings = RunSettings {
-        t_end,
-        dt,
-        every: 1,
-        record_dofs: vec![0],
-        newton: NewtonSettings::default(),
-        adaptive: None,
-    };
-    simulate(
-        sys,
-        method,
-        &settings,
-        DVector::from_element(1, x0),
-        DVector::from_element(1, v0),
-    )
-    .unwrap()
-}
 
 /// Damped free vibration `m x'' + c x' + k x = 0`.
 fn free_damped(m: f64, c: f64, k: f64, x0: f64, v0: f64, t: f64) -> (f64, f64) {
@@ -134,12 +108,7 @@ fn forced_response_orders() {
             .iter()
             .map(|&dt| {
                 let out = run(&sys, method, 1.0, dt, 0.0, 0.0);
-                out.rows
-                    .time
-                    .iter()
-                    .zip(&out.rows.displacement)
-                    .map(|(&t, &x)| (x - forced(m, c, k, f, w, t)).abs())
-                    .fold(0.0, f64::max)
+                largest_displacement_error(&out, |t| forced(m, c, k, f, w, t))
             })
             .collect();
         let p = order(&errors, &dts);

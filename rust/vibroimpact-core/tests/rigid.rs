@@ -5,10 +5,13 @@ use nalgebra::{DMatrix, DVector};
 use vibroimpact_core::contact::{Hertz, Law, Rigid};
 use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::impulsive::{EventDriven, MoreauJean};
-use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings};
-use vibroimpact_core::simulate::{simulate, Method, RunOutput, RunSettings};
+use vibroimpact_core::integrators::NewmarkFamily;
+use vibroimpact_core::simulate::{simulate, Method, RunSettings};
 use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
 use vibroimpact_core::system::System;
+
+mod common;
+use common::{largest_displacement_error, run, settings};
 
 const G: f64 = 9.81;
 
@@ -35,28 +38,6 @@ fn bouncing(restitution: f64, law: Option<Law>) -> System {
     System::new(s, vec![gap], vec![load]).unwrap()
 }
 
-fn settings(t_end: f64, dt: f64) -> RunSettings {
-    RunSettings {
-        t_end,
-        dt,
-        every: 1,
-        record_dofs: vec![0],
-        newton: NewtonSettings::default(),
-        adaptive: None,
-    }
-}
-
-fn run(sys: &System, method: Method, t_end: f64, dt: f64, x0: f64) -> RunOutput {
-    simulate(
-        sys,
-        method,
-        &settings(t_end, dt),
-        DVector::from_element(1, x0),
-        DVector::zeros(1),
-    )
-    .unwrap()
-}
-
 /// Closed form from height H at rest: t₁ = √(2H/g), v₁ = g t₁; impact k (k ≥ 1) at
 /// `t_k = t₁ + 2 v₁ (e − e^k)/(g (1 − e))` with approach speed `e^{k−1} v₁`; accumulation
 /// at `t∞ = t₁ + 2 e v₁ /(g (1 − e))`.
@@ -79,6 +60,7 @@ fn event_driven_bouncing_mass_matches_closed_form_and_sticks_at_accumulation_poi
         t_inf + 0.5,
         dt,
         h,
+        0.0,
     );
     assert!(out.error.is_none(), "{:?}", out.error);
     let n = out.impacts.len();
@@ -152,16 +134,10 @@ fn moreau_jean_converges_to_the_closed_form() {
             t_end,
             dt,
             h,
+            0.0,
         );
         assert!(out.error.is_none());
-        let err = out
-            .rows
-            .time
-            .iter()
-            .zip(&out.rows.displacement)
-            .map(|(&t, &x)| (x - exact(t)).abs())
-            .fold(0.0, f64::max);
-        errors.push(err);
+        errors.push(largest_displacement_error(&out, exact));
         // Energy identity of θ = 1/2.
         assert!(out.rows.energy.relative_balance_error() < 1e-9);
     }
@@ -176,6 +152,7 @@ fn moreau_jean_converges_to_the_closed_form() {
         5.0,
         1e-3,
         h,
+        0.0,
     );
     let k = out.rows.time.len() - 1;
     assert!(
@@ -407,7 +384,7 @@ fn event_driven_table_load_is_exact_across_its_breakpoints() {
     };
     let sys = System::new(s, vec![gap], vec![load]).unwrap();
     let method = Method::EventDriven(EventDriven::default());
-    let out = run(&sys, method, 1.0, 1e-2, 0.0);
+    let out = run(&sys, method, 1.0, 1e-2, 0.0, 0.0);
     assert!(out.error.is_none() && out.impacts.is_empty());
     let exact = |t: f64| {
         if t <= t1 {
@@ -417,12 +394,6 @@ fn event_driven_table_load_is_exact_across_its_breakpoints() {
         }
     };
     let scale = f / k;
-    let worst = out
-        .rows
-        .time
-        .iter()
-        .zip(&out.rows.displacement)
-        .map(|(&t, &x)| (x - exact(t)).abs())
-        .fold(0.0, f64::max);
+    let worst = largest_displacement_error(&out, exact);
     assert!(worst < 1e-13 * scale, "{worst:e} of {scale:e}");
 }
