@@ -166,7 +166,7 @@ impl Radial {
             return invalid(format!(
                 "{field}.center: {:?} is not valid; expected {}",
                 self.center,
-                model_catalog::CENTER.expected
+                model_catalog::CENTER.rule.expected
             ));
         }
         model_catalog::FRICTION.check(field, self.friction)?;

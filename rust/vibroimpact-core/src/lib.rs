@@ -19,6 +19,7 @@ pub mod linalg;
 pub mod method;
 pub mod method_catalog;
 pub mod model_catalog;
+pub mod number_rule;
 pub mod observe;
 pub mod output;
 pub mod sensitivity;

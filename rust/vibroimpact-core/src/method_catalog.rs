@@ -14,6 +14,7 @@ use crate::error::{invalid, SimError};
 use crate::impulsive::{EventDriven, MoreauJean};
 use crate::integrators::{Bathe, NewmarkFamily, NewtonSettings, PreciseIntegration};
 use crate::method::Method;
+use crate::number_rule::NumberRule;
 use crate::settings::Adaptive;
 
 /// What a setting holds.
@@ -43,9 +44,8 @@ pub struct Setting {
     pub unit: &'static str,
     /// What it is, one line.
     pub doc: &'static str,
-    /// What a valid value is, as messages word it (`expected ...`).
-    pub expected: &'static str,
-    valid: fn(f64) -> bool,
+    /// What a valid value is, and its wording.
+    pub rule: NumberRule,
 }
 
 impl Setting {
@@ -56,18 +56,16 @@ impl Setting {
             SettingKind::Integer => value.fract() == 0.0,
             SettingKind::Flag => value == 0.0 || value == 1.0,
         };
-        shape && (self.valid)(value)
+        shape && self.rule.accepts(value)
     }
 
-    /// `value`, or the one-line refusal naming the setting.
+    /// `value`, or the one-line refusal naming the setting (`solver.{name}`).
     pub fn check(&self, value: f64) -> Result<f64, SimError> {
         if self.accepts(value) {
             Ok(value)
         } else {
-            invalid(format!(
-                "solver.{}: {value} is not valid; expected {}",
-                self.name, self.expected
-            ))
+            self.rule
+                .refuse(format_args!("solver.{}", self.name), value)
         }
     }
 
@@ -94,8 +92,7 @@ const fn setting(
         computed: "",
         unit,
         doc,
-        expected,
-        valid,
+        rule: NumberRule::new(expected, valid),
     }
 }
 
@@ -328,7 +325,7 @@ pub static NEWTON: [Setting; 4] = [
         "m",
         "absolute tolerance on them",
         "atol >= 0 in m",
-        |v| v >= 0.0 && v.is_finite(),
+        |v| v >= 0.0,
     ),
     setting(
         "max_iterations",
@@ -388,7 +385,7 @@ pub static ADAPTIVE: [Setting; 4] = [
         "",
         "relative tolerance on the local error",
         "a tolerance >= 0",
-        |v| v >= 0.0 && v.is_finite(),
+        |v| v >= 0.0,
     ),
     setting(
         "atol",
@@ -397,7 +394,7 @@ pub static ADAPTIVE: [Setting; 4] = [
         "m",
         "absolute tolerance on the local displacement error",
         "a tolerance >= 0",
-        |v| v >= 0.0 && v.is_finite(),
+        |v| v >= 0.0,
     ),
     Setting {
         default: None,
@@ -409,7 +406,7 @@ pub static ADAPTIVE: [Setting; 4] = [
             "s",
             "smallest step",
             "a step > 0 in s",
-            |v| v > 0.0 && v.is_finite(),
+            |v| v > 0.0,
         )
     },
     Setting {
@@ -422,7 +419,7 @@ pub static ADAPTIVE: [Setting; 4] = [
             "s",
             "largest step",
             "a step > 0 in s",
-            |v| v > 0.0 && v.is_finite(),
+            |v| v > 0.0,
         )
     },
 ];
@@ -434,7 +431,7 @@ const NEWMARK_GAMMA: Setting = setting(
     "",
     "Newmark γ",
     "gamma >= 0.5 (paper eq. 16)",
-    |v| v >= 0.5 && v.is_finite(),
+    |v| v >= 0.5,
 );
 const NEWMARK_BETA: Setting = setting(
     "beta",
@@ -443,7 +440,7 @@ const NEWMARK_BETA: Setting = setting(
     "",
     "Newmark β",
     "beta > 0",
-    |v| v > 0.0 && v.is_finite(),
+    |v| v > 0.0,
 );
 const BATHE_GAMMA: Setting = setting(
     "gamma",

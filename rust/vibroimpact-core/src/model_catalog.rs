@@ -7,7 +7,8 @@
 //! classes' defaults and checks (`vibroimpact.model`, through `_core.model_catalog`), the
 //! model-file schema and docs/model-file.md.
 
-use crate::error::{invalid, SimError};
+use crate::error::SimError;
+use crate::number_rule::{any, non_negative, positive, NumberRule};
 
 /// A field's default.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -28,18 +29,16 @@ pub struct Field {
     pub default: Option<FieldDefault>,
     /// Unit ("" for a number without one).
     pub unit: &'static str,
-    /// What a valid value is, as messages word it (`expected ...`).
-    pub expected: &'static str,
+    /// What a valid number (each number of a list) is, and its wording.
+    pub rule: NumberRule,
     /// The words a choice field takes (empty for numbers).
     pub choices: &'static [&'static str],
-    /// Whether a number (each number of a list) is valid; finiteness is checked first.
-    valid: fn(f64) -> bool,
 }
 
 impl Field {
     /// Whether the number `value` is valid (finite, and in range).
     pub fn accepts(&self, value: f64) -> bool {
-        value.is_finite() && (self.valid)(value)
+        self.rule.accepts(value)
     }
 
     /// Whether the word `value` is one of the field's choices.
@@ -49,14 +48,7 @@ impl Field {
 
     /// `value`, or the one-line refusal naming `{part}.{name}` (e.g. `gaps[0].clearance`).
     pub fn check(&self, part: &str, value: f64) -> Result<f64, SimError> {
-        if self.accepts(value) {
-            Ok(value)
-        } else {
-            invalid(format!(
-                "{part}.{}: {value} is not valid; expected {}",
-                self.name, self.expected
-            ))
-        }
+        self.rule.check(format_args!("{part}.{}", self.name), value)
     }
 
     /// The default number (a number field with one).
@@ -84,18 +76,6 @@ impl Field {
     }
 }
 
-pub(crate) fn any(_: f64) -> bool {
-    true
-}
-
-pub(crate) fn non_negative(v: f64) -> bool {
-    v >= 0.0
-}
-
-pub(crate) fn positive(v: f64) -> bool {
-    v > 0.0
-}
-
 const fn number(
     name: &'static str,
     default: Option<f64>,
@@ -110,9 +90,8 @@ const fn number(
             None => None,
         },
         unit,
-        expected,
+        rule: NumberRule::new(expected, valid),
         choices: &[],
-        valid,
     }
 }
 
@@ -126,9 +105,8 @@ const fn choice(
         name,
         default: Some(FieldDefault::Choice(default)),
         unit: "",
-        expected,
+        rule: NumberRule::new(expected, any),
         choices,
-        valid: any,
     }
 }
 
@@ -181,9 +159,8 @@ pub const CENTER: Field = Field {
     name: "center",
     default: Some(FieldDefault::Numbers(&[0.0, 0.0])),
     unit: "m",
-    expected: "two numbers [x_s, y_s] in m",
+    rule: NumberRule::new("two numbers [x_s, y_s] in m", any),
     choices: &[],
-    valid: any,
 };
 /// A radial gap's Coulomb coefficient μ.
 pub const FRICTION: Field = number(

@@ -174,7 +174,7 @@ fn law_catalog(py: Python<'_>) -> PyResult<Vec<Bound<'_, PyDict>>> {
                     d.set_item("name", p.name)?;
                     d.set_item("unit", p.unit)?;
                     d.set_item("doc", p.doc)?;
-                    d.set_item("expected", p.expected)?;
+                    d.set_item("expected", p.rule.expected)?;
                     d.set_item("list", p.kind == ValueKind::Numbers)?;
                     d.set_item("required", p.requirement == Requirement::Required)?;
                     let default = match p.requirement {

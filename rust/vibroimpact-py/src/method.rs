@@ -76,7 +76,7 @@ fn setting_value(obj: &Bound<'_, PyAny>, setting: &Setting) -> PyResult<f64> {
             "solver.{}: {} is not valid; expected {}",
             setting.name,
             obj.repr()?,
-            setting.expected
+            setting.rule.expected
         ))),
     }
 }
@@ -178,7 +178,7 @@ fn setting_dict<'py>(py: Python<'py>, s: &Setting) -> PyResult<Bound<'py, PyDict
     d.set_item("computed", s.computed)?;
     d.set_item("unit", s.unit)?;
     d.set_item("doc", s.doc)?;
-    d.set_item("expected", s.expected)?;
+    d.set_item("expected", s.rule.expected)?;
     Ok(d)
 }
 

@@ -19,7 +19,7 @@ fn field_dict<'py>(py: Python<'py>, f: &Field) -> PyResult<Bound<'py, PyDict>> {
     };
     d.set_item("default", default)?;
     d.set_item("unit", f.unit)?;
-    d.set_item("expected", f.expected)?;
+    d.set_item("expected", f.rule.expected)?;
     d.set_item("choices", f.choices.to_vec())?;
     Ok(d)
 }

@@ -195,7 +195,7 @@ fn choice(value: Option<&str>, f: &Field, ctx: &str) -> PyResult<String> {
     if !f.accepts_choice(&value) {
         return Err(ModelError::new_err(format!(
             "{ctx}.{}: '{value}' is not valid; expected {}",
-            f.name, f.expected
+            f.name, f.rule.expected
         )));
     }
     Ok(value)
@@ -285,7 +285,7 @@ impl GapSpec {
                 let center: [f64; 2] = center.try_into().map_err(|c: Vec<f64>| {
                     ModelError::new_err(format!(
                         "{ctx}.center: {c:?} is not valid; expected {}",
-                        CENTER.expected
+                        CENTER.rule.expected
                     ))
                 })?;
                 let friction_law =

@@ -11,7 +11,7 @@
 use super::hysteretic::exact_hysteresis_factor;
 use super::{Hertz, HuntCrossley, Hysteretic, KelvinVoigt, Law, Rigid, Tabulated};
 use crate::error::{invalid, SimError};
-use crate::model_catalog::{any, non_negative, positive};
+use crate::number_rule::{any, non_negative, positive, NumberRule};
 
 /// How a law computes its force: what [`Law::from_parameters`] builds.
 #[derive(Debug, Clone, Copy)]
@@ -75,26 +75,25 @@ pub struct Parameter {
     pub unit: &'static str,
     /// What it is, one line.
     pub doc: &'static str,
-    /// What a valid value is, as messages word it (`expected ...`).
-    pub expected: &'static str,
-    /// Whether a number (each number of a list) is valid; finiteness is checked first.
-    valid: fn(f64) -> bool,
+    /// What a valid number (each number of a list) is, and its wording.
+    pub rule: NumberRule,
 }
 
 impl Parameter {
     /// Whether the number `value` is valid (finite, and in range).
     pub fn accepts(&self, value: f64) -> bool {
-        value.is_finite() && (self.valid)(value)
+        self.rule.accepts(value)
     }
 
-    /// `value`, or the one-line refusal naming law `law` and this parameter.
+    /// `value`, or the one-line refusal naming law `law` and this parameter, worded as the
+    /// law's other refusals (`{law}: {name} ...`).
     pub fn check(&self, law: &str, value: f64) -> Result<f64, SimError> {
         if self.accepts(value) {
             Ok(value)
         } else {
             invalid(format!(
                 "{law}: {} = {value} is not valid; expected {}",
-                self.name, self.expected
+                self.name, self.rule.expected
             ))
         }
     }
@@ -146,8 +145,7 @@ const fn number(
         requirement,
         unit,
         doc,
-        expected,
-        valid,
+        rule: NumberRule::new(expected, valid),
     }
 }
 
@@ -158,8 +156,7 @@ const fn curve(name: &'static str, unit: &'static str, doc: &'static str) -> Par
         requirement: Requirement::Required,
         unit,
         doc,
-        expected: "a list of finite numbers",
-        valid: any,
+        rule: NumberRule::new("a list of finite numbers", any),
     }
 }
 
@@ -705,7 +702,7 @@ mod tests {
                 .iter()
                 .filter(|p| p.kind == ValueKind::Number)
             {
-                assert!(!p.expected.is_empty(), "{}.{}", law.name, p.name);
+                assert!(!p.rule.expected.is_empty(), "{}.{}", law.name, p.name);
                 assert!(!p.accepts(f64::NAN) && !p.accepts(f64::INFINITY));
                 if let Requirement::Default(v) = p.requirement {
                     assert!(p.accepts(v), "{}.{}: default {v} refused", law.name, p.name);
