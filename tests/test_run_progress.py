@@ -238,3 +238,31 @@ def test_verbose_logs_the_linear_solver_and_its_size(caplog: pytest.LogCaptureFi
     n = fe.n_dof
     lower = (fe.stiffness.nnz + n) // 2
     assert solver.startswith("sparse-") and lower <= stored <= n * (n + 1) // 2
+
+
+def test_a_run_made_on_one_thread_can_be_dropped_on_another(monkeypatch: Any) -> None:
+    """A run's core object made on a worker thread (Dask's, a sweep's) and released on
+    another: no "dropped on another thread" complaint, the run's results intact."""
+    import sys
+    import threading
+
+    from vibroimpact import _core
+
+    made: list[Any] = []
+
+    def keeping_start(*args: Any) -> Any:
+        made.append(original(*args))
+        return made[-1]
+
+    original = _core.start
+    monkeypatch.setattr(_core, "start", keeping_start)
+    model = vi.load_model(PAPER)
+    results: list[Any] = []
+    worker = threading.Thread(target=lambda: results.append(model.simulate()))
+    worker.start()
+    worker.join()
+    assert len(made) == 1 and len(results[0].impacts) > 0
+    complaints: list[Any] = []
+    monkeypatch.setattr(sys, "unraisablehook", complaints.append)
+    made.clear()  # the last reference: dropped here, on the main thread
+    assert complaints == []

@@ -80,7 +80,7 @@ enum Worker {
 }
 
 /// A run prepared by `start`.
-#[pyclass(module = "vibroimpact._core", unsendable)]
+#[pyclass(module = "vibroimpact._core")]
 pub(crate) struct Running {
     worker: Worker,
     /// A short run without `chunk_rows` (under [`INLINE_WORK`], about 10 ms): the first
@@ -89,7 +89,10 @@ pub(crate) struct Running {
     /// has ended.
     #[pyo3(get)]
     inline: bool,
-    rx: Receiver<Rows>,
+    /// In a mutex only to make the class `Sync` (a Python object may be dropped, or used, on
+    /// another thread than the one that made it: Dask's and the sweep's threads); every use
+    /// holds `&mut self` and reaches it with `get_mut`, without locking.
+    rx: Mutex<Receiver<Rows>>,
     /// Blocks received and not yet taken.
     pending: Vec<Rows>,
     shared: Arc<Shared>,
@@ -133,7 +136,7 @@ pub(crate) fn start(
     Ok(Running {
         worker: Worker::Ready(Box::new((job, sink))),
         inline: chunk_rows.is_none() && work <= INLINE_WORK,
-        rx,
+        rx: Mutex::new(rx),
         pending: Vec::new(),
         shared,
         balance: BalanceError::default(),
@@ -208,7 +211,8 @@ impl Running {
                 Worker::Thread(std::thread::spawn(move || run(job, &mut sink)))
             };
         }
-        let (rx, pending) = (&mut self.rx, &mut self.pending);
+        let rx = self.rx.get_mut().unwrap_or_else(|e| e.into_inner());
+        let pending = &mut self.pending;
         let timeout = Duration::from_secs_f64(timeout.max(0.0));
         self.finished = py.detach(move || match rx.recv_timeout(timeout) {
             Ok(rows) => {
@@ -224,7 +228,8 @@ impl Running {
     /// The rows received since the last call, as one dict of arrays (`time`,
     /// `displacement`, ..., `energy`), or None.
     fn take_rows<'py>(&mut self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        self.pending.extend(self.rx.try_iter());
+        let rx = self.rx.get_mut().unwrap_or_else(|e| e.into_inner());
+        self.pending.extend(rx.try_iter());
         if self.pending.is_empty() {
             return Ok(None);
         }
