@@ -3,7 +3,8 @@
 
 The DOFs are split into boundary DOFs ``b`` (the gap DOFs, kept as they are) and interior DOFs
 ``i``. The interior motion is the static response to the boundary (constraint modes
-``Ψ = −K_ii⁻¹ K_ib``) plus the first ``n_modes`` fixed-interface modes ``Φ`` of ``(K_ii, M_ii)``::
+``Ψ = −K_ii⁻¹ K_ib``) plus ``n_modes`` fixed-interface modes ``Φ`` of ``(K_ii, M_ii)``: the
+lowest, or those of the most effective interface mass (:func:`craig_bampton`'s ``select``)::
 
     x = T q,   T = [[I, 0], [Ψ, Φ]],   q = [x_b; η]
     M_r = Tᵀ M T,   C_r = Tᵀ C T,   K_r = Tᵀ K T,   f_r = Tᵀ f
