@@ -318,17 +318,20 @@ def calculix_benchmark(steps: int = 2000, ccx_steps: int = 30, dt: float = 1e-6
 def solid_reduction_benchmark(steps: int = 2000, n_modes: Sequence[int] = (50, 100, 200),
                               dt: float = 5e-7,
                               n_elements: tuple[int, int, int] = (85, 13, 13),
-                              time_error: bool = False) -> Iterator[dict[str, Any]]:
+                              time_error: bool = False,
+                              select: Sequence[str] = ("frequency",),
+                              candidates: int | None = None) -> Iterator[dict[str, Any]]:
     """:func:`solid_patch_model` reduced by Craig–Bampton to its patch DOFs plus each of
-    ``n_modes`` fixed-interface modes, against one full run of ``steps`` Newmark steps of
-    ``dt`` (both from the same state, which every basis holds exactly). Yields one row per
-    reduction: the gap displacement's (``u``, the patch's mean) and contact force's largest
-    errors over the history relative to their largest values (``contact_displacement_error``:
-    ``u``'s over the steps in contact, relative to its largest value in contact; the largest
-    ``|u|`` of a run is reached in the free swing after the block leaves the stop), the
-    reduction's time and the
-    reduced run's against the full run's (the core's times, setup included;
-    ``reduction_s / full_ms_per_step`` full steps pay for the reduction).
+    ``n_modes`` fixed-interface modes, chosen by each way of ``select`` (``candidates``: see
+    :func:`~vibroimpact.fe.reduction.craig_bampton`), against one full run of ``steps``
+    Newmark steps of ``dt`` (both from the same state, which every basis holds exactly).
+    Yields one row per reduction: the gap displacement's (``u``, the patch's mean) and
+    contact force's largest errors over the history relative to their largest values
+    (``contact_displacement_error``: ``u``'s over the steps in contact, relative to its
+    largest value in contact; the largest ``|u|`` of a run is reached in the free swing
+    after the block leaves the stop), the reduction's time and the reduced run's against the
+    full run's (the core's times, setup included; ``reduction_s / full_ms_per_step`` full
+    steps pay for the reduction).
 
     With ``time_error``, a last row with the full model's own error of time discretisation:
     ``full_time_error``, its ``u`` at ``dt`` against a run at ``dt / 2`` (compared at the
@@ -353,14 +356,15 @@ def solid_reduction_benchmark(steps: int = 2000, n_modes: Sequence[int] = (50, 1
     u_peak, f_peak = float(np.abs(u_full).max()), float(np.abs(f_full).max())
     in_contact = f_full > 0
     u_contact_peak = float(np.abs(u_full[in_contact]).max()) if in_contact.any() else u_peak
-    for n in n_modes:
+    for how, n in ((how, n) for how in select for n in n_modes):
         t0 = time.perf_counter()
-        cb = craig_bampton(model, patch, n)
+        cb = craig_bampton(model, patch, n, select=how,
+                           candidates=None if how == "frequency" else candidates)
         reduction_s = time.perf_counter() - t0
         red = run(cb.reduce_model(model), [cb.reduced_dof(d) for d in patch], dt)
         u_error = np.abs(red.displacement @ weights - u_full)
         yield {"n_dof": model.n_dof, "patch_nodes": len(patch), "reduced_n_dof": cb.n_dof,
-               "n_modes": n, "dt": dt, "steps": steps,
+               "n_modes": n, "select": how, "candidates": cb.candidates, "dt": dt, "steps": steps,
                "max_interior_hz": float(cb.interior_frequencies_hz[-1]) if n else 0.0,
                "contact_steps": int(np.count_nonzero(f_full)),
                "impacts": len(full.impacts), "impacts_reduced": len(red.impacts),

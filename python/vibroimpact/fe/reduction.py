@@ -3,7 +3,8 @@
 
 The DOFs are split into boundary DOFs ``b`` (the gap DOFs, kept as they are) and interior DOFs
 ``i``. The interior motion is the static response to the boundary (constraint modes
-``Ψ = −K_ii⁻¹ K_ib``) plus the first ``n_modes`` fixed-interface modes ``Φ`` of ``(K_ii, M_ii)``::
+``Ψ = −K_ii⁻¹ K_ib``) plus ``n_modes`` fixed-interface modes ``Φ`` of ``(K_ii, M_ii)``: the
+lowest, or those of the most effective interface mass (:func:`craig_bampton`'s ``select``)::
 
     x = T q,   T = [[I, 0], [Ψ, Φ]],   q = [x_b; η]
     M_r = Tᵀ M T,   C_r = Tᵀ C T,   K_r = Tᵀ K T,   f_r = Tᵀ f
@@ -94,7 +95,9 @@ class CraigBampton:
     fixed-interface modes (reduced DOFs ``b …``) with ``interior_frequencies_hz``, the
     reduced ``mass``, ``stiffness``, ``damping`` (r × r), ``mass_projection`` ``TᵀM``
     (r × n, to reduce initial states) and ``dof_units`` (r: the boundary DOFs' own units, then
-    ``"kg^0.5 m"`` for the coordinates of the mass-normalised modes, ``φᵀ M φ = 1``)."""
+    ``"kg^0.5 m"`` for the coordinates of the mass-normalised modes, ``φᵀ M φ = 1``);
+    ``select`` and ``candidates``: how the modes were chosen, among how many of the lowest
+    (:func:`craig_bampton`)."""
 
     transform: NDArray[np.float64]
     boundary: tuple[int, ...]
@@ -106,6 +109,8 @@ class CraigBampton:
     dof_map: DofMap | None = None
     mass_projection: NDArray[np.float64] | None = field(default=None, repr=False, compare=False)
     dof_units: tuple[str, ...] | None = None
+    select: str = "frequency"
+    candidates: int = 0
 
     @property
     def n_dof(self) -> int:
@@ -206,10 +211,22 @@ def craig_bampton(
     structure: Any,
     boundary: Iterable[int],
     n_modes: int,
+    *,
+    select: str = "frequency",
+    candidates: int | None = None,
 ) -> CraigBampton:
     """Reduce ``structure`` (a :class:`~vibroimpact.Structure`, :class:`~vibroimpact.Model`,
     :class:`~vibroimpact.fe.FEStructure` or :class:`~vibroimpact.fe.Beam`; sparse matrices
     stay sparse) keeping the DOFs ``boundary`` physical and ``n_modes`` fixed-interface modes.
+
+    ``select`` says which modes: ``"frequency"``, the lowest ``n_modes``; ``"interface-mass"``,
+    the ``n_modes`` of the lowest ``candidates`` (default ``4 n_modes``) that carry the most
+    effective interface mass (Kammer & Triller, *J. Vib. Acoust.* 118:264, 1996): mode ``i``'s
+    participation ``L_i = φ_iᵀ (M_ib + M_ii Ψ)`` (its coupling to the boundary in ``M_r``)
+    gives its effective mass ``L_iᵀ L_i`` relative to the boundary, and the modes are ranked
+    by its share of each boundary DOF's mass ``M̂ = T_bᵀ M T_b``, ``Σ_j L_ij² / M̂_jj``. It
+    keeps the modes a contact at the boundary excites (local ones far above the lowest), at
+    the price of ``candidates`` modes in the eigensolution (benchmarks/solid-reduction.md).
 
     The interior stiffness ``K_ii`` must be non-singular: the boundary DOFs must hold the
     structure against rigid-body motion (add boundary DOFs otherwise)."""
@@ -226,6 +243,7 @@ def craig_bampton(
         raise ModelError(
             f"n_modes: {n_modes!r} is not valid; expected an integer 0 .. {ni} (interior DOFs)"
         )
+    n_eig = _candidates(select, candidates, n_modes, ni)
     sparse = sp.issparse(k) and ni > DENSE_REDUCTION_LIMIT
     ms, ks = sp.csc_array(m), sp.csc_array(k)
     k_ii = ks[interior][:, interior]
@@ -253,21 +271,29 @@ def craig_bampton(
     if ni and not np.all(np.isfinite(psi)):
         raise ModelError(_singular_message(len(b)))
     if n_modes:
-        if sparse and n_modes < ni - 1:
+        if sparse and n_eig < ni - 1:
             assert factor is not None  # shift-invert about 0 reuses the factor of K_ii
             k_inv = spla.LinearOperator((ni, ni), matvec=factor.solve, dtype=float)
             lam, phi = spla.eigsh(
-                sp.csc_array(k_ii), k=n_modes, M=sp.csc_array(m_ii), sigma=0.0, which="LM",
+                sp.csc_array(k_ii), k=n_eig, M=sp.csc_array(m_ii), sigma=0.0, which="LM",
                 OPinv=k_inv,
             )
             order = np.argsort(lam)
             lam, phi = lam[order], phi[:, order]
         else:
             lam, phi = scipy.linalg.eigh(
-                k_ii.toarray(), m_ii.toarray(), subset_by_index=[0, n_modes - 1]
+                k_ii.toarray(), m_ii.toarray(), subset_by_index=[0, n_eig - 1]
             )
         norms = np.sqrt(np.einsum("ij,ij->j", phi, m_ii @ phi))
         phi = phi / norms
+        if n_eig > n_modes:
+            m_ib = ms[interior][:, b].toarray()
+            coupling = m_ib + m_ii @ psi  # M_ib + M_ii Ψ
+            boundary_mass = (ms[b][:, b].diagonal() + np.einsum("ij,ij->j", m_ib, psi)
+                             + np.einsum("ij,ij->j", psi, coupling))  # diag(T_bᵀ M T_b)
+            share = ((phi.T @ coupling) ** 2 / boundary_mass).sum(axis=1)
+            keep = np.sort(np.argsort(-share, kind="stable")[:n_modes])
+            lam, phi = lam[keep], phi[:, keep]
     else:
         lam, phi = np.zeros(0), np.zeros((ni, 0))
     t = np.zeros((n, len(b) + n_modes))
@@ -290,8 +316,31 @@ def craig_bampton(
         dof_map=dof_map,
         mass_projection=tm,
         dof_units=tuple(units[d] for d in b) + ("kg^0.5 m",) * n_modes,
+        select=select,
+        candidates=n_eig,
     )
     return cb
+
+
+#: The ``select`` values of :func:`craig_bampton`.
+SELECTIONS = ("frequency", "interface-mass")
+
+
+def _candidates(select: str, candidates: int | None, n_modes: int, ni: int) -> int:
+    """How many of the lowest fixed-interface modes to compute for ``select``."""
+    if select not in SELECTIONS:
+        raise ModelError(f"select: {select!r} is not valid; expected one of {list(SELECTIONS)}")
+    if select == "frequency":
+        if candidates is not None:
+            raise ModelError(f"candidates: {candidates!r} is not valid with select = "
+                             "'frequency'; expected it only with select = 'interface-mass'")
+        return n_modes
+    if candidates is None:
+        return min(4 * n_modes, ni)
+    if not (isinstance(candidates, int) and n_modes <= candidates <= ni):
+        raise ModelError(f"candidates: {candidates!r} is not valid; expected an integer "
+                         f"{n_modes} .. {ni} (n_modes .. interior DOFs)")
+    return candidates
 
 
 def _singular_message(nb: int) -> str:
@@ -302,15 +351,21 @@ def _singular_message(nb: int) -> str:
 
 
 def reduce_model(
-    model: Model, n_modes: int, *, boundary: Iterable[int] = ()
+    model: Model,
+    n_modes: int,
+    *,
+    boundary: Iterable[int] = (),
+    select: str = "frequency",
+    candidates: int | None = None,
 ) -> tuple[Model, CraigBampton]:
     """Craig–Bampton reduction of a full ``model``: the gap DOFs (plus ``boundary``) stay
-    physical, ``n_modes`` fixed-interface modes are kept. Returns the reduced model and the
-    :class:`CraigBampton` (for :meth:`~CraigBampton.expand` and :func:`check_reduction`)."""
+    physical, ``n_modes`` fixed-interface modes are kept (``select``, ``candidates``: which,
+    see :func:`craig_bampton`). Returns the reduced model and the :class:`CraigBampton` (for
+    :meth:`~CraigBampton.expand` and :func:`check_reduction`)."""
     dofs = [d for g in model.gaps for d in g.dofs] + [int(d) for d in boundary]
     if not dofs:
         raise ModelError("boundary: [] is not valid; expected gaps or boundary DOFs to keep")
-    cb = craig_bampton(model, dofs, n_modes)
+    cb = craig_bampton(model, dofs, n_modes, select=select, candidates=candidates)
     return cb.reduce_model(model), cb
 
 
