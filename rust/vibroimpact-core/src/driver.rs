@@ -100,7 +100,7 @@ impl<'o> Run<'o> {
         let cur = Box::new(State::initial(sys, x0, v0, 0.0)?);
         let mut log = ImpactLog::new(sys.walls.len());
         log.start(&sys.walls, &cur.walls, 0.0);
-        let account = Account::default();
+        let account = Account::new(sys);
         let mut out = Recorder::new(sys, record_dofs, n_rec);
         for (m, &d) in out.max_abs.iter_mut().zip(&out.dofs) {
             *m = cur.x[d].abs();
@@ -455,14 +455,24 @@ impl<'o> Run<'o> {
 
 /// Work integrals, accumulated every step with the trapezoidal rule in displacement,
 /// `W = Σ Δxᵀ (f₀ + f₁)/2`, which is exact for the average-acceleration rule's linear part.
-#[derive(Debug, Clone, Copy, Default)]
 pub(crate) struct Account {
     external_work: f64,
     damping_dissipated: f64,
     contact_dissipated: f64,
+    /// The damping matrix's form `Δxᵀ C (v₀ + v₁)`.
+    damping: EnergyForm,
 }
 
 impl Account {
+    fn new(sys: &System) -> Self {
+        Self {
+            external_work: 0.0,
+            damping_dissipated: 0.0,
+            contact_dissipated: 0.0,
+            damping: EnergyForm::new(&sys.structure.damping),
+        }
+    }
+
     /// Adds increments of the external work, the damping and the contact dissipation, J.
     fn add(&mut self, work: [f64; 3]) {
         self.external_work += work[0];
@@ -479,7 +489,9 @@ impl Account {
         if sys.has_damping {
             // Δxᵀ C (v₀ + v₁)/2
             let st = &sys.structure;
-            let mut d = st.damping.increment_form(&s0.x, &s1.x, &s0.v, &s1.v);
+            let mut d = self
+                .damping
+                .increment(&st.damping, &s0.x, &s1.x, &s0.v, &s1.v);
             if let Some(g) = &st.gyroscopic {
                 // the gyroscopic forces Ω G x' (in `damping`) do no work
                 d -= st.spin.start * g.increment_form(&s0.x, &s1.x, &s0.v, &s1.v);
@@ -691,6 +703,21 @@ impl EnergyForm {
         }
     }
 
+    /// `(x₁ − x₀)ᵀ A (y₀ + y₁)` with [`Csr::increment_form`]'s sums.
+    #[inline]
+    fn increment(&self, a: &Csr, x0: &[f64], x1: &[f64], y0: &[f64], y1: &[f64]) -> f64 {
+        match self {
+            Self::Diagonal(d) => x0
+                .iter()
+                .zip(x1)
+                .zip(y0.iter().zip(y1))
+                .zip(d)
+                .map(|(((x0, x1), (y0, y1)), di)| (x1 - x0) * (0.0 + di * (y0 + y1)))
+                .sum(),
+            Self::Sparse => a.increment_form(x0, x1, y0, y1),
+        }
+    }
+
     #[inline]
     fn value(&self, a: &Csr, y: &[f64]) -> f64 {
         match self {
@@ -791,12 +818,13 @@ mod tests {
         }
     }
 
-    /// The recorder's diagonal form gives `Csr::quadratic_form`'s values (the same sums) for
-    /// diagonal matrices with empty rows and negative entries; any off-diagonal entry makes
-    /// the form the sparse one.
+    /// The diagonal form gives `Csr::quadratic_form`'s and `Csr::increment_form`'s values (the
+    /// same sums, to the bit) for diagonal matrices with empty rows, signed zeros and negative
+    /// entries; any off-diagonal entry makes the form the sparse one.
     #[test]
     fn diagonal_energy_form_equals_the_sparse_form() {
         let y = [0.3, -1.7, 0.0, 2.5e-3, -4.0e5];
+        let (z, w) = ([0.1, -1.7, -0.0, 2.0, 3.0], [-0.3, 2.0, 0.0, -2.5e-3, 1e-9]);
         for diagonal in [
             vec![100.0, 0.0, 3.0, 1e-9, 7.5],
             vec![0.0; 5],
@@ -815,6 +843,10 @@ mod tests {
                 }));
                 let got = EnergyForm::new(&sub).value(&sub, &y[..k]);
                 assert_eq!(got, sub.quadratic_form(&y[..k]), "{diagonal:?} {k}");
+                let (x1, y1) = (&z[..k], &w[..k]);
+                let got = EnergyForm::new(&sub).increment(&sub, &y[..k], x1, &y[..k], y1);
+                let expected = sub.increment_form(&y[..k], x1, &y[..k], y1);
+                assert_eq!(got.to_bits(), expected.to_bits(), "{diagonal:?} {k}");
             }
             assert_eq!(form.value(&a, &y), a.quadratic_form(&y));
         }

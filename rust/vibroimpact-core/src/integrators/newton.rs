@@ -95,7 +95,7 @@ impl GapNewton {
     /// wall). Writes the walls' gaps, zero forces and `self.u`, `self.u_rate` as `solve` does;
     /// `false` otherwise (only `self.u` written, which `solve` sets before it reads it), and
     /// for a full rate map.
-    #[inline]
+    #[inline(always)]
     pub fn free_flight(
         &mut self,
         sys: &System,
