@@ -125,3 +125,26 @@ def test_load_note_says_when_the_machine_was_loaded() -> None:
     assert "load average up to 3.1 on 2 cores" in table.load_note(info)
     quiet = {**info, "load average (1/5/15 min) when written": "1.90 / 1.00 / 1.00"}
     assert table.load_note(quiet) == ""
+
+
+def test_results_md_writes_issue_20s_per_step_section_from_the_run() -> None:
+    """``--write`` writes issue 20's per-step section itself (the file wholly generated): the
+    bare loop in CPU and wall time, the integrators and the fixed-step sweep's throughput,
+    from the run's own measurements (here made-up numbers)."""
+    floor = {"steps": 20000, "ours_s": 2.0e-3, "floor_s": 1.0e-3, "ratio": 2.0,
+             "ours_cpu_s": 1.5e-3, "floor_cpu_s": 1.0e-3, "cpu_ratio": 1.5,
+             "max_displacement_difference_m": 4e-11, "target_ratio": 1.7}
+    sweep = {"points": 16, "periods": 300, "cpu_s": 0.125, "wall_s": 0.13, "steps": 2663100,
+             "ns_per_step": 46.9, "baseline_cpu_s": 0.265, "ratio": 0.265 / 0.125,
+             "target_ratio": 2.0}
+    issue20 = table.issue20_targets([], None, floor, sweep)
+    assert issue20[-1]["key"] == "sweep_throughput" and issue20[-1]["met"]
+    text = table.format_markdown([], {"cpu": "x"}, False, None, issue20, None, floor)
+    section = text.split("## Issue 20, item 1: the per-step path")[1].split("## How")[0]
+    assert "1.50x in CPU time (1.500 / 1.000 ms), 2.00x in wall time" in section
+    assert "target <= 1.7x: met (CPU time)" in section
+    assert "fixed-step sweep throughput per core: 2.12x, met (target >= 2x)" in section
+    assert "0.125 s CPU (2,663,100 steps, 47 ns a step) against 0.265 s" in section
+    assert "generalized-α / Newmark: not measured" in section
+    without = table.format_markdown([], {"cpu": "x"}, False, None, issue20, None)
+    assert "per-step path" not in without

@@ -20,7 +20,8 @@ from vibroimpact.model import Gap, HarmonicLoad, Model, Structure
 from vibroimpact.sweeps.grid import Param
 from vibroimpact.sweeps.runner import Sweep, run_sweep
 
-__all__ = ["TARGETS", "impact_oscillator", "impact_oscillator_sweep", "sweep_benchmark"]
+__all__ = ["FIXED_STEP_BASELINE_CPU_S", "TARGETS", "fixed_step_sweep_benchmark",
+           "impact_oscillator", "impact_oscillator_sweep", "sweep_benchmark"]
 
 #: The issue's targets: wall time on 2 cores (s), parallel efficiency, Dask overhead.
 TARGETS = {"seconds": 30.0, "parallel_efficiency": 0.85, "dask_overhead": 0.15}
@@ -47,6 +48,31 @@ def impact_oscillator_sweep(points: int = 400, transient: int = 200, periods: in
     model, method, dt = impact_oscillator()
     return Sweep(model, [Param("loads.0.frequency", np.linspace(5.0, 50.0, points))], dt=dt,
                  method=method, transient=transient, periods=periods, **options)
+
+
+#: CPU seconds of :func:`fixed_step_sweep_benchmark`'s sweep (16 frequencies x 300 periods, one
+#: thread) with the time loop before issue 20's per-step changes: 0.26-0.27 s (2026-12-02 04:58
+#: UTC, a separate process), the base of issue 20's throughput target (at least twice it).
+FIXED_STEP_BASELINE_CPU_S = 0.265
+
+
+def fixed_step_sweep_benchmark(points: int = 16, repeats: int = 3) -> dict[str, Any]:
+    """Issue 20's sweep throughput per core: the benchmark sweep's oscillator over ``points``
+    forcing frequencies x 300 periods with fixed-step Newmark (average acceleration, its first
+    step dt = 1e-4 s) on one thread; the least CPU time of ``repeats`` runs against
+    :data:`FIXED_STEP_BASELINE_CPU_S` (so ``points`` other than 16 gives no ratio)."""
+    model, _, dt = impact_oscillator()
+    sweep = Sweep(model, [Param("loads.0.frequency", np.linspace(5.0, 50.0, points))], dt=dt,
+                  method=Newmark(), transient=200, periods=100)
+    run_sweep(impact_oscillator_sweep(2, 2, 2), threads=1, progress=False)  # imports, pools
+    best = min((_timed(lambda: run_sweep(sweep, threads=1, progress=False))
+                for _ in range(max(1, repeats))), key=lambda t: t[1])
+    wall, cpu, ds = best
+    steps = int(ds["steps"].sum())
+    ratio = FIXED_STEP_BASELINE_CPU_S / cpu if points == 16 else None
+    return {"points": points, "periods": 300, "cpu_s": cpu, "wall_s": wall, "steps": steps,
+            "ns_per_step": cpu / steps * 1e9, "baseline_cpu_s": FIXED_STEP_BASELINE_CPU_S,
+            "ratio": ratio, "target_ratio": 2.0}
 
 
 def _cpu_seconds() -> float:

@@ -466,8 +466,7 @@ impl ImpactLog {
         h: f64,
         interior: Option<&WallInterior>,
     ) {
-        for (j, wall) in sys.walls.iter().enumerate() {
-            let (s0, s1) = (&before[j], &after[j]);
+        for (j, ((wall, s0), s1)) in sys.walls.iter().zip(before).zip(after).enumerate() {
             if !s0.closed() && !s1.closed() {
                 continue;
             }

@@ -111,9 +111,14 @@ impl<D: StepDerivative> StepPolicy for FixedSteps<'_, D> {
             return Ok(false);
         }
         self.step += 1;
-        self.pending.push(0);
-        while let Some(level) = self.pending.pop() {
-            let h = self.h0 / (1u64 << level) as f64;
+        // the grid step first, and its halves (pending) only if it fails
+        let mut attempt = Some(0);
+        while let Some(level) = attempt.take().or_else(|| self.pending.pop()) {
+            let h = if level == 0 {
+                self.h0
+            } else {
+                self.h0 / (1u64 << level) as f64
+            };
             match self
                 .stepper
                 .attempt(sys, &run.cur, level, h, &mut run.trial)

@@ -335,7 +335,7 @@ impl State {
             (*rate, *accel) = (r, acc);
         }
         for (wall, state) in sys.walls.iter().zip(self.walls.iter_mut()) {
-            if wall.sign == 0.0 {
+            if sys.has_radial && wall.sign == 0.0 {
                 let Side::Radial(r) = &sys.gaps[wall.gap].side else {
                     unreachable!("a wall of sign 0 is radial")
                 };

@@ -342,10 +342,12 @@ ISSUE20 = {
 
 
 def issue20_targets(rows: list[dict[str, Any]], eq: dict[str, Any] | None,
-                    floor: dict[str, Any] | None) -> list[dict[str, Any]]:
+                    floor: dict[str, Any] | None,
+                    sweep: dict[str, Any] | None = None) -> list[dict[str, Any]]:
     """Issue 20's targets (:data:`ISSUE20`) measured in this run, on the paper's SDOF case:
     per target ``key``, ``what``, ``goal``, ``value`` (None if not measured), ``met`` and
-    ``detail``; the sweep-throughput target last, not measured here."""
+    ``detail``; the sweep-throughput target last, from ``sweep``
+    (:func:`~vibroimpact.benchmarks.sweep.fixed_step_sweep_benchmark`) if measured."""
     def ratio(tool: str, method: str) -> tuple[float | None, str]:
         r = next((x for x in rows if x["problem"] == "paper-sdof" and x["tool"] == tool
                   and x["method"] == method), None)
@@ -382,11 +384,45 @@ def issue20_targets(rows: list[dict[str, Any]], eq: dict[str, Any] | None,
             met = None
         out.append({"key": key, "what": what, "goal": goal, "sense": sense, "value": value,
                     "met": met, "detail": detail})
+    value = None if sweep is None else sweep["ratio"]
     out.append({"key": "sweep_throughput", "what": "fixed-step sweep throughput per core",
-                "goal": 2.0, "sense": "min", "value": None, "met": None,
-                "detail": "not measured by bench --peers (the sweep rows of `vibroimpact "
-                          "bench`)"})
+                "goal": 2.0, "sense": "min", "value": value,
+                "met": None if value is None else value >= 2.0,
+                "detail": "not measured" if sweep is None else _sweep_detail(sweep)})
     return out
+
+
+def _sweep_detail(sweep: dict[str, Any]) -> str:
+    return (f"{sweep['points']} frequencies x {sweep['periods']} periods, fixed-step Newmark, "
+            f"one thread: {sweep['cpu_s']:.3f} s CPU ({sweep['steps']:,} steps, "
+            f"{sweep['ns_per_step']:.0f} ns a step) against {sweep['baseline_cpu_s']:.3f} s "
+            "before issue 20's per-step changes")
+
+
+def format_per_step(floor: dict[str, Any], issue20: list[dict[str, Any]]) -> list[str]:
+    """The section on issue 20's per-step path: the bare loop in CPU time (the steadier
+    measure on a shared machine) and in wall time, the integrators against Newmark and the
+    fixed-step sweep's throughput, all from this run."""
+    found = {t["key"]: t for t in issue20}
+
+    def verdict(t: dict[str, Any]) -> str:
+        if t["value"] is None:
+            return "not measured"
+        return f"{t['value']:.3g}x, " + ("met" if t["met"] else "missed")
+
+    cpu_met = "met" if floor["cpu_ratio"] <= floor["target_ratio"] else "missed"
+    lines = [
+        f"fixed-step Newmark / the bare loop (paper SDOF case, Lankarani-Nikravesh, "
+        f"{floor['steps']:,} steps): {floor['cpu_ratio']:.2f}x in CPU time "
+        f"({floor['ours_cpu_s'] * 1e3:.3f} / {floor['floor_cpu_s'] * 1e3:.3f} ms), "
+        f"{floor['ratio']:.2f}x in wall time; target <= {floor['target_ratio']}x: {cpu_met} "
+        f"(CPU time). Histories within {floor['max_displacement_difference_m']:.1e} m.",
+    ]
+    for key in ("generalized_alpha_vs_newmark", "precise_vs_newmark", "sweep_throughput"):
+        t = found[key]
+        goal = f"{'<=' if t['sense'] == 'max' else '>='} {t['goal']:g}x"
+        lines.append(f"{t['what']}: {verdict(t)} (target {goal}); {t['detail']}.")
+    return lines
 
 
 def format_issue20(targets: list[dict[str, Any]]) -> list[str]:
@@ -523,10 +559,11 @@ def format_text(rows: list[dict[str, Any]], quick: bool = False,
 def format_markdown(rows: list[dict[str, Any]], info: dict[str, str], quick: bool,
                     eq: dict[str, Any] | None = None,
                     issue20: list[dict[str, Any]] | None = None,
-                    figure: str | None = None) -> str:
+                    figure: str | None = None, floor: dict[str, Any] | None = None) -> str:
     """``benchmarks/results.md``: the machine, the problems, the same-dt table and issue 9's
     targets; with ``eq`` the equal-accuracy table (and ``figure``, its PNG's relative path)
-    and every ladder point; with ``issue20`` issue 20's targets."""
+    and every ladder point; with ``issue20`` issue 20's targets, and with ``floor`` too
+    (:func:`~vibroimpact.benchmarks.sdof.floor_benchmark`) its per-step section."""
     problems = problem_list(quick)
     refs = {}
     for r in rows:
@@ -559,6 +596,11 @@ def format_markdown(rows: list[dict[str, Any]], info: dict[str, str], quick: boo
     if issue20 is not None:
         out += ["", "## Issue 20's targets (paper SDOF case, measured in this run)", ""]
         out += [f"* {line}" for line in format_issue20(issue20)]
+        if floor is not None:
+            out += ["", "## Issue 20, item 1: the per-step path", "",
+                    "Measured in this run, in CPU time where stated (on a shared machine the "
+                    "steadier measure):", ""]
+            out += [f"* {line}" for line in format_per_step(floor, issue20)]
     out += ["", "## How it was measured", "", *NOTES]
     return "\n".join(out) + "\n"
 
@@ -736,6 +778,7 @@ def cli_main(quick: bool = False, repeats: int | None = None, write: str | None 
     from pathlib import Path
 
     from vibroimpact.benchmarks.sdof import floor_benchmark
+    from vibroimpact.benchmarks.sweep import fixed_step_sweep_benchmark
 
     def log(msg: str) -> None:
         print(f"[bench --peers] {msg}", file=sys.stderr, flush=True)
@@ -750,11 +793,14 @@ def cli_main(quick: bool = False, repeats: int | None = None, write: str | None 
     eq = eqacc.equal_accuracy(paper_sdof(), quick, n, max(n, 3 if quick else 20), log)
     log("paper-sdof: our Newmark against the bare loop")
     floor = floor_benchmark(repeats=3 if quick else 20)
-    issue20 = issue20_targets(rows, eq, floor)
+    log("the fixed-step sweep's throughput on one thread")
+    sweep = fixed_step_sweep_benchmark(repeats=1 if quick else 3)
+    issue20 = issue20_targets(rows, eq, floor, sweep)
     info = machine(start_load)
     if as_json:
         print(json.dumps({"machine": info, "rows": rows, "targets": targets(rows),
-                          "equal_accuracy": eq, "floor": floor, "issue20_targets": issue20},
+                          "equal_accuracy": eq, "floor": floor, "fixed_step_sweep": sweep,
+                          "issue20_targets": issue20},
                          default=float))
     else:
         print(format_text(rows, quick, eq, issue20))
@@ -762,7 +808,7 @@ def cli_main(quick: bool = False, repeats: int | None = None, write: str | None 
         path = Path(write)
         path.parent.mkdir(parents=True, exist_ok=True)
         eqacc.pareto_figure(eq, path.parent / FIGURE)
-        path.write_text(format_markdown(rows, info, quick, eq, issue20, FIGURE),
+        path.write_text(format_markdown(rows, info, quick, eq, issue20, FIGURE, floor),
                         encoding="utf-8")
         log(f"wrote {path} and {path.parent / FIGURE}")
     if readme:

@@ -366,6 +366,16 @@ impl StepOperator {
     }
 }
 
+/// `y −= A x` for an `N × N` row-major `A` (the dense predictor of a model of `N` DOFs), with
+/// the sums of [`DenseMatVec::apply`] below four rows, in the same order.
+#[inline(always)]
+fn mat_vec_sub_sized<const N: usize>(a: &[f64], x: &[f64], y: &mut [f64]) {
+    let (a, x, y) = (&a[..N * N], &x[..N], &mut y[..N]);
+    for (yi, row) in y.iter_mut().zip(a.chunks_exact(N)) {
+        *yi -= row.iter().zip(x).map(|(r, x)| r * x).sum::<f64>();
+    }
+}
+
 /// Newmark-family stepper with its per-step-size operators and preallocated work space.
 pub struct NewmarkStepper {
     scheme: NewmarkFamily,
@@ -380,9 +390,8 @@ pub struct NewmarkStepper {
     scratch: MemBuffer,
     /// `x̃ + c_f x₀` and `ṽ + c_f v₀`, the inputs of the predictor's right-hand side.
     tilde: [Vec<f64>; 2],
-    /// Newmark's displacement predictor `d̃ = h v₀ + h²(½ − β) a₀`, and its gap coordinates.
+    /// Newmark's displacement predictor `d̃ = h v₀ + h²(½ − β) a₀`.
     d_tilde: Vec<f64>,
-    du_pred: Vec<f64>,
     /// `y −= A x` for the dense predictor (SIMD where the CPU has it).
     mat_vec: DenseMatVec,
     choice: PredictorChoice,
@@ -412,7 +421,6 @@ impl NewmarkStepper {
             scratch: MemBuffer::new(faer::dyn_stack::StackReq::EMPTY),
             tilde: [vec![0.0; n], vec![0.0; n]],
             d_tilde: vec![0.0; n],
-            du_pred: vec![0.0; ng],
             mat_vec: DenseMatVec::fastest(),
             choice: PredictorChoice::Cheapest,
             steps: None,
@@ -512,7 +520,36 @@ fn build_operator(
 }
 
 impl Stepper for NewmarkStepper {
+    /// Models of up to four DOFs take a step compiled for their size ([`Self::step`] with
+    /// `N = n`): the same arithmetic in the same order, the loops over the DOFs unrolled and
+    /// their bounds checks resolved at compile time.
     fn attempt(
+        &mut self,
+        sys: &System,
+        s0: &State,
+        level: usize,
+        h: f64,
+        s1: &mut State,
+    ) -> Result<usize, StepFailure> {
+        match s0.x.len() {
+            1 => self.step::<1>(sys, s0, level, h, s1),
+            2 => self.step::<2>(sys, s0, level, h, s1),
+            3 => self.step::<3>(sys, s0, level, h, s1),
+            4 => self.step::<4>(sys, s0, level, h, s1),
+            _ => self.step::<0>(sys, s0, level, h, s1),
+        }
+    }
+
+    fn linear_solver(&self) -> Option<FactorInfo> {
+        self.operators.largest().map(|op| op.info)
+    }
+}
+
+impl NewmarkStepper {
+    /// One attempt of a step of `h` from `s0` into `s1` ([`Stepper::attempt`]); `N`: the
+    /// model's DOFs when it has at most four (known at compile time), 0 otherwise.
+    #[inline(always)]
+    fn step<const N: usize>(
         &mut self,
         sys: &System,
         s0: &State,
@@ -542,8 +579,7 @@ impl Stepper for NewmarkStepper {
             ..
         } = self.scheme;
         let [a0, a1, _, _, a4, a5] = op.a;
-        let n = s0.x.len();
-        let ng = sys.gaps.len();
+        let n = if N > 0 { N } else { s0.x.len() };
         let c_f = alpha_f / (1.0 - alpha_f);
 
         // Linear predictor (see StepOperator).
@@ -572,12 +608,16 @@ impl Stepper for NewmarkStepper {
         match &op.predictor {
             Predictor::Dense { operators, loads } => {
                 for (operator, input) in operators.iter().zip(inputs) {
-                    self.mat_vec.apply(operator, input, d);
+                    if N > 0 && N < 4 {
+                        mat_vec_sub_sized::<N>(operator, input, d);
+                    } else {
+                        self.mat_vec.apply(operator, input, d);
+                    }
                 }
                 for (l, col) in loads.iter().enumerate() {
                     let coef = s1.load[l] + c_f * s0.load[l];
                     if coef != 0.0 {
-                        axpy(coef, col, d);
+                        axpy(coef, &col[..n], d);
                     }
                 }
             }
@@ -615,22 +655,32 @@ impl Stepper for NewmarkStepper {
         if c_f != 0.0 {
             for (col, &p) in op.gaps.iter().zip(&s0.phi) {
                 if p != 0.0 {
-                    axpy(-c_f * p, col, &mut self.dx);
+                    axpy(-c_f * p, &col[..n], &mut self.dx[..n]);
                 }
             }
         }
-        sys.gap_coordinates(&self.dx, &mut self.du_lin);
-        sys.gap_coordinates(&self.d_tilde, &mut self.du_pred);
-        for (du, dp) in self.du_lin.iter_mut().zip(&self.du_pred) {
-            *du += dp;
+        // The gap coordinates of e and of d̃ (as System::gap_coordinates, in one pass), and
+        // the gap rates that follow the increment through eq. 17: u̇₁ = a₁ Δu − a₄ u̇₀ − a₅ ü₀.
+        let (dx, d_tilde) = (&self.dx[..n], &self.d_tilde[..n]);
+        let gap_rates = s0.u_rate.iter().zip(&s0.u_accel);
+        for (((gap, du), rate), (r0, acc0)) in sys
+            .gaps
+            .iter()
+            .zip(&mut self.du_lin)
+            .zip(&mut self.rate_lin)
+            .zip(gap_rates)
+        {
+            let (mut e, mut p) = (-0.0, -0.0); // as `Iterator::sum`
+            for (&d, &c) in gap.dofs.iter().zip(&gap.coefficients) {
+                e += c * dx[d];
+                p += c * d_tilde[d];
+            }
+            *du = e + p;
+            *rate = -a4 * r0 - a5 * acc0;
         }
 
-        // Newton on the gap coordinates, starting from the previous step's contact forces;
-        // the gap rates follow the increment through eq. 17: u̇₁ = a₁ Δu − a₄ u̇₀ − a₅ ü₀.
+        // Newton on the gap coordinates, starting from the previous step's contact forces.
         let newton = &mut self.gap_newton;
-        for gi in 0..ng {
-            self.rate_lin[gi] = -a4 * s0.u_rate[gi] - a5 * s0.u_accel[gi];
-        }
         let problem = GapProblem {
             w: &op.w,
             u0: &s0.u,
@@ -650,23 +700,23 @@ impl Stepper for NewmarkStepper {
         // e = e_lin − Σ_g G_g φ_g; then the Newmark relations (eqs. 14, 18) in predictor
         // form: x₁ = x₀ + d̃ + e and a₁ = a₀ e (the same as a₀ Δx − a₂ v₀ − a₃ a₀ without its
         // cancellation of large terms), v₁ from a₁.
+        let dx = &mut self.dx[..n];
         for (col, &p) in op.gaps.iter().zip(&s1.phi) {
             if p != 0.0 {
-                axpy(-p, col, &mut self.dx);
+                axpy(-p, &col[..n], dx);
             }
         }
+        let (x0, v0, a0_old) = (&s0.x[..n], &s0.v[..n], &s0.a[..n]);
+        let (x1, v1, a1_new) = (&mut s1.x[..n], &mut s1.v[..n], &mut s1.a[..n]);
+        let d_tilde = &self.d_tilde[..n];
         for i in 0..n {
-            let e = self.dx[i];
-            s1.x[i] = s0.x[i] + (self.d_tilde[i] + e);
-            s1.a[i] = a0 * e;
-            s1.v[i] = s0.v[i] + h * ((1.0 - gamma) * s0.a[i] + gamma * s1.a[i]);
+            let e = dx[i];
+            x1[i] = x0[i] + (d_tilde[i] + e);
+            a1_new[i] = a0 * e;
+            v1[i] = v0[i] + h * ((1.0 - gamma) * a0_old[i] + gamma * a1_new[i]);
         }
         s1.finish_gaps(sys, &self.gap_newton.u);
         Ok(iterations)
-    }
-
-    fn linear_solver(&self) -> Option<FactorInfo> {
-        self.operators.largest().map(|op| op.info)
     }
 }
 
@@ -742,6 +792,106 @@ mod tests {
             contacts += cur.phi.iter().filter(|p| **p != 0.0).count();
         }
         (cur, contacts)
+    }
+
+    /// A gap's DOFs and coefficients, clearance and side.
+    type GapSpec<'a> = (&'a [(usize, f64)], f64, Side);
+
+    /// A chain of `n` masses (springs to ground and between neighbours, Rayleigh damping
+    /// `c`), a harmonic load on the last, and `walls`, each with Lankarani–Nikravesh's law.
+    fn small_chain(n: usize, c: f64, walls: &[GapSpec]) -> System {
+        let (mut m, mut k) = (DMatrix::zeros(n, n), DMatrix::zeros(n, n));
+        for i in 0..n {
+            m[(i, i)] = 1.0 + 0.3 * i as f64;
+            k[(i, i)] += 4e4;
+            if i + 1 < n {
+                k[(i, i)] += 1e5;
+                k[(i + 1, i + 1)] += 1e5;
+                k[(i, i + 1)] -= 1e5;
+                k[(i + 1, i)] -= 1e5;
+            }
+        }
+        let damping = &m * c + &k * (1e-2 * c / 100.0);
+        let s = LinearStructure::new(m, damping, k).unwrap();
+        let gaps = walls
+            .iter()
+            .map(|(dofs, clearance, side)| Gap {
+                dofs: dofs.iter().map(|d| d.0).collect(),
+                coefficients: dofs.iter().map(|d| d.1).collect(),
+                clearance: *clearance,
+                side: *side,
+                law: Law::Hysteretic(
+                    crate::contact::Hysteretic::new("lankarani-nikravesh", 1e9, 1.5, 0.8).unwrap(),
+                ),
+            })
+            .collect();
+        let load = Load {
+            dofs: vec![n - 1],
+            amplitude: 40.0,
+            history: LoadHistory::Harmonic {
+                frequency: 35.0,
+                phase: 0.2,
+            },
+        };
+        System::new(s, gaps, vec![load]).unwrap()
+    }
+
+    /// The step compiled for a model's size (`attempt`, up to four DOFs) and the general one
+    /// (`step::<0>`) take the same steps to the bit, contacts included: 1-DOF with one wall
+    /// and with two, 2- and 3-DOF chains with damping, a harmonic load and a relative gap,
+    /// each with Newmark, HHT-α and generalized-α.
+    #[test]
+    fn sized_step_equals_the_general_step() {
+        let models = [
+            small_chain(1, 0.0, &[(&[(0, 1.0)], 1e-3, Side::Positive)]),
+            small_chain(1, 2.0, &[(&[(0, 1.0)], 1e-3, Side::Both)]),
+            small_chain(2, 3.0, &[(&[(1, 1.0), (0, -1.0)], 1e-4, Side::Both)]),
+            small_chain(
+                3,
+                1.0,
+                &[
+                    (&[(0, 1.0)], 1e-3, Side::Negative),
+                    (&[(2, 1.0), (1, -1.0)], 5e-4, Side::Both),
+                ],
+            ),
+        ];
+        for sys in &models {
+            let n = sys.n_dof();
+            for scheme in TEST_SCHEMES {
+                let mut states = [0, 1].map(|_| {
+                    let v0 = DVector::from_fn(n, |i, _| 0.3 - 0.2 * i as f64);
+                    let cur = State::initial(sys, DVector::zeros(n), v0, 0.0).unwrap();
+                    let stepper =
+                        NewmarkStepper::new(sys, scheme, NewtonSettings::default()).unwrap();
+                    (stepper, cur.clone(), cur)
+                });
+                let mut contacts = 0;
+                for _ in 0..4000 {
+                    for (sized, (stepper, cur, next)) in states.iter_mut().enumerate() {
+                        let iterations = if sized == 1 {
+                            stepper.attempt(sys, cur, 0, 2e-5, next)
+                        } else {
+                            stepper.step::<0>(sys, cur, 0, 2e-5, next)
+                        };
+                        iterations.unwrap();
+                        std::mem::swap(cur, next);
+                    }
+                    let (general, sized) = (&states[0].1, &states[1].1);
+                    assert_eq!(
+                        (&general.x, &general.v, &general.a, &general.phi),
+                        (&sized.x, &sized.v, &sized.a, &sized.phi),
+                        "{n} DOFs, {scheme:?}, t {}",
+                        general.t
+                    );
+                    assert_eq!(general.walls, sized.walls);
+                    contacts += general.walls.iter().filter(|w| w.closed()).count();
+                }
+                assert!(
+                    contacts > 50,
+                    "{n} DOFs, {scheme:?}: {contacts} steps in contact"
+                );
+            }
+        }
     }
 
     /// The dense, the banded and the general sparse predictors (each scheme's right-hand

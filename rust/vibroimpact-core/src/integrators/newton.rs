@@ -93,8 +93,9 @@ impl GapNewton {
     /// predictor `Δu_lin` itself) and still open at `u₀ + Δu_lin` (so that iterate has no
     /// force either: zero residual, what [`Self::solve`] would return after evaluating every
     /// wall). Writes the walls' gaps, zero forces and `self.u`, `self.u_rate` as `solve` does;
-    /// `false` (nothing written) otherwise, and for a full rate map.
-    #[inline]
+    /// `false` otherwise (only `self.u` written, which `solve` sets before it reads it), and
+    /// for a full rate map.
+    #[inline(always)]
     pub fn free_flight(
         &mut self,
         sys: &System,
@@ -105,20 +106,26 @@ impl GapNewton {
         let RateMap::Diagonal(c_v) = p.rate else {
             return false;
         };
+        let ng = self.du.len();
+        let (u0, du_lin, rate_lin) = (&p.u0[..ng], &p.du_lin[..ng], &p.rate_lin[..ng]);
+        let u = &mut self.u[..ng];
+        for ((u, &u0), &du) in u.iter_mut().zip(u0).zip(du_lin) {
+            *u = u0 + du;
+        }
         let open = |(wall, start): (&Wall, &WallState)| {
-            !start.closed() && wall.sign * (p.u0[wall.gap] + p.du_lin[wall.gap]) <= wall.clearance
+            !start.closed() && wall.sign * u[wall.gap] <= wall.clearance
         };
         if !sys.walls.iter().zip(p.start).all(open) {
             return false;
         }
-        if sys.has_radial && !self.radial_open(sys, p) {
+        if sys.has_radial && !self.radial_open(sys) {
             return false;
         }
-        for (gi, force) in phi.iter_mut().enumerate().take(self.du.len()) {
-            self.du[gi] = p.du_lin[gi];
-            self.u[gi] = p.u0[gi] + p.du_lin[gi];
-            self.u_rate[gi] = c_v * p.du_lin[gi] + p.rate_lin[gi];
-            *force = 0.0;
+        let (du, u_rate, phi) = (&mut self.du[..ng], &mut self.u_rate[..ng], &mut phi[..ng]);
+        for gi in 0..ng {
+            du[gi] = du_lin[gi];
+            u_rate[gi] = c_v * du_lin[gi] + rate_lin[gi];
+            phi[gi] = 0.0;
         }
         for (wall, state) in sys.walls.iter().zip(walls.iter_mut()) {
             *state = WallState {
@@ -137,12 +144,9 @@ impl GapNewton {
         true
     }
 
-    /// Every radial wall stays open at the linear predictor (the 1-D walls are checked by
-    /// [`Self::free_flight`]; a radial wall's sign 0 passes that check).
-    fn radial_open(&mut self, sys: &System, p: &GapProblem<'_>) -> bool {
-        for (u, (&u0, &du)) in self.u.iter_mut().zip(p.u0.iter().zip(p.du_lin)) {
-            *u = u0 + du;
-        }
+    /// Every radial wall stays open at the linear predictor `self.u` (the 1-D walls are
+    /// checked by [`Self::free_flight`]; a radial wall's sign 0 passes that check).
+    fn radial_open(&self, sys: &System) -> bool {
         (0..sys.walls.len())
             .filter(|&j| sys.walls[j].sign == 0.0)
             .all(|j| sys.wall_motion(j, &self.u, &self.u_rate).0 <= 0.0)
