@@ -158,7 +158,7 @@ def _model(name: str) -> vi.Model:
 
 
 @pytest.mark.parametrize(("model", "options"), [
-    ("sdof", dict(t_end=1.0, dt=1e-6)),
+    ("sdof", dict(t_end=10.0, dt=1e-6)),
     ("stiff-stop", dict(t_end=2000.0, dt=1e-3, method=vi.Dop853())),
     ("rigid-stop", dict(t_end=50.0, dt=1e-4, method=vi.EventDriven())),
     ("rigid-stop", dict(t_end=50.0, dt=1e-4, method=vi.MoreauJean())),
