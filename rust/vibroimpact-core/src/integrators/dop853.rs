@@ -186,21 +186,12 @@ impl<'s> Dynamics<'s> {
                 u += coef * x[d];
                 u_rate += coef * v[d];
             }
-            // a closed wall's force from the smallest penetration at least: a wall is closed
-            // up to its switching tolerance before it is reached, and a force that does not
-            // start from zero (Kelvin–Voigt's c δ̇) must not jump inside the step
             let penetration = match root {
                 Some((w, p)) if w == j => p,
                 _ => wall.sign * u - wall.clearance,
-            }
-            .max(f64::MIN_POSITIVE);
+            };
             let rate = wall.sign * u_rate;
-            let force = gap.law.force_in_contact(
-                penetration,
-                rate,
-                c.impact_speed,
-                c.max_penetration.max(penetration),
-            );
+            let force = force_in_contact(&gap.law, c, penetration, rate);
             for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
                 f[d] -= wall.sign * coef * force.force;
             }
@@ -632,17 +623,32 @@ fn wall_motion(sys: &System, j: usize, x: &[f64], v: &[f64], a: &[f64]) -> [f64;
 
 /// Switches the walls that close or open (or pass their first peak) at the state: a closing
 /// wall takes the approach speed as `v_imp`. Returns whether any wall switched and the last
-/// wall that closed.
+/// wall that closed. A wall whose force continues through it ([`continues_through_wall`])
+/// switches on its penetration `δ + τ δ̇ + τ² δ̈ / 2` at the end of the window `τ`, the larger
+/// of `tol_t` and `within` (s, the next step's event window): it opens where it would open
+/// inside the window (the next step would not land on an opening that near its start, and
+/// would apply the tensile force all along), and a grazing touch that would be over inside
+/// the window (its penetration below `|δ̈| τ² / 8`) is not closed.
 fn switch_walls(
     sys: &System,
     contacts: &mut [Contact],
     state: &StepEnd,
     tol_t: f64,
+    within: f64,
 ) -> (bool, Option<usize>) {
     let (mut switched, mut closed) = (false, None);
     for (j, c) in contacts.iter_mut().enumerate() {
         let [delta, rate, accel] = state.walls[j];
-        if !c.active && rate > 0.0 && delta + rate * tol_t >= 0.0 {
+        let continues = continues_through_wall(&sys.gaps[sys.walls[j].gap].law);
+        let window = tol_t.max(within);
+        let ahead = delta + window * (rate + 0.5 * accel * window);
+        let closes = rate > 0.0 && delta + rate * tol_t >= 0.0 && !(continues && ahead < 0.0);
+        let opens = if continues {
+            ahead <= 0.0
+        } else {
+            rate < 0.0 && delta + rate * tol_t <= 0.0
+        };
+        if !c.active && closes {
             *c = Contact {
                 active: true,
                 impact_speed: rate.max(MIN_IMPACT_SPEED),
@@ -653,7 +659,7 @@ fn switch_walls(
             };
             switched = true;
             closed = Some(j);
-        } else if c.active && rate < 0.0 && delta + rate * tol_t <= 0.0 {
+        } else if c.active && opens {
             *c = Contact::default();
             switched = true;
         } else if c.active && c.peak_pending && rate <= accel.abs() * tol_t {
@@ -805,9 +811,9 @@ fn release(law: &Law, c: &Contact, seg: &QuinticSegment, h: f64) -> Option<f64> 
 }
 
 /// The earliest time after `state` at which an open wall closes if every wall's
-/// penetration kept its present acceleration.
-fn predicted_closing(contacts: &[Contact], state: &StepEnd) -> Option<f64> {
-    let mut first: Option<f64> = None;
+/// penetration kept its present acceleration, and that wall.
+fn predicted_closing(contacts: &[Contact], state: &StepEnd) -> Option<(f64, usize)> {
+    let mut first: Option<(f64, usize)> = None;
     for (j, c) in contacts.iter().enumerate() {
         let [delta, rate, accel] = state.walls[j];
         if c.active || delta >= 0.0 {
@@ -821,8 +827,8 @@ fn predicted_closing(contacts: &[Contact], state: &StepEnd) -> Option<f64> {
         let q = -0.5 * (rate + rate.signum() * disc.sqrt());
         let roots = [q / (0.5 * accel), delta / q];
         for tau in roots.into_iter().filter(|t| t.is_finite() && *t > 0.0) {
-            if first.is_none_or(|f| tau < f) {
-                first = Some(tau);
+            if first.is_none_or(|(f, _)| tau < f) {
+                first = Some((tau, j));
             }
         }
     }
@@ -1070,8 +1076,14 @@ impl StepPolicy for Dop853Steps<'_> {
             let t0 = run.cur.t;
             let was_free = self.contacts.iter().all(|c| !c.active);
             let before = self.variational.is_some().then(|| self.contacts.clone());
-            let (switched, closed) =
-                switch_walls(sys, &mut self.contacts, &self.start, self.near_switch);
+            let within = EVENT_NEAR * self.h;
+            let (switched, closed) = switch_walls(
+                sys,
+                &mut self.contacts,
+                &self.start,
+                self.near_switch,
+                within,
+            );
             let released = self.exact_switches
                 && release_walls(sys, &mut self.contacts, &self.start, self.near_switch);
             if let (Some(var), Some(before), true) =
@@ -1124,8 +1136,8 @@ impl StepPolicy for Dop853Steps<'_> {
             // finds it; a step that falls short or overshoots is corrected as any landing
             if self.root.is_none() && self.landing.is_none() && self.dt_fixed.is_none() {
                 self.landing = predicted_closing(&self.contacts, &self.start)
-                    .filter(|&tau| tau > self.near_switch && tau < self.h.min(self.t_end - t0))
-                    .map(|tau| (tau, true));
+                    .filter(|&(tau, _)| tau > self.near_switch && tau < self.h.min(self.t_end - t0))
+                    .map(|(tau, j)| (tau, !smooth_switch(sys, j)));
             }
             // the step: in ζ during a contact's start or end, else in time
             // a step in ζ that ends the contact (lands on ζ = 0)
@@ -1185,8 +1197,12 @@ impl StepPolicy for Dop853Steps<'_> {
             let mut err = 0.0;
             if let Steps::Adaptive { tol, dt_max, .. } = self.steps {
                 // the first step of a contact and a step landed on an event (a contact's end)
-                // meet the force's δ^1.5 singularity, unless the step is in ζ
-                let rough = matches!(clock, Clock::Time) && (self.contact_started || singular_end);
+                // meet the force's δ^1.5 singularity, unless the step is in ζ or the force
+                // is linear in δ
+                let rough_start = self.contact_started
+                    && (self.contacts.iter().enumerate())
+                        .any(|(j, c)| c.active && c.peak_pending && !smooth_switch(sys, j));
+                let rough = matches!(clock, Clock::Time) && (rough_start || singular_end);
                 err = duration.map_or(f64::INFINITY, |_| {
                     self.stages.error(
                         sys,
@@ -1231,7 +1247,7 @@ impl StepPolicy for Dop853Steps<'_> {
                                 .then(|| opening_phase(&self.contacts[j], j, &self.start, h_try))
                                 .flatten();
                             if self.root.is_none() {
-                                self.landing = Some((s * h_try, true));
+                                self.landing = Some((s * h_try, !smooth_switch(sys, j)));
                                 self.landings += 1;
                             }
                             self.last = None;
@@ -1266,7 +1282,8 @@ impl StepPolicy for Dop853Steps<'_> {
                     };
                     self.root = opening;
                     if self.root.is_none() {
-                        let singular = matches!(event, Event::Closing | Event::Opening);
+                        let singular = matches!(event, Event::Closing | Event::Opening)
+                            && !smooth_switch(sys, j);
                         self.landing = Some((s * duration, singular));
                         self.landings += 1;
                     }
@@ -1660,14 +1677,49 @@ fn radial_normal_force(
 ) -> (RadialKinematics, ContactForce) {
     let wall = &sys.walls[j];
     let k = sys.radial_at_dofs(r, wall.gap, x, v);
-    let penetration = (k.rho - wall.clearance).max(f64::MIN_POSITIVE);
-    let force = sys.gaps[wall.gap].law.force_in_contact(
-        penetration,
-        k.rate,
-        c.impact_speed,
-        c.max_penetration.max(penetration),
-    );
+    let force = force_in_contact(&sys.gaps[wall.gap].law, c, k.rho - wall.clearance, k.rate);
     (k, force)
+}
+
+/// The force a wall in the contact `c` applies at the penetration `penetration` (≤ 0 up to
+/// its switching tolerance) and its rate, as [`Dynamics::accel`] applies it: its law's
+/// formula, tensile past the wall, where it continues through it
+/// ([`continues_through_wall`]); else clamped to compressive and evaluated from the smallest
+/// penetration at least: a wall is closed up to its switching tolerance before it is reached,
+/// and a force that does not start from zero (Kelvin–Voigt's `c δ̇`) must not jump inside the
+/// step.
+fn force_in_contact(law: &Law, c: &Contact, penetration: f64, rate: f64) -> ContactForce {
+    if continues_through_wall(law) {
+        let max_penetration = c.max_penetration.max(penetration);
+        return law.evaluate_in_contact(penetration, rate, c.impact_speed, max_penetration);
+    }
+    let penetration = penetration.max(f64::MIN_POSITIVE);
+    let max_penetration = c.max_penetration.max(penetration);
+    law.force_in_contact(penetration, rate, c.impact_speed, max_penetration)
+}
+
+/// Whether a law's force continues analytically through its wall: a law linear in the
+/// penetration (Hertz's with exponent 1 and no series spring: a linear stator). In contact,
+/// such a wall's force is its formula on both sides, tensile past the wall (as event-located
+/// Runge–Kutta codes integrate each mode's own vector field, Hairer, Nørsett & Wanner §II.6),
+/// so every step integrates an analytic field: a step that crosses the opening keeps its
+/// eighth-order error estimate, is accepted at its length and the opening is located on its
+/// interpolant as precisely as the motion, then landed on by one retake (a clamped force's
+/// kink inside the step is seen as an error of 1e4–1e6 tolerances, and the opening only
+/// approached through rejections); a contact switched on just before its wall (within its
+/// switching window) starts smoothly, its tensile force acting only that long (a clamped one
+/// kinks there, inside the first step, whose first stages then carry an error of order
+/// `h² k δ̇ / m`); and the first step of a contact and a step landed on its closing or opening
+/// take the usual error estimate (no `rough` one, [`Stages::error`]). No accepted step applies
+/// the tensile force beyond the switching window ([`switch_walls`], the events located inside
+/// the step).
+fn continues_through_wall(law: &Law) -> bool {
+    matches!(law, Law::Hertz(h) if h.exponent == 1.0 && h.compliance == 0.0)
+}
+
+/// Whether wall `j`'s force continues through its wall ([`continues_through_wall`]).
+fn smooth_switch(sys: &System, j: usize) -> bool {
+    continues_through_wall(&sys.gaps[sys.walls[j].gap].law)
 }
 
 #[cfg(test)]

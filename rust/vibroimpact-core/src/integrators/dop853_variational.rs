@@ -35,7 +35,7 @@
 use nalgebra::{DMatrix, DVector, RowDVector};
 
 use super::super::dop853_tableau::{A, B, C, STAGES};
-use super::{dot, radial_normal_force, Contact, Stages, StepEnd, K};
+use super::{dot, radial_normal_force, smooth_switch, Contact, Stages, StepEnd, K};
 use crate::contact::{ContactLaw, MIN_IMPACT_SPEED};
 use crate::gap::{radial_contact, Side, WallState};
 use crate::sensitivity::{Parameter, StateTransition};
@@ -375,9 +375,14 @@ fn load_rate(sys: &System, t: f64) -> DVector<f64> {
 }
 
 /// Wall `j`'s `∂F/∂δ`, `∂F/∂δ̇` and `∂F/∂v_imp` at the raw penetration `raw` and rate `rate`
-/// of a stage, as [`Dynamics::accel`] evaluates the force (from the smallest positive
-/// penetration, so with no slope below it; zero where the force is clamped).
+/// of a stage, as [`Dynamics::accel`] evaluates the force ([`super::force_in_contact`]: a
+/// linear law's formula on both sides of the wall; any other from the smallest positive
+/// penetration, so with no slope below it, and zero where the force is clamped).
 fn tangent(sys: &System, j: usize, c: &Contact, raw: f64, rate: f64) -> (f64, f64, f64) {
+    if smooth_switch(sys, j) {
+        let (_, f_delta, f_rate, f_speed) = formula_slopes(sys, j, c, raw, rate);
+        return (f_delta, f_rate, f_speed);
+    }
     let (force, f_delta, f_rate, f_speed) =
         formula_slopes(sys, j, c, raw.max(f64::MIN_POSITIVE), rate);
     if force <= 0.0 {
