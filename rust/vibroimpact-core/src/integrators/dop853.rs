@@ -97,8 +97,9 @@ struct Contact {
 struct Dynamics<'s> {
     sys: &'s System,
     cv: Vec<f64>,
-    /// `M⁻¹` (row-major) of a small model.
-    mass_inverse: Option<Vec<f64>>,
+    /// `M⁻¹`, `C` and `K` (each row-major) of a small model, whose products are then dense
+    /// dot products (a sparse product's row bookkeeping costs several times more at 2 DOFs).
+    small: Option<Small>,
     rhs: Vec<f64>,
     /// Each wall's force at the last evaluation, N.
     forces: Vec<f64>,
@@ -106,26 +107,56 @@ struct Dynamics<'s> {
     has_stiffness: bool,
 }
 
+/// A small model's matrices, row-major.
+struct Small {
+    mass_inverse: Vec<f64>,
+    damping: Vec<f64>,
+    stiffness: Vec<f64>,
+}
+
+/// `y += alpha A x` for a row-major `A`.
+#[inline]
+fn dense_mul_add(a: &[f64], alpha: f64, x: &[f64], y: &mut [f64]) {
+    for (yi, row) in y.iter_mut().zip(a.chunks_exact(x.len())) {
+        *yi += alpha * dot(row, x);
+    }
+}
+
 impl<'s> Dynamics<'s> {
     fn new(sys: &'s System) -> Self {
         let n = sys.n_dof();
-        let mass_inverse = (n <= MAX_DENSE_INVERSE).then(|| {
-            let mut inverse = vec![0.0; n * n];
-            let mut column = vec![0.0; n];
-            for j in 0..n {
-                column.fill(0.0);
-                column[j] = 1.0;
-                sys.structure.solve_mass(&mut column);
-                for (i, &c) in column.iter().enumerate() {
-                    inverse[i * n + j] = c;
+        let st = &sys.structure;
+        let small = (n <= MAX_DENSE_INVERSE).then(|| {
+            let row_major = |apply: &dyn Fn(&mut [f64])| {
+                let mut matrix = vec![0.0; n * n];
+                let mut column = vec![0.0; n];
+                for j in 0..n {
+                    column.fill(0.0);
+                    column[j] = 1.0;
+                    apply(&mut column);
+                    for (i, &c) in column.iter().enumerate() {
+                        matrix[i * n + j] = c;
+                    }
                 }
+                matrix
+            };
+            let product = |a: &crate::linalg::Csr| {
+                row_major(&|column: &mut [f64]| {
+                    let e = column.to_vec();
+                    column.fill(0.0);
+                    a.mul_add(1.0, &e, column);
+                })
+            };
+            Small {
+                mass_inverse: row_major(&|column: &mut [f64]| st.solve_mass(column)),
+                damping: product(&st.damping),
+                stiffness: product(&st.stiffness),
             }
-            inverse
         });
         Self {
             sys,
             cv: vec![0.0; n],
-            mass_inverse,
+            small,
             rhs: vec![0.0; n],
             forces: vec![0.0; sys.walls.len()],
             has_stiffness: sys.structure.stiffness.values().iter().any(|&k| k != 0.0),
@@ -201,7 +232,10 @@ impl<'s> Dynamics<'s> {
         let mut damping = 0.0;
         if sys.has_damping {
             self.cv.fill(0.0);
-            st.damping.mul_add(1.0, v, &mut self.cv);
+            match &self.small {
+                Some(small) => dense_mul_add(&small.damping, 1.0, v, &mut self.cv),
+                None => st.damping.mul_add(1.0, v, &mut self.cv),
+            }
             for ((fi, ci), vi) in f.iter_mut().zip(&self.cv).zip(v) {
                 *fi -= ci;
                 damping += ci * vi;
@@ -211,13 +245,15 @@ impl<'s> Dynamics<'s> {
             // a run-up: `damping` holds Ω(0) G; the rest of Ω(t) G x' (no power: G = −Gᵀ)
             g.mul_add(-(st.spin.speed(t) - st.spin.start), v, f);
         }
-        if self.has_stiffness {
-            st.stiffness.mul_add(-1.0, x, f);
+        match &self.small {
+            Some(small) if self.has_stiffness => dense_mul_add(&small.stiffness, -1.0, x, f),
+            None if self.has_stiffness => st.stiffness.mul_add(-1.0, x, f),
+            _ => {}
         }
-        match &self.mass_inverse {
-            Some(inverse) => {
-                for (ai, row) in a.iter_mut().zip(inverse.chunks_exact(f.len())) {
-                    *ai = row.iter().zip(f.iter()).map(|(m, r)| m * r).sum();
+        match &self.small {
+            Some(small) => {
+                for (ai, row) in a.iter_mut().zip(small.mass_inverse.chunks_exact(f.len())) {
+                    *ai = dot(row, f);
                 }
             }
             None => {
