@@ -131,6 +131,36 @@ def test_continuation_in_spin_speed_locates_a_radial_rub_onset() -> None:
         assert branch.points[0].impacts_per_period == 0
 
 
+@pytest.mark.parametrize("mu", [0.0, 0.1])
+def test_continuation_in_spin_speed_through_an_isotropic_rub_onset(mu: float) -> None:
+    """An isotropic Jeffcott rotor's synchronous whirl touches the seal all around at once at
+    the rub onset: continued in the spin speed from 50 to 90 rad/s with the exact column, the
+    branch goes from the contact-free whirl through the grazing, located at
+    ``rotor.rub_onset_speeds`` (75.59 rad/s) to 1e-9, onto the full annular rub, every point
+    past it the closed-form whirl at its speed (to 1e-9 of ρ), in contact all along."""
+    st = vi.Structure.jeffcott(mass=M, stiffness=K, damping=50.0, spin_speed=50.0)
+    loads = [vi.UnbalanceLoad(dof=[0, 1], magnitude=ME)]
+    (onset,) = rotors.rub_onset_speeds(vi.Model(st, loads=loads), [0, 1], CLEARANCE,
+                                       (1.0, 1000.0))
+    gap = vi.RadialGap(dof=[0, 1], clearance=CLEARANCE, friction=mu, radius=0.01,
+                       law=vi.contact.Hertz(stiffness=KS, exponent=1.0))
+    branch = vi.continue_orbit(vi.Model(st, gaps=[gap], loads=loads), "structure.spin_speed",
+                               50.0, 90.0, transient=60, method=TIGHT)
+    assert branch.parameter_column == "exact"
+    assert [s.type for s in branch.special_points] == ["grazing"]
+    assert branch.special_points[0].point.value == pytest.approx(onset, rel=1e-9)
+    assert branch.points[-1].value == 90.0
+    before = [p for p in branch.points if p.value < onset]
+    past = [p for p in branch.points if p.value > onset * (1 + 1e-6)]
+    assert len(before) > 5 and len(past) > 5
+    assert all(p.wall_margins[0] > 0 for p in before)
+    for p in past:
+        assert p.wall_margins[0] < 0 and p.stable
+        w = whirl(50.0, mu, p.value)
+        scale = np.array([1.0, 1.0, p.value, p.value])
+        assert np.abs((p.state - inertial_state(w, p.value)) / scale).max() < 1e-9 * abs(w)
+
+
 def test_full_annular_rub_branch_and_its_loss_of_stability() -> None:
     """Continued in the spin speed from 150 to 300 rad/s (μ = 0.1), every point is the closed-
     form whirl at its speed (to 1e-9 of ρ) and the branch loses its stability at the one
