@@ -224,6 +224,30 @@ def test_cli_orbit_of_a_seal_rub_gives_force_and_penetration(tmp_path: Path,
     assert out["force_max"][0] == pytest.approx(KS * penetration, rel=1e-7)
 
 
+def test_python_built_rotors_keep_their_dof_map(tmp_path: Path) -> None:
+    """A rotor built in Python (a beam's structure, a Jeffcott rotor) gives ``vi.simulate``'s
+    result its DOF map, as a model file's run does: its result file draws ``--node 3`` from
+    the DOFs ``Beam.dof(3, "x")``, ``dof(3, "y")`` name; the Jeffcott's node 0 is x and y."""
+    from test_rotor import ROTOR_FILE
+    from vibroimpact.io import results_file
+
+    model_path = tmp_path / "shaft.toml"
+    model_path.write_text(ROTOR_FILE)
+    mf = vi.load_model(model_path)
+    beam = mf.beam
+    model = vi.Model(beam.structure, loads=list(mf.model.loads))
+    result = vi.simulate(model, t_end=mf.t_end, dt=mf.dt, method=mf.method)
+    assert result.dof_map == beam.dof_map
+    out = tmp_path / "python.nc"
+    results_file.save(result, out)
+    ix, iy = beam.dof(3, direction="x"), beam.dof(3, direction="y")
+    assert (ix, iy) != (0, 1)
+    assert np.array_equal(_orbit_line(out, node=3), result.displacement[:, [ix, iy]])
+    jeffcott = vi.simulate(rotor(10.0), t_end=0.01, dt=1e-4)
+    assert jeffcott.dof_map is not None
+    assert (jeffcott.dof_map.index(0, "x"), jeffcott.dof_map.index(0, "y")) == (0, 1)
+
+
 def _orbit_line(path: Path, **options: object) -> np.ndarray:
     """The (x, y) points of the orbit plot of the result file at ``path``."""
     from vibroimpact.io.results_file import load
