@@ -19,6 +19,8 @@ from test_orbits import finite_difference_monodromy
 from test_radial_gap import CLEARANCE, KS, ME, OMEGA, K, M, full_annular_rub, rotor
 from vibroimpact import rotor as rotors
 from vibroimpact.cli import main
+from vibroimpact.continuation import parameter_column
+from vibroimpact.orbits import Shooting
 
 ROOT = Path(__file__).resolve().parents[1]
 TIGHT = vi.Dop853(adaptive=vi.Adaptive(rtol=1e-11, atol=1e-16))
@@ -74,6 +76,40 @@ def test_full_annular_rub_orbit_and_its_multipliers(mu: float, stable: bool) -> 
     assert orbit.stable == stable == (lam.real.max() < 0)
 
 
+@pytest.mark.parametrize("case", ["friction", "gyroscopic", "free"])
+def test_spin_speed_column_equals_the_difference_of_the_map(case: str) -> None:
+    """DOP853's column ``∂P/∂Ω`` of ``structure.spin_speed`` (the unbalance ``m e Ω²`` at
+    ``Ωt``, the gyroscopic ``Ω G ẋ``, the friction's sliding speed ``R Ω``, and the run's
+    length, the spin period) equals the central difference of the simulated map over a spin
+    period to 1e-6 (it measures 1e-8 to 2e-10) from a state with contacts that cross the wall
+    (away from grazing corners), on a rubbing Jeffcott rotor with regularised friction, on a
+    rotor with a gyroscopic matrix rubbing with friction, and on that rotor free of the seal
+    (where Newmark, which has no such column, says why and falls back to the difference)."""
+    gyroscopic = [[0.0, 0.3], [-0.3, 0.0]] if case != "friction" else None
+    st = vi.Structure(np.eye(2) * M, np.eye(2) * K, np.eye(2) * 10.0, gyroscopic=gyroscopic,
+                      spin_speed=OMEGA)
+    gap = vi.RadialGap(dof=[0, 1], clearance=CLEARANCE, friction=0.1, radius=0.01,
+                       friction_law="regularised", regularisation_speed=0.05,
+                       law=vi.contact.Hertz(stiffness=KS, exponent=1.0))
+    model = vi.Model(st, gaps=[] if case == "free" else [gap],
+                     loads=[vi.UnbalanceLoad(dof=[0, 1], magnitude=ME, phase=0.4)])
+    period = 2 * math.pi / OMEGA
+    r = vi.simulate(model, t_end=20 * period, dt=period / 100, method=TIGHT)
+    z = np.concatenate([r.displacement[-1], r.velocity[-1]])
+    shooting = Shooting(model, method=TIGHT)
+    raw = shooting.at("structure.spin_speed", OMEGA).flow(z)[2]
+    assert raw["parameter_column_note"] == ""
+    assert (len(raw["impacts"]["t_start"]) > 0) == (case != "free")
+    fd = parameter_column(shooting, z, "structure.spin_speed", OMEGA, OMEGA)
+    assert np.max(np.abs(raw["parameter_column"] - fd)) < 1e-6 * np.max(np.abs(fd))
+    if case == "free":  # (the Newmark family's state-transition matrix refuses a radial gap)
+        newmark = Shooting(model, method=vi.Newmark(), dt=period / 2000)
+        other = newmark.at("structure.spin_speed", OMEGA).flow(z)[2]
+        assert other["parameter_column"] is None
+        assert ("does not carry the column of 'structure.spin_speed'"
+                in other["parameter_column_note"])
+
+
 def test_continuation_in_spin_speed_locates_a_radial_rub_onset() -> None:
     """An anisotropic Jeffcott rotor (k_x = 1e4, k_y = 1.2e4 N/m) whirls on an ellipse that
     touches the seal at two points per revolution: continued in the spin speed from 50 to
@@ -93,6 +129,36 @@ def test_continuation_in_spin_speed_locates_a_radial_rub_onset() -> None:
         assert grazing == pytest.approx([onset], rel=1e-9)
         assert branch.points[-1].value == 76.0 and branch.points[-1].impacts_per_period == 1
         assert branch.points[0].impacts_per_period == 0
+
+
+@pytest.mark.parametrize("mu", [0.0, 0.1])
+def test_continuation_in_spin_speed_through_an_isotropic_rub_onset(mu: float) -> None:
+    """An isotropic Jeffcott rotor's synchronous whirl touches the seal all around at once at
+    the rub onset: continued in the spin speed from 50 to 90 rad/s with the exact column, the
+    branch goes from the contact-free whirl through the grazing, located at
+    ``rotor.rub_onset_speeds`` (75.59 rad/s) to 1e-9, onto the full annular rub, every point
+    past it the closed-form whirl at its speed (to 1e-9 of ρ), in contact all along."""
+    st = vi.Structure.jeffcott(mass=M, stiffness=K, damping=50.0, spin_speed=50.0)
+    loads = [vi.UnbalanceLoad(dof=[0, 1], magnitude=ME)]
+    (onset,) = rotors.rub_onset_speeds(vi.Model(st, loads=loads), [0, 1], CLEARANCE,
+                                       (1.0, 1000.0))
+    gap = vi.RadialGap(dof=[0, 1], clearance=CLEARANCE, friction=mu, radius=0.01,
+                       law=vi.contact.Hertz(stiffness=KS, exponent=1.0))
+    branch = vi.continue_orbit(vi.Model(st, gaps=[gap], loads=loads), "structure.spin_speed",
+                               50.0, 90.0, transient=60, method=TIGHT)
+    assert branch.parameter_column == "exact"
+    assert [s.type for s in branch.special_points] == ["grazing"]
+    assert branch.special_points[0].point.value == pytest.approx(onset, rel=1e-9)
+    assert branch.points[-1].value == 90.0
+    before = [p for p in branch.points if p.value < onset]
+    past = [p for p in branch.points if p.value > onset * (1 + 1e-6)]
+    assert len(before) > 5 and len(past) > 5
+    assert all(p.wall_margins[0] > 0 for p in before)
+    for p in past:
+        assert p.wall_margins[0] < 0 and p.stable
+        w = whirl(50.0, mu, p.value)
+        scale = np.array([1.0, 1.0, p.value, p.value])
+        assert np.abs((p.state - inertial_state(w, p.value)) / scale).max() < 1e-9 * abs(w)
 
 
 def test_full_annular_rub_branch_and_its_loss_of_stability() -> None:
@@ -156,6 +222,30 @@ def test_cli_orbit_of_a_seal_rub_gives_force_and_penetration(tmp_path: Path,
     assert out["stable"] is True
     assert out["penetration_max"][0] == pytest.approx(penetration, rel=1e-7)
     assert out["force_max"][0] == pytest.approx(KS * penetration, rel=1e-7)
+
+
+def test_python_built_rotors_keep_their_dof_map(tmp_path: Path) -> None:
+    """A rotor built in Python (a beam's structure, a Jeffcott rotor) gives ``vi.simulate``'s
+    result its DOF map, as a model file's run does: its result file draws ``--node 3`` from
+    the DOFs ``Beam.dof(3, "x")``, ``dof(3, "y")`` name; the Jeffcott's node 0 is x and y."""
+    from test_rotor import ROTOR_FILE
+    from vibroimpact.io import results_file
+
+    model_path = tmp_path / "shaft.toml"
+    model_path.write_text(ROTOR_FILE)
+    mf = vi.load_model(model_path)
+    beam = mf.beam
+    model = vi.Model(beam.structure, loads=list(mf.model.loads))
+    result = vi.simulate(model, t_end=mf.t_end, dt=mf.dt, method=mf.method)
+    assert result.dof_map == beam.dof_map
+    out = tmp_path / "python.nc"
+    results_file.save(result, out)
+    ix, iy = beam.dof(3, direction="x"), beam.dof(3, direction="y")
+    assert (ix, iy) != (0, 1)
+    assert np.array_equal(_orbit_line(out, node=3), result.displacement[:, [ix, iy]])
+    jeffcott = vi.simulate(rotor(10.0), t_end=0.01, dt=1e-4)
+    assert jeffcott.dof_map is not None
+    assert (jeffcott.dof_map.index(0, "x"), jeffcott.dof_map.index(0, "y")) == (0, 1)
 
 
 def _orbit_line(path: Path, **options: object) -> np.ndarray:

@@ -607,7 +607,7 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
         except _StepFailed as e:
             ds *= SHRINK
             if ds < min_step:
-                through = (_through_grazing(run, points, sol, low, high)
+                through = (_through_grazing(run, points, sol, low, high, into_contact=True)
                            if len(points) > 1 else None)
                 if through is not None:
                     specials.append(through[0])
@@ -678,6 +678,9 @@ GRAZING_FRACTION = 1e-3
 THROUGH_ATTEMPTS = 20
 #: The clearance of the gap taken away to find the orbit clear of its stop.
 FAR = 1e12
+#: Periods run from the orbit clear of a compliant wall, past its grazing, before the orbit in
+#: contact there is solved for.
+THROUGH_SETTLE = 60
 
 
 def _rigid_wall_grazing(run: _Continuation,
@@ -699,12 +702,35 @@ def _rigid_wall_grazing(run: _Continuation,
     return None
 
 
+def _compliant_wall_grazing(run: _Continuation,
+                            points: list[BranchPoint]) -> tuple[int, float] | None:
+    """The compliant wall (index in ``run.walls``) that the orbit clear of it approaches
+    ahead of the last of ``points``: its distance falls at the last two points and is below
+    ``GRAZING_END`` of its clearance, or ``GRAZING_FRACTION`` of its largest on them; and the
+    parameter value where the secant of the distance through them vanishes; None if none."""
+    previous, last = points[-2], points[-1]
+    for i, (g, _) in enumerate(run.walls):
+        gap = run.shooting.model.gaps[g]
+        fa, fb = float(previous.wall_margins[i]), float(last.wall_margins[i])
+        if gap.law.impulsive or not fa > fb > 0:
+            continue
+        largest = max(float(p.wall_margins[i]) for p in points)
+        if fb < GRAZING_END * abs(float(gap.clearance)) or fb < GRAZING_FRACTION * largest:
+            return i, last.value - fb * (last.value - previous.value) / (fb - fa)
+    return None
+
+
 def _through_grazing(run: _Continuation, points: list[BranchPoint], sol: _Solution,
-                     low: float, high: float) -> tuple[SpecialPoint, _Solution] | None:
+                     low: float, high: float, into_contact: bool = False
+                     ) -> tuple[SpecialPoint, _Solution] | None:
     """The grazing of a rigid stop that the branch ``points`` reaches after its last, ``sol``
     (at least two points), and the first point past it, on the branch clear of the stop; None
     if there is no grazing at hand (:func:`_rigid_wall_grazing`) or no such orbit in
-    ``[low, high]``.
+    ``[low, high]``. ``into_contact``: the other way, the grazing of a compliant wall
+    (:func:`_compliant_wall_grazing`) that the branch clear of it reaches where the corrector
+    fails (a whole orbit touching at once, an isotropic rotor's rub onset: every iterate near it
+    touches the wall at a few points, a different piece of the map each time), and the first
+    point past it in contact: the orbit clear of the wall corrected on the model itself.
 
     Clear of the stop, the orbit is that of the model whose gap is moved away (clearance
     ``FAR``: nothing impacts there, so nothing at zero speed either), and its distance to the
@@ -713,10 +739,15 @@ def _through_grazing(run: _Continuation, points: list[BranchPoint], sol: _Soluti
     Illinois iteration, is the grazing, and the orbit there is the grazing orbit (its
     multipliers those of the flow clear of the stop). The first point past it is that orbit,
     corrected on the model itself, at the bracket's far end."""
-    found = _rigid_wall_grazing(run, points)
+    found = (_compliant_wall_grazing if into_contact else _rigid_wall_grazing)(run, points)
     if found is None:
         return None
     wall, estimate = found
+    side = -1.0 if into_contact else 1.0  # the sign of the clear orbit's distance past it
+    # into contact, the first point past it penetrates by GRAZING_END of the clearance (its
+    # corrector clear of the few-touch pieces of the map next to the grazing)
+    beyond = (GRAZING_END * abs(float(run.shooting.model.gaps[run.walls[wall][0]].clearance))
+              if into_contact else 0.0)
     g = run.walls[wall][0]
     row = np.zeros(sol.u.size)
     row[-1] = 1.0
@@ -735,13 +766,13 @@ def _through_grazing(run: _Continuation, points: list[BranchPoint], sol: _Soluti
         step = b - a
         for _ in range(THROUGH_ATTEMPTS):
             fb, u_far, _ = clear(b)
-            if fb > 0:
+            if side * fb > beyond:
                 break
             b += step
             step *= 2
         else:
             return None
-        if not (fa < 0 < fb and low <= b <= high):
+        if not (side * fa < 0 < side * fb and low <= b <= high):
             return None
         cache: dict[float, tuple[NDArray[np.float64], BranchPoint]] = {}
 
@@ -757,14 +788,36 @@ def _through_grazing(run: _Continuation, points: list[BranchPoint], sol: _Soluti
         u_grazing, grazing = cache[at]
         grazing = replace(grazing, arclength=sol.point.arclength
                           + float(np.linalg.norm(u_grazing - sol.u)))
-        u, phi, raw, column, _ = run.correct(u_far, row, u_far[-1], sol.column)
-        moved = float(np.linalg.norm(u - u_grazing))
-        point = run.point(u, phi, raw, grazing.arclength + moved)
-        if point.wall_margins[wall] <= 0:  # the correction went back onto the stop
-            return None
-        if column is sol.column:
-            column = run.column(u / run.weights, raw)
     except (_StepFailed, _LocateFailed, ModelError, SolverError):
+        return None
+    # the first point past it: the clear orbit at b corrected on the model (into contact:
+    # after THROUGH_SETTLE periods on it, the clear orbit being far from the one in contact
+    # for a stiff wall); a b where the corrector fails is moved farther
+    for _ in range(THROUGH_ATTEMPTS):
+        try:
+            if into_contact:
+                here = run.at(b)
+                settled = here.settle(u_far[:-1] / run.weights[:-1], THROUGH_SETTLE)
+                u_far = np.append(solve_orbit(here, settled, run.tol).state, b) * run.weights
+            u, phi, raw, column, _ = run.correct(u_far, row, u_far[-1], sol.column)
+            moved = float(np.linalg.norm(u - u_grazing))
+            point = run.point(u, phi, raw, grazing.arclength + moved)
+            # (not back across the wall)
+            if side * point.wall_margins[wall] > 0:
+                if column is sol.column:
+                    column = run.column(u / run.weights, raw)
+                break
+        except (_StepFailed, ModelError, SolverError):
+            pass
+        b += step
+        step *= 2
+        if not low <= b <= high:
+            return None
+        try:
+            u_far = clear(b)[1]
+        except (_StepFailed, ModelError, SolverError):
+            return None
+    else:
         return None
     new = _Solution(point=point, u=u, column=column)
     new.tangent = run.tangent(phi, column, (u - u_grazing) / moved)

@@ -519,6 +519,24 @@ formula, as when the state-transition matrix is carried). `v_imp` is the rate at
 impact table interpolates `t_start`, `t_end`, `v_out` inside the step that ends at the
 event.
 
+**A linear law through its wall.** A law linear in the penetration (`hertz` with
+`exponent = 1` and no series compliance: a linear stator, a linear spring stop) keeps its
+formula on both sides of the wall while the wall is closed — tensile past it — instead of the
+clamp to compressive, as event-located Runge–Kutta codes integrate each mode's own vector
+field (Hairer, Nørsett & Wanner §II.6; SciPy's `solve_ivp` with events): the step that crosses
+the opening then integrates an analytic field, keeps its eighth-order error estimate, is
+accepted at its length, and the opening is located on its interpolant as precisely as the
+motion and landed on by one retake (with the clamp, the kink inside that step reads as an error
+of 1e4–1e6 tolerances and the opening was only approached by rejections: 12 a contact for the
+rotor rub of [rotors.md](rotors.md)); a contact switched on just short of its wall starts
+smoothly (its tensile force acts that long, an error `k δ̇ τ²/2`, where a clamp's kink inside
+the first step costs `h² k δ̇` through its first stages); and its first step and the steps
+landed on its switches take the usual error estimate, not the third-order one. No accepted
+step pulls on the motion beyond the switching window: such a wall opens at a step's start
+where its penetration's quadratic prediction leaves the wall within the next step's window
+(1e-5 of the step), and a graze that would be over inside the window (penetration below
+`|δ̈| τ²/8`, 1e-18 m for the rotor rub) is not closed at all.
+
 **Peaks inside the steps.** Where a wall's penetration or a DOF's displacement turns
 inside a step (its rate changes sign), the turning point is located on the quintic
 interpolant and valued on DOP853's dense output of order 7 (Hairer's continuous extension:

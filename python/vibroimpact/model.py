@@ -17,7 +17,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Literal, TypeAlias
+from typing import TYPE_CHECKING, Any, Literal, TypeAlias
 
 import numpy as np
 import scipy.linalg
@@ -28,6 +28,9 @@ from numpy.typing import ArrayLike, NDArray
 from vibroimpact import _core
 from vibroimpact.contact import LAWS, REMOVED_LAWS, ContactLaw
 from vibroimpact.errors import ModelError, require
+
+if TYPE_CHECKING:
+    from vibroimpact.fe.dofs import DofMap
 
 __all__ = [
     "DOF_UNITS",
@@ -200,7 +203,11 @@ class Structure:
 
     A rotor (docs/rotors.md): ``spin_speed`` Ω (rad/s, default 0) and ``gyroscopic`` ``G``
     (kg·m², skew-symmetric; None: no gyroscopic forces) make the equation of motion
-    ``M x'' + (C + Ω G) x' + K x = F``; unbalance loads (:class:`UnbalanceLoad`) turn at Ω."""
+    ``M x'' + (C + Ω G) x' + K x = F``; unbalance loads (:class:`UnbalanceLoad`) turn at Ω.
+
+    ``dof_map``: the node and direction of each DOF (a :class:`vibroimpact.fe.DofMap`: a
+    beam's, an FE structure's, a Jeffcott rotor's node 0 x and y; None: unknown), which
+    results keep (:attr:`vibroimpact.Result.dof_map`: ``plot --kind orbit --node N``)."""
 
     mass: Matrix
     stiffness: Matrix
@@ -211,6 +218,7 @@ class Structure:
     spin_profile: str
     spin_speed_end: float | None
     run_up_time: float | None
+    dof_map: DofMap | None
 
     def __init__(
         self,
@@ -224,6 +232,7 @@ class Structure:
         spin_profile: str = model_default("structure", "spin_profile"),
         spin_speed_end: float | None = None,
         run_up_time: float | None = None,
+        dof_map: DofMap | None = None,
     ) -> None:
         m = _matrix(mass, "structure.mass")
         n = m.shape[0]
@@ -265,6 +274,10 @@ class Structure:
                         f"{expected} with spin_profile = 'linear'")
                 value = _core_checked("structure", name, value, f"structure.{name}")
             object.__setattr__(self, name, value)
+        if dof_map is not None:
+            require(len(dof_map.nodes) == n, "structure.dof_map", f"{len(dof_map.nodes)} DOFs",
+                    f"a DOF map of the structure's {n} DOFs")
+        object.__setattr__(self, "dof_map", dof_map)
 
     @classmethod
     def sdof(cls, mass: float, stiffness: float = 0.0, damping: float = 0.0) -> Structure:
@@ -283,7 +296,7 @@ class Structure:
         """A Jeffcott rotor (a disc of ``mass`` kg on a massless shaft): DOF 0 = x, 1 = y,
         ``stiffness`` (N/m) and ``damping`` (N·s/m) to ground in each direction (one number
         for both, or ``[x, y]``), spinning at ``spin_speed`` rad/s (no gyroscopic forces: the
-        disc does not tilt)."""
+        disc does not tilt); its DOF map: node 0, x and y."""
         m = _finite_number(mass, "structure.mass", "a mass > 0 in kg")
         require(m > 0, "structure.mass", mass, "a mass > 0 in kg")
         per = []
@@ -294,12 +307,16 @@ class Structure:
             require(len(pair) == 2, f"structure.{name}", value, expected)
             per.append([_finite_number(v, f"structure.{name}", expected) for v in pair])
             require(min(per[-1]) >= 0, f"structure.{name}", value, expected)
-        return cls(np.diag([m, m]), np.diag(per[0]), np.diag(per[1]), spin_speed=spin_speed)
+        from vibroimpact.fe.dofs import DofMap
+
+        return cls(np.diag([m, m]), np.diag(per[0]), np.diag(per[1]), spin_speed=spin_speed,
+                   dof_map=DofMap([0, 0], ["x", "y"]))
 
     def at_speed(self, spin_speed: float) -> Structure:
         """This structure spinning at the constant ``spin_speed`` (rad/s) instead."""
         return Structure(self.mass, self.stiffness, self.damping, self.dof_units,
-                         gyroscopic=self.gyroscopic, spin_speed=spin_speed)
+                         gyroscopic=self.gyroscopic, spin_speed=spin_speed,
+                         dof_map=self.dof_map)
 
     def run_up(self, spin_speed_end: float, run_up_time: float) -> Structure:
         """This structure run up (or down) from its spin speed Ω₀ to ``spin_speed_end`` Ω₁
@@ -308,7 +325,7 @@ class Structure:
         return Structure(self.mass, self.stiffness, self.damping, self.dof_units,
                          gyroscopic=self.gyroscopic, spin_speed=self.spin_speed,
                          spin_profile="linear", spin_speed_end=spin_speed_end,
-                         run_up_time=run_up_time)
+                         run_up_time=run_up_time, dof_map=self.dof_map)
 
     def spin(self, t: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64],
                                          NDArray[np.float64]]:

@@ -224,7 +224,9 @@ class Result:
     dof_units: tuple[str, ...] = ()
     #: The node and direction of each of the model's DOFs (a :class:`vibroimpact.fe.DofMap`:
     #: a beam's, a matrices file's, a Jeffcott rotor's node 0 x and y), kept in the result
-    #: file so that ``plot --kind orbit --node N`` finds a node's x and y; None: unknown.
+    #: file so that ``plot --kind orbit --node N`` finds a node's x and y; None: unknown. The
+    #: model's structure's (:attr:`vibroimpact.Structure.dof_map`), or a model file's (its DOFs
+    #: with the massless ones recovered).
     dof_map: Any = None
 
     def __post_init__(self) -> None:
@@ -266,6 +268,7 @@ class Result:
             model=model,
             method=method,
             dof_units=units,
+            dof_map=None if model is None else model.structure.dof_map,
         )
 
     def summary(self) -> dict[str, Any]:

@@ -441,7 +441,8 @@ class FEStructure:
                 "with FEStructure.condense_massless())"
             )
         return Structure(self.mass, self.stiffness, self.damping, self.dof_units,
-                         gyroscopic=self.gyroscopic, spin_speed=self.spin_speed)
+                         gyroscopic=self.gyroscopic, spin_speed=self.spin_speed,
+                         dof_map=self.dof_map)
 
     # ---- addressing by node and direction ----
 

@@ -1820,7 +1820,7 @@ def _check_document(doc: Mapping[str, Any], path: Path) -> ModelFile:
 def _file_dof_map(ck: _Checker, kind: str | None) -> DofMap | None:
     """The DOF map of a checked file's structure (:attr:`ModelFile.dof_map`)."""
     if kind == "jeffcott":
-        return DofMap([0, 0], ["x", "y"])
+        return Structure.jeffcott(mass=1.0, stiffness=0.0).dof_map
     owner = ck.context.get("beam") or ck.context.get("fe")
     return getattr(owner, "dof_map", None)
 

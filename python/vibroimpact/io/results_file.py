@@ -810,7 +810,8 @@ def simulate_to_file(
     ``progress_bar`` draws :class:`vibroimpact.simulate.ProgressBar` on a terminal.
     ``recovery`` (:meth:`vibroimpact.io.ModelFile.recovery`): write the DOFs of a condensed
     model's file instead, the massless ones recovered (the run records its ``record``, whatever
-    ``dofs`` says). ``dof_map``: the :attr:`vibroimpact.Result.dof_map` the file keeps.
+    ``dofs`` says). ``dof_map``: the :attr:`vibroimpact.Result.dof_map` the file keeps (default
+    the model's, ``model.structure.dof_map``).
     """
     from vibroimpact.simulate import simulate
 
@@ -853,7 +854,8 @@ def simulate_to_file(
                 result, failure = e.partial, e
             if recovery is not None:
                 result = recovery.result(result)
-            result = dataclasses.replace(result, dof_map=dof_map)
+            if dof_map is not None:
+                result = dataclasses.replace(result, dof_map=dof_map)
             if failure is not None:
                 failure.partial = result
             stream.finish(result)

@@ -78,7 +78,9 @@ impl RadialKinematics {
     /// The kinematics at `p`, `q` (a rotor exactly at the centre takes `n = (1, 0)`).
     #[inline]
     pub fn new(p: [f64; 2], q: [f64; 2]) -> Self {
-        let rho = p[0].hypot(p[1]);
+        // not `hypot`, which guards against an overflow no displacement in metres reaches and
+        // costs as much as the rest of the contact force
+        let rho = (p[0] * p[0] + p[1] * p[1]).sqrt();
         let normal = if rho > 0.0 {
             [p[0] / rho, p[1] / rho]
         } else {

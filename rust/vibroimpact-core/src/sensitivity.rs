@@ -119,13 +119,17 @@ pub fn saltation(
 
 /// A model parameter whose column `∂z/∂p` a run carries beside `Φ` (the paths of
 /// `sweep --param`: `loads.K.amplitude`, `loads.K.frequency`, `loads.K.phase`,
-/// `gaps.K.clearance`).
+/// `gaps.K.clearance`, `structure.spin_speed`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Parameter {
     LoadAmplitude(usize),
     LoadFrequency(usize),
     LoadPhase(usize),
     Clearance(usize),
+    /// `structure.spin_speed` Ω: it moves the unbalance loads (`m e Ω² (cos, sin)(Ωt + φ)`),
+    /// the gyroscopic forces `Ω G ẋ`, a radial gap's sliding speed `R Ω + ρθ̇`, and the run's
+    /// time, a multiple of the spin period `2π/|Ω|`.
+    SpinSpeed,
 }
 
 impl Parameter {
@@ -140,6 +144,21 @@ impl Parameter {
             }
         };
         let parameter = match (parts.first(), parts.get(2), parts.len()) {
+            (Some(&"structure"), None, 2) if parts[1] == "spin_speed" => {
+                let spin = sys.structure.spin.start;
+                let periodic = sys.loads.iter().enumerate().all(|(i, l)| {
+                    sys.unbalance.contains(&i)
+                        || !matches!(l.history,
+                            crate::structure::LoadHistory::Harmonic { frequency, .. } if frequency != 0.0)
+                });
+                if spin == 0.0 || sys.unbalance.is_empty() || !periodic {
+                    return Err(format!(
+                        "'{path}': the forcing period is not the spin period (no unbalance at a \
+                         spin speed != 0, or another load is harmonic)"
+                    ));
+                }
+                Self::SpinSpeed
+            }
             (Some(&"loads"), Some(&name), 3) => {
                 let k = index(sys.loads.len())?;
                 let harmonic = matches!(
@@ -193,6 +212,7 @@ impl Parameter {
     pub fn time_scale(&self, sys: &System) -> f64 {
         match self {
             Self::LoadFrequency(_) => -1.0 / self.frequency(sys),
+            Self::SpinSpeed => -1.0 / sys.structure.spin.start,
             _ => 0.0,
         }
     }
@@ -220,6 +240,24 @@ impl Parameter {
                 )
             }
             Self::Clearance(_) => return out,
+            Self::SpinSpeed => {
+                // A sin(|Ω| t + φ) with A ∝ Ω²: (2/Ω) A sin + A cos · t · sign(Ω)
+                let spin = sys.structure.spin.start;
+                for &k in &sys.unbalance {
+                    let load = &sys.loads[k];
+                    let crate::structure::LoadHistory::Harmonic { frequency, phase } = load.history
+                    else {
+                        continue;
+                    };
+                    let angle = 2.0 * std::f64::consts::PI * frequency * t + phase;
+                    let (sin, cos) = angle.sin_cos();
+                    let g = load.amplitude * (2.0 / spin * sin + cos * t * spin.signum());
+                    for &d in &load.dofs {
+                        out[d] += g;
+                    }
+                }
+                return out;
+            }
         };
         for &d in &sys.loads[k].dofs {
             out[d] += g;
@@ -236,14 +274,15 @@ impl Parameter {
     }
 }
 
-/// Whether `method` carries `parameter`'s column: DOP853 and the Newmark family every
-/// [`Parameter`], the event-driven method a gap's clearance (its flights do not depend on it;
-/// its impacts' saltation takes `∂δ/∂p`).
+/// Whether `method` carries `parameter`'s column: DOP853 every [`Parameter`], the Newmark
+/// family every one but the spin speed (its gyroscopic and friction terms are DOP853's
+/// only), the event-driven method a gap's clearance (its flights do not depend on it; its
+/// impacts' saltation takes `∂δ/∂p`).
 pub fn carries_parameter(method: Method, parameter: Parameter) -> bool {
     match method {
         Method::Dop853 => true,
         Method::EventDriven(_) => matches!(parameter, Parameter::Clearance(_)),
-        _ => method.newmark_family().is_some(),
+        _ => method.newmark_family().is_some() && parameter != Parameter::SpinSpeed,
     }
 }
 

@@ -30,6 +30,10 @@ pub struct System {
     pub partner: Vec<Option<usize>>,
     /// Some gap is radial (the Newton tangent then couples the pairs).
     pub has_radial: bool,
+    /// The loads that are an unbalance's forces at a constant spin (harmonic, `m e Ω²` at
+    /// `|Ω|/2π`: [`crate::structure::Load::unbalance`]), which `structure.spin_speed` moves
+    /// ([`System::with_unbalance`]; none by default).
+    pub unbalance: Vec<usize>,
 }
 
 /// The contact forces' derivatives per gap coordinate: the diagonal `∂φ_g/∂u_g`,
@@ -124,7 +128,15 @@ impl System {
             n_gaps,
             partner,
             has_radial,
+            unbalance: Vec::new(),
         })
+    }
+
+    /// The system whose loads `loads` are an unbalance's forces at its constant spin
+    /// ([`System::unbalance`]).
+    pub fn with_unbalance(mut self, loads: Vec<usize>) -> Self {
+        self.unbalance = loads;
+        self
     }
 
     pub fn n_dof(&self) -> usize {

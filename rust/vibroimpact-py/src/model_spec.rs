@@ -549,11 +549,20 @@ impl Parts {
         let gaps = (self.gaps.iter().enumerate())
             .map(|(i, g)| g.compile(i))
             .collect::<PyResult<Vec<_>>>()?;
-        let loads = (self.loads.iter().enumerate())
+        let compiled = (self.loads.iter().enumerate())
             .map(|(i, l)| l.compile(i, &structure))
-            .collect::<PyResult<Vec<_>>>()?
-            .concat();
-        System::new(structure, gaps, loads).map_err(to_py_err)
+            .collect::<PyResult<Vec<_>>>()?;
+        // the core's loads that are an unbalance's at a constant spin (what the spin speed moves)
+        let mut unbalance = Vec::new();
+        let mut k = 0;
+        for (spec, core) in self.loads.iter().zip(&compiled) {
+            if spec.kind == "unbalance" && structure.spin.is_constant() {
+                unbalance.extend(k..k + core.len());
+            }
+            k += core.len();
+        }
+        let system = System::new(structure, gaps, compiled.concat()).map_err(to_py_err)?;
+        Ok(system.with_unbalance(unbalance))
     }
 
     fn spin(&self, key: &str) -> Option<f64> {

@@ -60,11 +60,14 @@ impl Hertz {
 }
 
 /// `K δⁿ` with its derivative and potential `K δⁿ⁺¹/(n+1)`: the elastic backbone shared by
-/// the Hertzian laws, for `δ > 0` (one `powf`; a square root for Hertz's n = 3/2).
+/// the Hertzian laws, for `δ > 0` (one `powf`; a square root for Hertz's n = 3/2, none for a
+/// linear spring).
 #[inline]
 pub(crate) fn power_law(stiffness: f64, exponent: f64, penetration: f64) -> ContactForce {
     let pow_nm1 = if exponent == 1.5 {
         penetration.sqrt()
+    } else if exponent == 1.0 {
+        1.0
     } else {
         penetration.powf(exponent - 1.0)
     };

@@ -97,8 +97,9 @@ struct Contact {
 struct Dynamics<'s> {
     sys: &'s System,
     cv: Vec<f64>,
-    /// `M⁻¹` (row-major) of a small model.
-    mass_inverse: Option<Vec<f64>>,
+    /// `M⁻¹`, `C` and `K` (each row-major) of a small model, whose products are then dense
+    /// dot products (a sparse product's row bookkeeping costs several times more at 2 DOFs).
+    small: Option<Small>,
     rhs: Vec<f64>,
     /// Each wall's force at the last evaluation, N.
     forces: Vec<f64>,
@@ -106,26 +107,56 @@ struct Dynamics<'s> {
     has_stiffness: bool,
 }
 
+/// A small model's matrices, row-major.
+struct Small {
+    mass_inverse: Vec<f64>,
+    damping: Vec<f64>,
+    stiffness: Vec<f64>,
+}
+
+/// `y += alpha A x` for a row-major `A`.
+#[inline]
+fn dense_mul_add(a: &[f64], alpha: f64, x: &[f64], y: &mut [f64]) {
+    for (yi, row) in y.iter_mut().zip(a.chunks_exact(x.len())) {
+        *yi += alpha * dot(row, x);
+    }
+}
+
 impl<'s> Dynamics<'s> {
     fn new(sys: &'s System) -> Self {
         let n = sys.n_dof();
-        let mass_inverse = (n <= MAX_DENSE_INVERSE).then(|| {
-            let mut inverse = vec![0.0; n * n];
-            let mut column = vec![0.0; n];
-            for j in 0..n {
-                column.fill(0.0);
-                column[j] = 1.0;
-                sys.structure.solve_mass(&mut column);
-                for (i, &c) in column.iter().enumerate() {
-                    inverse[i * n + j] = c;
+        let st = &sys.structure;
+        let small = (n <= MAX_DENSE_INVERSE).then(|| {
+            let row_major = |apply: &dyn Fn(&mut [f64])| {
+                let mut matrix = vec![0.0; n * n];
+                let mut column = vec![0.0; n];
+                for j in 0..n {
+                    column.fill(0.0);
+                    column[j] = 1.0;
+                    apply(&mut column);
+                    for (i, &c) in column.iter().enumerate() {
+                        matrix[i * n + j] = c;
+                    }
                 }
+                matrix
+            };
+            let product = |a: &crate::linalg::Csr| {
+                row_major(&|column: &mut [f64]| {
+                    let e = column.to_vec();
+                    column.fill(0.0);
+                    a.mul_add(1.0, &e, column);
+                })
+            };
+            Small {
+                mass_inverse: row_major(&|column: &mut [f64]| st.solve_mass(column)),
+                damping: product(&st.damping),
+                stiffness: product(&st.stiffness),
             }
-            inverse
         });
         Self {
             sys,
             cv: vec![0.0; n],
-            mass_inverse,
+            small,
             rhs: vec![0.0; n],
             forces: vec![0.0; sys.walls.len()],
             has_stiffness: sys.structure.stiffness.values().iter().any(|&k| k != 0.0),
@@ -186,21 +217,12 @@ impl<'s> Dynamics<'s> {
                 u += coef * x[d];
                 u_rate += coef * v[d];
             }
-            // a closed wall's force from the smallest penetration at least: a wall is closed
-            // up to its switching tolerance before it is reached, and a force that does not
-            // start from zero (Kelvin–Voigt's c δ̇) must not jump inside the step
             let penetration = match root {
                 Some((w, p)) if w == j => p,
                 _ => wall.sign * u - wall.clearance,
-            }
-            .max(f64::MIN_POSITIVE);
+            };
             let rate = wall.sign * u_rate;
-            let force = gap.law.force_in_contact(
-                penetration,
-                rate,
-                c.impact_speed,
-                c.max_penetration.max(penetration),
-            );
+            let force = force_in_contact(&gap.law, c, penetration, rate);
             for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
                 f[d] -= wall.sign * coef * force.force;
             }
@@ -210,7 +232,10 @@ impl<'s> Dynamics<'s> {
         let mut damping = 0.0;
         if sys.has_damping {
             self.cv.fill(0.0);
-            st.damping.mul_add(1.0, v, &mut self.cv);
+            match &self.small {
+                Some(small) => dense_mul_add(&small.damping, 1.0, v, &mut self.cv),
+                None => st.damping.mul_add(1.0, v, &mut self.cv),
+            }
             for ((fi, ci), vi) in f.iter_mut().zip(&self.cv).zip(v) {
                 *fi -= ci;
                 damping += ci * vi;
@@ -220,13 +245,15 @@ impl<'s> Dynamics<'s> {
             // a run-up: `damping` holds Ω(0) G; the rest of Ω(t) G x' (no power: G = −Gᵀ)
             g.mul_add(-(st.spin.speed(t) - st.spin.start), v, f);
         }
-        if self.has_stiffness {
-            st.stiffness.mul_add(-1.0, x, f);
+        match &self.small {
+            Some(small) if self.has_stiffness => dense_mul_add(&small.stiffness, -1.0, x, f),
+            None if self.has_stiffness => st.stiffness.mul_add(-1.0, x, f),
+            _ => {}
         }
-        match &self.mass_inverse {
-            Some(inverse) => {
-                for (ai, row) in a.iter_mut().zip(inverse.chunks_exact(f.len())) {
-                    *ai = row.iter().zip(f.iter()).map(|(m, r)| m * r).sum();
+        match &self.small {
+            Some(small) => {
+                for (ai, row) in a.iter_mut().zip(small.mass_inverse.chunks_exact(f.len())) {
+                    *ai = dot(row, f);
                 }
             }
             None => {
@@ -632,17 +659,32 @@ fn wall_motion(sys: &System, j: usize, x: &[f64], v: &[f64], a: &[f64]) -> [f64;
 
 /// Switches the walls that close or open (or pass their first peak) at the state: a closing
 /// wall takes the approach speed as `v_imp`. Returns whether any wall switched and the last
-/// wall that closed.
+/// wall that closed. A wall whose force continues through it ([`continues_through_wall`])
+/// switches on its penetration `δ + τ δ̇ + τ² δ̈ / 2` at the end of the window `τ`, the larger
+/// of `tol_t` and `within` (s, the next step's event window): it opens where it would open
+/// inside the window (the next step would not land on an opening that near its start, and
+/// would apply the tensile force all along), and a grazing touch that would be over inside
+/// the window (its penetration below `|δ̈| τ² / 8`) is not closed.
 fn switch_walls(
     sys: &System,
     contacts: &mut [Contact],
     state: &StepEnd,
     tol_t: f64,
+    within: f64,
 ) -> (bool, Option<usize>) {
     let (mut switched, mut closed) = (false, None);
     for (j, c) in contacts.iter_mut().enumerate() {
         let [delta, rate, accel] = state.walls[j];
-        if !c.active && rate > 0.0 && delta + rate * tol_t >= 0.0 {
+        let continues = continues_through_wall(&sys.gaps[sys.walls[j].gap].law);
+        let window = tol_t.max(within);
+        let ahead = delta + window * (rate + 0.5 * accel * window);
+        let closes = rate > 0.0 && delta + rate * tol_t >= 0.0 && !(continues && ahead < 0.0);
+        let opens = if continues {
+            ahead <= 0.0
+        } else {
+            rate < 0.0 && delta + rate * tol_t <= 0.0
+        };
+        if !c.active && closes {
             *c = Contact {
                 active: true,
                 impact_speed: rate.max(MIN_IMPACT_SPEED),
@@ -653,7 +695,7 @@ fn switch_walls(
             };
             switched = true;
             closed = Some(j);
-        } else if c.active && rate < 0.0 && delta + rate * tol_t <= 0.0 {
+        } else if c.active && opens {
             *c = Contact::default();
             switched = true;
         } else if c.active && c.peak_pending && rate <= accel.abs() * tol_t {
@@ -805,9 +847,9 @@ fn release(law: &Law, c: &Contact, seg: &QuinticSegment, h: f64) -> Option<f64> 
 }
 
 /// The earliest time after `state` at which an open wall closes if every wall's
-/// penetration kept its present acceleration.
-fn predicted_closing(contacts: &[Contact], state: &StepEnd) -> Option<f64> {
-    let mut first: Option<f64> = None;
+/// penetration kept its present acceleration, and that wall.
+fn predicted_closing(contacts: &[Contact], state: &StepEnd) -> Option<(f64, usize)> {
+    let mut first: Option<(f64, usize)> = None;
     for (j, c) in contacts.iter().enumerate() {
         let [delta, rate, accel] = state.walls[j];
         if c.active || delta >= 0.0 {
@@ -821,8 +863,8 @@ fn predicted_closing(contacts: &[Contact], state: &StepEnd) -> Option<f64> {
         let q = -0.5 * (rate + rate.signum() * disc.sqrt());
         let roots = [q / (0.5 * accel), delta / q];
         for tau in roots.into_iter().filter(|t| t.is_finite() && *t > 0.0) {
-            if first.is_none_or(|f| tau < f) {
-                first = Some(tau);
+            if first.is_none_or(|(f, _)| tau < f) {
+                first = Some((tau, j));
             }
         }
     }
@@ -1070,8 +1112,14 @@ impl StepPolicy for Dop853Steps<'_> {
             let t0 = run.cur.t;
             let was_free = self.contacts.iter().all(|c| !c.active);
             let before = self.variational.is_some().then(|| self.contacts.clone());
-            let (switched, closed) =
-                switch_walls(sys, &mut self.contacts, &self.start, self.near_switch);
+            let within = EVENT_NEAR * self.h;
+            let (switched, closed) = switch_walls(
+                sys,
+                &mut self.contacts,
+                &self.start,
+                self.near_switch,
+                within,
+            );
             let released = self.exact_switches
                 && release_walls(sys, &mut self.contacts, &self.start, self.near_switch);
             if let (Some(var), Some(before), true) =
@@ -1124,8 +1172,8 @@ impl StepPolicy for Dop853Steps<'_> {
             // finds it; a step that falls short or overshoots is corrected as any landing
             if self.root.is_none() && self.landing.is_none() && self.dt_fixed.is_none() {
                 self.landing = predicted_closing(&self.contacts, &self.start)
-                    .filter(|&tau| tau > self.near_switch && tau < self.h.min(self.t_end - t0))
-                    .map(|tau| (tau, true));
+                    .filter(|&(tau, _)| tau > self.near_switch && tau < self.h.min(self.t_end - t0))
+                    .map(|(tau, j)| (tau, !smooth_switch(sys, j)));
             }
             // the step: in ζ during a contact's start or end, else in time
             // a step in ζ that ends the contact (lands on ζ = 0)
@@ -1185,8 +1233,12 @@ impl StepPolicy for Dop853Steps<'_> {
             let mut err = 0.0;
             if let Steps::Adaptive { tol, dt_max, .. } = self.steps {
                 // the first step of a contact and a step landed on an event (a contact's end)
-                // meet the force's δ^1.5 singularity, unless the step is in ζ
-                let rough = matches!(clock, Clock::Time) && (self.contact_started || singular_end);
+                // meet the force's δ^1.5 singularity, unless the step is in ζ or the force
+                // is linear in δ
+                let rough_start = self.contact_started
+                    && (self.contacts.iter().enumerate())
+                        .any(|(j, c)| c.active && c.peak_pending && !smooth_switch(sys, j));
+                let rough = matches!(clock, Clock::Time) && (rough_start || singular_end);
                 err = duration.map_or(f64::INFINITY, |_| {
                     self.stages.error(
                         sys,
@@ -1231,7 +1283,7 @@ impl StepPolicy for Dop853Steps<'_> {
                                 .then(|| opening_phase(&self.contacts[j], j, &self.start, h_try))
                                 .flatten();
                             if self.root.is_none() {
-                                self.landing = Some((s * h_try, true));
+                                self.landing = Some((s * h_try, !smooth_switch(sys, j)));
                                 self.landings += 1;
                             }
                             self.last = None;
@@ -1266,7 +1318,8 @@ impl StepPolicy for Dop853Steps<'_> {
                     };
                     self.root = opening;
                     if self.root.is_none() {
-                        let singular = matches!(event, Event::Closing | Event::Opening);
+                        let singular = matches!(event, Event::Closing | Event::Opening)
+                            && !smooth_switch(sys, j);
                         self.landing = Some((s * duration, singular));
                         self.landings += 1;
                     }
@@ -1660,14 +1713,49 @@ fn radial_normal_force(
 ) -> (RadialKinematics, ContactForce) {
     let wall = &sys.walls[j];
     let k = sys.radial_at_dofs(r, wall.gap, x, v);
-    let penetration = (k.rho - wall.clearance).max(f64::MIN_POSITIVE);
-    let force = sys.gaps[wall.gap].law.force_in_contact(
-        penetration,
-        k.rate,
-        c.impact_speed,
-        c.max_penetration.max(penetration),
-    );
+    let force = force_in_contact(&sys.gaps[wall.gap].law, c, k.rho - wall.clearance, k.rate);
     (k, force)
+}
+
+/// The force a wall in the contact `c` applies at the penetration `penetration` (≤ 0 up to
+/// its switching tolerance) and its rate, as [`Dynamics::accel`] applies it: its law's
+/// formula, tensile past the wall, where it continues through it
+/// ([`continues_through_wall`]); else clamped to compressive and evaluated from the smallest
+/// penetration at least: a wall is closed up to its switching tolerance before it is reached,
+/// and a force that does not start from zero (Kelvin–Voigt's `c δ̇`) must not jump inside the
+/// step.
+fn force_in_contact(law: &Law, c: &Contact, penetration: f64, rate: f64) -> ContactForce {
+    if continues_through_wall(law) {
+        let max_penetration = c.max_penetration.max(penetration);
+        return law.evaluate_in_contact(penetration, rate, c.impact_speed, max_penetration);
+    }
+    let penetration = penetration.max(f64::MIN_POSITIVE);
+    let max_penetration = c.max_penetration.max(penetration);
+    law.force_in_contact(penetration, rate, c.impact_speed, max_penetration)
+}
+
+/// Whether a law's force continues analytically through its wall: a law linear in the
+/// penetration (Hertz's with exponent 1 and no series spring: a linear stator). In contact,
+/// such a wall's force is its formula on both sides, tensile past the wall (as event-located
+/// Runge–Kutta codes integrate each mode's own vector field, Hairer, Nørsett & Wanner §II.6),
+/// so every step integrates an analytic field: a step that crosses the opening keeps its
+/// eighth-order error estimate, is accepted at its length and the opening is located on its
+/// interpolant as precisely as the motion, then landed on by one retake (a clamped force's
+/// kink inside the step is seen as an error of 1e4–1e6 tolerances, and the opening only
+/// approached through rejections); a contact switched on just before its wall (within its
+/// switching window) starts smoothly, its tensile force acting only that long (a clamped one
+/// kinks there, inside the first step, whose first stages then carry an error of order
+/// `h² k δ̇ / m`); and the first step of a contact and a step landed on its closing or opening
+/// take the usual error estimate (no `rough` one, [`Stages::error`]). No accepted step applies
+/// the tensile force beyond the switching window ([`switch_walls`], the events located inside
+/// the step).
+fn continues_through_wall(law: &Law) -> bool {
+    matches!(law, Law::Hertz(h) if h.exponent == 1.0 && h.compliance == 0.0)
+}
+
+/// Whether wall `j`'s force continues through its wall ([`continues_through_wall`]).
+fn smooth_switch(sys: &System, j: usize) -> bool {
+    continues_through_wall(&sys.gaps[sys.walls[j].gap].law)
 }
 
 #[cfg(test)]

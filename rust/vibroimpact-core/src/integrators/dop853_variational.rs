@@ -35,7 +35,7 @@
 use nalgebra::{DMatrix, DVector, RowDVector};
 
 use super::super::dop853_tableau::{A, B, C, STAGES};
-use super::{dot, radial_normal_force, Contact, Stages, StepEnd, K};
+use super::{dot, radial_normal_force, smooth_switch, Contact, Stages, StepEnd, K};
 use crate::contact::{ContactLaw, MIN_IMPACT_SPEED};
 use crate::gap::{radial_contact, Side, WallState};
 use crate::sensitivity::{Parameter, StateTransition};
@@ -69,6 +69,8 @@ pub(super) struct Variational {
     time_shift: Option<RowDVector<f64>>,
     /// The parameter whose column is `Φ`'s last, with its time scale and per wall `∂δ/∂p`.
     parameter: Option<(Parameter, f64, Vec<f64>)>,
+    /// The spin speed's column: `−M⁻¹G` (the gyroscopic forces' `∂/∂Ω`), if `G` is there.
+    minus_g: Option<DMatrix<f64>>,
 }
 
 impl Variational {
@@ -90,6 +92,9 @@ impl Variational {
         };
         let minus_k = matrix(&|x, y| st.stiffness.mul_add(-1.0, x, y));
         let minus_c = matrix(&|x, y| st.damping.mul_add(-1.0, x, y));
+        let minus_g = (st.gyroscopic.as_ref())
+            .filter(|_| parameter == Some(Parameter::SpinSpeed))
+            .map(|g| matrix(&|x, y| g.mul_add(-1.0, x, y)));
         let rows: Vec<DVector<f64>> = sys
             .walls
             .iter()
@@ -126,6 +131,7 @@ impl Variational {
             dk_h: vec![DVector::zeros(2 * n); STAGES],
             rate_of_end: None,
             time_shift: None,
+            minus_g,
             parameter: parameter.map(|p| {
                 let walls = (0..sys.walls.len())
                     .map(|j| p.penetration_derivative(sys, j))
@@ -205,6 +211,9 @@ impl Variational {
             if let Some((p, _, _)) = &self.parameter {
                 let mut forcing = p.load_derivative(sys, t0 + C[i] * h);
                 sys.structure.solve_mass(forcing.as_mut_slice());
+                if let Some(minus_g) = &self.minus_g {
+                    forcing += minus_g * DVector::from_column_slice(&vs);
+                }
                 if let Some(loads) = &loads {
                     forcing += loads * scaled;
                 }
@@ -375,9 +384,14 @@ fn load_rate(sys: &System, t: f64) -> DVector<f64> {
 }
 
 /// Wall `j`'s `∂F/∂δ`, `∂F/∂δ̇` and `∂F/∂v_imp` at the raw penetration `raw` and rate `rate`
-/// of a stage, as [`Dynamics::accel`] evaluates the force (from the smallest positive
-/// penetration, so with no slope below it; zero where the force is clamped).
+/// of a stage, as [`Dynamics::accel`] evaluates the force ([`super::force_in_contact`]: a
+/// linear law's formula on both sides of the wall; any other from the smallest positive
+/// penetration, so with no slope below it, and zero where the force is clamped).
 fn tangent(sys: &System, j: usize, c: &Contact, raw: f64, rate: f64) -> (f64, f64, f64) {
+    if smooth_switch(sys, j) {
+        let (_, f_delta, f_rate, f_speed) = formula_slopes(sys, j, c, raw, rate);
+        return (f_delta, f_rate, f_speed);
+    }
     let (force, f_delta, f_rate, f_speed) =
         formula_slopes(sys, j, c, raw.max(f64::MIN_POSITIVE), rate);
     if force <= 0.0 {
@@ -425,11 +439,12 @@ enum WallTangent {
     Radial(RadialTangent),
 }
 
-/// A radial wall's DOFs `(ix, iy)` and the columns `M⁻¹ e_ix`, `M⁻¹ e_iy` its force acts
-/// through.
+/// A radial wall's DOFs `(ix, iy)`, the columns `M⁻¹ e_ix`, `M⁻¹ e_iy` its force acts
+/// through, and its rotor's radius `R` (`∂v_rel/∂Ω`).
 struct RadialWall {
     dofs: [usize; 2],
     m_inv: [DVector<f64>; 2],
+    radius: f64,
 }
 
 impl RadialWall {
@@ -449,6 +464,7 @@ impl RadialWall {
         Some(Self {
             dofs,
             m_inv: [column(dofs[0]), column(dofs[1])],
+            radius: r.radius,
         })
     }
 }
@@ -456,13 +472,15 @@ impl RadialWall {
 /// A radial wall's force `φ = F_N e` (`e = n + μ s(v_rel) t`, docs/rotors.md §Radial gaps) at
 /// a stage: its 2×2 tangents `∂φ/∂p`, `∂φ/∂ṗ` (the turning normal and the friction included,
 /// [`radial_contact`]), the direction `e` and the law's `∂F_N/∂δ`, `∂F_N/∂v_imp` (for the
-/// terms of a parameter's `∂δ/∂p` and of the approach speed, both along `e`).
+/// terms of a parameter's `∂δ/∂p` and of the approach speed, both along `e`), and `∂φ/∂v_rel`
+/// (`F_N μ s'(v_rel) t`: the spin speed's term through `v_rel = R Ω + ρθ̇`).
 struct RadialTangent {
     d_u: [[f64; 2]; 2],
     d_rate: [[f64; 2]; 2],
     direction: [f64; 2],
     f_delta: f64,
     f_speed: f64,
+    d_slip: [f64; 2],
 }
 
 /// Radial wall `j`'s [`RadialTangent`] at DOF displacements `x` and velocities `v`, its
@@ -483,10 +501,11 @@ fn radial_tangent(sys: &System, j: usize, c: &Contact, x: &[f64], v: &[f64]) -> 
     };
     let spin = r.radius * sys.structure.spin.start;
     let rf = radial_contact(r, &k, &state, spin);
-    let slip = if r.friction > 0.0 {
-        r.friction * r.friction_factor(spin + k.slide).0
+    let (slip, slip_rate) = if r.friction > 0.0 {
+        let (f, d) = r.friction_factor(spin + k.slide);
+        (r.friction * f, r.friction * d)
     } else {
-        0.0
+        (0.0, 0.0)
     };
     RadialTangent {
         d_u: rf.d_u,
@@ -497,6 +516,10 @@ fn radial_tangent(sys: &System, j: usize, c: &Contact, x: &[f64], v: &[f64]) -> 
         ],
         f_delta,
         f_speed,
+        d_slip: [
+            force.force * slip_rate * k.tangent[0],
+            force.force * slip_rate * k.tangent[1],
+        ],
     }
 }
 
@@ -523,8 +546,11 @@ impl Variational {
                 if let (Some(grad), true) = (&self.impact_speed[j], t.f_speed != 0.0) {
                     along += grad * (t.direction[a] * t.f_speed);
                 }
-                if let Some((_, _, walls)) = &self.parameter {
+                if let Some((p, _, walls)) = &self.parameter {
                     along[2 * n] += t.direction[a] * t.f_delta * walls[j];
+                    if *p == Parameter::SpinSpeed {
+                        along[2 * n] += t.d_slip[a] * wall.radius;
+                    }
                 }
             }
             *bottom -= &wall.m_inv[a] * along;
