@@ -5,8 +5,8 @@ The unknowns are ``y = (z, p)``: the state on the section and the parameter (any
 sweep can set: :func:`vibroimpact.sweeps.apply`). Each point solves ``P^N(z; p) − z = 0`` plus
 the arclength condition ``t·(y − y_pred) = 0`` by Newton with the Jacobian
 ``[Φ − I, ∂P^N/∂p]``: ``Φ`` from the core's state-transition matrix, the parameter column from
-the core too where it carries it (DOP853 and the Newmark family, for a load's amplitude,
-frequency or phase and a gap's clearance; the event-driven method for a gap's clearance), else
+the core too where it carries it (DOP853, the Newmark family and the event-driven method, for
+a load's amplitude, frequency or phase and a gap's clearance), else
 by a central difference of the simulated map
 (:func:`parameter_column`; :attr:`Branch.parameter_column` says which). The
 unknowns are scaled (the state by its largest component at the start, the parameter by the
