@@ -40,7 +40,13 @@ from numpy.typing import NDArray
 from vibroimpact.errors import ModelError, SolverError
 from vibroimpact.integrators import Integrator
 from vibroimpact.model import Model
-from vibroimpact.orbits import Shooting, contact_onsets, multipliers_of, solve_orbit
+from vibroimpact.orbits import (
+    MAX_TRANSITION_DOFS,
+    Shooting,
+    contact_onsets,
+    multipliers_of,
+    solve_orbit,
+)
 from vibroimpact.sweeps.grid import canonical_path, units_of
 
 __all__ = ["BRANCH_KIND", "SPECIAL_POINT_TYPES", "Branch", "BranchPoint", "SpecialPoint",
@@ -577,6 +583,11 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
                          "values")
     _check_count(max_points, "--max-points", 2)
     _check_count(transient, "--transient", 0)
+    if model.n_dof > MAX_TRANSITION_DOFS:
+        raise ModelError(f"structure: {model.n_dof} DOFs is more than continuation takes (a "
+                         "monodromy in a reduced basis is done for periodic_orbit only); "
+                         f"expected at most {MAX_TRANSITION_DOFS} DOFs (a reduced model: "
+                         "vibroimpact.fe.reduction.reduce_model)")
     base = Shooting(model, period, method, dt)
     first = base.at(path, start)
     base.at(path, end).flow(np.zeros(base.n_state))  # a bad END is refused before any work

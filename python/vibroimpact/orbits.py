@@ -10,7 +10,9 @@ flights with the saltation matrices of its impacts; the exact derivative of each
 step of the Newmark family at fixed steps, whose multipliers are the discrete map's).
 :func:`periodic_orbit` solves ``P^N(z) = z`` by Newton from a state reached after a
 transient. :meth:`Shooting.at` is the same problem at another value of a model parameter
-(what :mod:`vibroimpact.continuation` follows).
+(what :mod:`vibroimpact.continuation` follows). A model above the Newmark family's dense limit
+(or with ``modes`` given) is shot on with its monodromy in a reduced basis
+(:mod:`vibroimpact.orbit_basis`): the full map's residual, a quasi-Newton Jacobian.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from __future__ import annotations
 import copy
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Any
@@ -28,8 +31,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibroimpact import _core
 from vibroimpact.errors import ModelError, SolverError
-from vibroimpact.integrators import Adaptive, Dop853, EventDriven, Integrator
+from vibroimpact.integrators import (
+    HHT,
+    Adaptive,
+    Dop853,
+    EventDriven,
+    GeneralizedAlpha,
+    Integrator,
+    Newmark,
+)
 from vibroimpact.model import ConstantLoad, HarmonicLoad, Model, TableLoad
+from vibroimpact.orbit_basis import OrbitBasis
 from vibroimpact.result import ImpactTable, Result
 from vibroimpact.simulate import _run_core, check_run
 from vibroimpact.sweeps.grid import canonical_path
@@ -45,6 +57,9 @@ STEPS_PER_PERIOD = 1000
 EVENT_DRIVEN_STEPS_PER_PERIOD = 200
 #: Largest denominator of a ratio of two load frequencies taken as commensurate.
 MAX_FREQUENCY_DENOMINATOR = 64
+#: The core's largest model for the Newmark family's dense state-transition matrix
+#: (``MAX_TRANSITION_DOFS``); above it the monodromy is formed in a reduced basis.
+MAX_TRANSITION_DOFS = 200
 
 
 def forcing_period(model: Model) -> float:
@@ -131,10 +146,17 @@ class Shooting:
     state-transition matrix, integrated by ``method`` (default :func:`default_method`; one that
     carries the matrix: DOP853 with adaptive steps, the event-driven method, or Newmark-β,
     HHT-α and generalized-α with fixed steps) with steps of ``dt`` (s; default the forcing
-    period / :func:`default_steps_per_period`; DOP853: its first step)."""
+    period / :func:`default_steps_per_period`; DOP853: its first step).
+
+    ``modes``: the monodromy is formed in a reduced basis (:class:`OrbitBasis`: the gap
+    coordinates plus ``modes`` fixed-interface modes; the Newmark family only, default
+    :class:`~vibroimpact.HHT`, whose numerical damping takes the highest modes' multipliers
+    away from the unit circle); always so above :data:`MAX_TRANSITION_DOFS` DOFs, with
+    ``modes`` by default :func:`~vibroimpact.orbit_basis.default_modes`. :attr:`basis` is then
+    set and :attr:`reduced` is the shooting of the reduced model that carries ``Φ_r``."""
 
     def __init__(self, model: Model, period: int = 1, method: Integrator | None = None,
-                 dt: float | None = None) -> None:
+                 dt: float | None = None, modes: int | None = None) -> None:
         if not (isinstance(period, int) and not isinstance(period, bool) and period >= 1):
             raise ModelError(f"period: {period!r} is not valid; expected an integer >= 1 "
                              "(forcing periods per orbit)")
@@ -149,7 +171,10 @@ class Shooting:
         self.periods = period
         self.forcing_period = forcing_period(model)
         self.duration = period * self.forcing_period
-        self.method = default_method(model) if method is None else method
+        large = modes is not None or model.n_dof > MAX_TRANSITION_DOFS
+        if method is None:
+            method = HHT() if large else default_method(model)
+        self.method = method
         self.dt = (self.forcing_period / default_steps_per_period(self.method) if dt is None
                    else float(dt))
         check_run(model, self.duration, self.dt, self.method)
@@ -163,6 +188,27 @@ class Shooting:
             every=1,
             record_dofs=list(range(model.n_dof)),
         )
+        #: The reduced basis of the monodromy (None: the full ``Φ`` from the core).
+        self.basis: OrbitBasis | None = None
+        #: The reduced model's shooting, which carries ``Φ_r`` (with :attr:`basis`).
+        self.reduced: Shooting | None = None
+        if large:
+            self._reduce(modes)
+
+    def _reduce(self, modes: int | None) -> None:
+        """Sets :attr:`basis` and :attr:`reduced` (``modes``: as the constructor)."""
+        method = self.method
+        if not isinstance(method, (Newmark, HHT, GeneralizedAlpha)) or method.adaptive:
+            raise ModelError(f"solver.method: '{method.name}' has no monodromy in a reduced "
+                             f"basis ({self.n_dof} DOFs, modes = {modes!r}); expected the "
+                             "Newmark family with fixed steps")
+        self.basis = OrbitBasis.of(self.model, modes, 1.0 / self.forcing_period)
+        if self.basis.n_retained > MAX_TRANSITION_DOFS:
+            raise ModelError(f"modes: {self.basis.cb.n_modes} is not valid; expected at most "
+                             f"{MAX_TRANSITION_DOFS - len(self.basis.boundary)} (the gap "
+                             f"coordinates plus the modes within {MAX_TRANSITION_DOFS})")
+        self.reduced = Shooting(self.basis.cb.reduce_model(self.model), self.periods,
+                                self.method, self.dt)
 
     def at(self, path: str, value: float) -> Shooting:
         """This problem for the model with the number at ``path`` (the paths of ``sweep
@@ -172,6 +218,10 @@ class Shooting:
         the unbalance's period ``2π/Ω``, its ``Ω²`` force and the gyroscopic ``Ω G``). The
         core checks the value at the first :meth:`flow`
         (:class:`ModelError` naming the field)."""
+        if self.basis is not None:
+            raise ModelError(f"'{path}': a shooting in a reduced basis is not moved to another "
+                             "parameter value; expected a model within "
+                             f"{MAX_TRANSITION_DOFS} DOFs (its full monodromy)")
         core = self._spec["model"].with_value(canonical_path(path), float(value))
         period = _common_period(tuple(f for f in core.load_frequencies() if f > 0))
         shooting = copy.copy(self)
@@ -254,6 +304,21 @@ class Shooting:
         end = np.concatenate([raw["displacement"][-1], raw["velocity"][-1]])
         return end, raw["state_transition"], raw
 
+    def plain_flow(self, z: NDArray[np.float64]) -> tuple[NDArray[np.float64],
+                                                          dict[str, Any]]:
+        """``P^N(z)`` and the core's output of the run without the state-transition matrix
+        (every step recorded; ``displacement_max``/``_min`` over the steps' ends, which is what
+        the Newmark family's runs with the matrix report too)."""
+        n = self.n_dof
+        raw, _ = _run_core(dict(self._spec, x0=np.ascontiguousarray(z[:n]),
+                                v0=np.ascontiguousarray(z[n:])))
+        if raw["error"] is not None:
+            raise SolverError(f"periodic orbit: the run from the section state failed: "
+                              f"{raw['error']}")
+        raw["displacement_max"] = np.max(raw["displacement"], axis=0)
+        raw["displacement_min"] = np.min(raw["displacement"], axis=0)
+        return np.concatenate([raw["displacement"][-1], raw["velocity"][-1]]), raw
+
     def residual(self, z: NDArray[np.float64]) -> tuple[NDArray[np.float64],
                                                         NDArray[np.float64]]:
         """``P^N(z) − z`` and its Jacobian ``∂P^N/∂z − I``."""
@@ -282,6 +347,12 @@ class PeriodicOrbit:
     #: impact instants included) and DOP853's turning points inside its steps.
     displacement_max: NDArray[np.float64]
     displacement_min: NDArray[np.float64]
+    #: With a reduced basis (:attr:`Shooting.basis`): the basis in words, and the multipliers
+    #: of the complement's own maps (largest modulus first); ``monodromy`` and
+    #: ``multipliers`` are then the reduced model's ``Φ_r`` at the orbit's retained
+    #: coordinates. "" and None for the full ``Φ``.
+    basis: str = ""
+    complement_multipliers: NDArray[np.complex128] | None = None
 
     @property
     def state(self) -> NDArray[np.float64]:
@@ -295,8 +366,12 @@ class PeriodicOrbit:
 
     @property
     def stable(self) -> bool:
-        """Every multiplier inside the unit circle."""
-        return bool(np.max(np.abs(self.multipliers)) < 1.0)
+        """Every multiplier inside the unit circle (the complement's too)."""
+        extra = self.complement_multipliers
+        largest = float(np.max(np.abs(self.multipliers)))
+        if extra is not None and extra.size:
+            largest = max(largest, float(np.max(np.abs(extra))))
+        return largest < 1.0
 
     @property
     def impacts(self) -> ImpactTable:
@@ -356,7 +431,13 @@ class PeriodicOrbit:
         return ds
 
     def summary(self) -> dict[str, Any]:
-        """The JSON summary of ``vibroimpact orbit --json``."""
+        """The JSON summary of ``vibroimpact orbit --json`` (with a reduced basis also
+        ``basis`` and ``complement_multiplier_max``, the complement's largest modulus)."""
+        reduced: dict[str, Any] = {}
+        if self.basis:
+            extra = self.complement_multipliers
+            reduced = {"basis": self.basis, "complement_multiplier_max": (
+                float(np.max(np.abs(extra))) if extra is not None and extra.size else 0.0)}
         return {
             "multipliers": [[float(m.real), float(m.imag)] for m in self.multipliers],
             "stable": self.stable,
@@ -369,46 +450,53 @@ class PeriodicOrbit:
             "impacts_per_period": self.impacts_per_period,
             "force_max": self.force_max,
             "penetration_max": self.penetration_max,
+            **reduced,
         }
 
 
 def multipliers_of(monodromy: NDArray[np.float64]) -> NDArray[np.complex128]:
     """The eigenvalues of ``monodromy`` (the Floquet multipliers), largest modulus first."""
-    values = np.linalg.eigvals(monodromy).astype(complex)
-    return values[np.argsort(-np.abs(values), kind="stable")]
+    return _sorted(np.linalg.eigvals(monodromy))
 
 
 #: Halvings of a Newton step that does not lower the residual (or leaves a rigid wall's side).
 MAX_HALVINGS = 12
 
 
-def _line_search(shooting: Shooting, z: NDArray[np.float64], step: NDArray[np.float64],
+Flow = Callable[[NDArray[np.float64]], tuple[NDArray[np.float64], Any, dict[str, Any]]]
+
+
+def _line_search(flow: Flow, z: NDArray[np.float64], step: NDArray[np.float64],
                  residual: float) -> tuple[NDArray[np.float64], NDArray[np.float64],
-                                           NDArray[np.float64], dict[str, Any], float]:
-    """The first of ``z + step``, ``z + step/2``, ... whose residual is below ``residual``
-    (the map is only piecewise smooth: a full step may cross a grazing or start inside a
-    rigid wall, which the core refuses); the last halving if none is."""
+                                           Any, dict[str, Any], float]:
+    """The first of ``z + step``, ``z + step/2``, ... whose residual under ``flow``
+    (:meth:`Shooting.flow`, or a map without its matrix) is below ``residual`` (the map is
+    only piecewise smooth: a full step may cross a grazing or start inside a rigid wall, which
+    the core refuses); the last halving if none is."""
     for halving in range(MAX_HALVINGS):
         trial = z + step * 0.5**halving
         try:
-            end, phi, raw = shooting.flow(trial)
+            end, phi, raw = flow(trial)
         except ModelError:
             continue
         trial_residual = float(np.linalg.norm(end - trial))
         if trial_residual < residual:
             return trial, end, phi, raw, trial_residual
     trial = z + step * 0.5**MAX_HALVINGS
-    end, phi, raw = shooting.flow(trial)
+    end, phi, raw = flow(trial)
     return trial, end, phi, raw, float(np.linalg.norm(end - trial))
 
 
 def periodic_orbit(model: Model, period: int = 1, transient: int = 50, *,
                    method: Integrator | None = None, dt: float | None = None,
-                   tol: float = 1e-9, max_iterations: int = 30) -> PeriodicOrbit:
+                   tol: float = 1e-9, max_iterations: int = 30,
+                   modes: int | None = None) -> PeriodicOrbit:
     """The periodic orbit of ``period`` forcing periods near the state that ``model`` reaches
     after ``transient`` forcing periods from its initial state (0: the initial state itself is
     the guess), by Newton on ``P^N(z) − z`` with the exact Jacobian of the map; converged when
-    ``|P^N(z) − z| <= tol · max(|z|, 1e-300)``. ``method``, ``dt``: as :class:`Shooting`.
+    ``|P^N(z) − z| <= tol · max(|z|, 1e-300)``. ``method``, ``dt``, ``modes``: as
+    :class:`Shooting` (a model above :data:`MAX_TRANSITION_DOFS` DOFs, or ``modes`` given: the
+    monodromy in a reduced basis, :func:`solve_orbit`).
 
     Raises :class:`ModelError` for a model without a periodic load (or a method that does not
     carry the state-transition matrix) and :class:`SolverError` if Newton does not converge in
@@ -419,7 +507,7 @@ def periodic_orbit(model: Model, period: int = 1, transient: int = 50, *,
     if not (isinstance(transient, int) and not isinstance(transient, bool) and transient >= 0):
         raise ModelError(f"transient: {transient!r} is not valid; expected an integer >= 0 "
                          "(forcing periods)")
-    shooting = Shooting(model, period, method, dt)
+    shooting = Shooting(model, period, method, dt, modes)
     z = np.concatenate([np.asarray(model.initial_displacement, dtype=float),
                         np.asarray(model.initial_velocity, dtype=float)])
     return solve_orbit(shooting, shooting.settle(z, transient), tol, max_iterations)
@@ -429,6 +517,8 @@ def solve_orbit(shooting: Shooting, z: NDArray[np.float64], tol: float = 1e-9,
                 max_iterations: int = 30) -> PeriodicOrbit:
     """The periodic orbit of ``shooting`` by Newton on ``P^N(z) − z`` from the guess ``z``
     (:func:`periodic_orbit` says when it converges and what it raises)."""
+    if shooting.basis is not None:
+        return _solve_reduced(shooting, z, tol, max_iterations)
     model = shooting.model
     n = model.n_dof
     end, phi, raw = shooting.flow(z)
@@ -436,9 +526,7 @@ def solve_orbit(shooting: Shooting, z: NDArray[np.float64], tol: float = 1e-9,
     iteration = 0
     while residual > tol * max(float(np.linalg.norm(z)), 1e-300):
         if iteration == max_iterations:
-            raise SolverError(f"periodic orbit: Newton did not converge in {max_iterations} "
-                              f"iterations; residual |P^N(z) - z| = {residual:.3e}, expected "
-                              f"<= {tol:g} |z|")
+            raise _not_converged(max_iterations, residual, tol)
         iteration += 1
         try:
             step = np.linalg.solve(phi - np.eye(2 * n), z - end)
@@ -446,7 +534,7 @@ def solve_orbit(shooting: Shooting, z: NDArray[np.float64], tol: float = 1e-9,
             raise SolverError(f"periodic orbit: the Jacobian P^N' - I is singular at iteration "
                               f"{iteration} (a multiplier at 1: a fold or a family of orbits); "
                               f"residual {residual:.3e}") from None
-        z, end, phi, raw, residual = _line_search(shooting, z, step, residual)
+        z, end, phi, raw, residual = _line_search(shooting.flow, z, step, residual)
     result = Result.from_core(raw, model=replace(model, initial_displacement=z[:n],
                                                  initial_velocity=z[n:]),
                               method=shooting.method, t_end=shooting.duration)
@@ -455,3 +543,70 @@ def solve_orbit(shooting: Shooting, z: NDArray[np.float64], tol: float = 1e-9,
                          residual=residual, iterations=iteration,
                          displacement_max=np.asarray(raw["displacement_max"]),
                          displacement_min=np.asarray(raw["displacement_min"]))
+
+
+def _not_converged(max_iterations: int, residual: float, tol: float) -> SolverError:
+    return SolverError(f"periodic orbit: Newton did not converge in {max_iterations} "
+                       f"iterations; residual |P^N(z) - z| = {residual:.3e}, expected "
+                       f"<= {tol:g} |z|")
+
+
+def _solve_reduced(shooting: Shooting, z: NDArray[np.float64], tol: float,
+                   max_iterations: int) -> PeriodicOrbit:
+    """:func:`solve_orbit` with the monodromy in :attr:`Shooting.basis`: the residual is the
+    full map's (plain runs of the full model), the Newton step solves the block-diagonal
+    Jacobian of :mod:`vibroimpact.orbit_basis` — ``(Φ_r − I) δ_r = −r_r`` with the reduced
+    model's monodromy at the retained coordinates, ``(E_j − I) δ_j = −r_j`` per complement
+    mode — and lifts ``(δ_r, δ_h)`` back to the full state."""
+    basis, reduced = shooting.basis, shooting.reduced
+    assert basis is not None and reduced is not None
+    model = shooting.model
+    n = model.n_dof
+    maps = basis.complement_maps(shooting.method, shooting.dt, shooting.duration)
+    identity = np.eye(2)
+
+    def plain(state: NDArray[np.float64]) -> tuple[NDArray[np.float64], None,
+                                                   dict[str, Any]]:
+        end, raw = shooting.plain_flow(state)
+        return end, None, raw
+
+    def monodromy(state: NDArray[np.float64]) -> NDArray[np.float64]:
+        return reduced.flow(basis.coordinates(state)[0])[1]
+
+    end, _, raw = plain(z)
+    residual = float(np.linalg.norm(end - z))
+    iteration = 0
+    phi_r = None
+    while residual > tol * max(float(np.linalg.norm(z)), 1e-300):
+        if iteration == max_iterations:
+            raise _not_converged(max_iterations, residual, tol)
+        iteration += 1
+        phi_r = monodromy(z)
+        r_retained, r_complement = basis.coordinates(z - end)
+        try:
+            d_retained = np.linalg.solve(phi_r - np.eye(len(phi_r)), r_retained)
+        except np.linalg.LinAlgError:
+            raise SolverError(f"periodic orbit: the reduced Jacobian Phi_r - I is singular at "
+                              f"iteration {iteration}; residual {residual:.3e}") from None
+        d_complement = np.linalg.solve(maps - identity, r_complement[..., None])[..., 0]
+        step = basis.state(d_retained, d_complement)
+        z, end, _, raw, residual = _line_search(plain, z, step, residual)
+        phi_r = None
+    if phi_r is None:
+        phi_r = monodromy(z)
+    result = Result.from_core(raw, model=replace(model, initial_displacement=z[:n],
+                                                 initial_velocity=z[n:]),
+                              method=shooting.method, t_end=shooting.duration)
+    return PeriodicOrbit(shooting=shooting, displacement=z[:n].copy(), velocity=z[n:].copy(),
+                         result=result, monodromy=phi_r, multipliers=multipliers_of(phi_r),
+                         residual=residual, iterations=iteration,
+                         displacement_max=np.asarray(raw["displacement_max"]),
+                         displacement_min=np.asarray(raw["displacement_min"]),
+                         basis=basis.describe(),
+                         complement_multipliers=_sorted(np.linalg.eigvals(maps).ravel()))
+
+
+def _sorted(values: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """``values`` as complex, largest modulus first."""
+    values = np.asarray(values).astype(complex)
+    return values[np.argsort(-np.abs(values), kind="stable")]

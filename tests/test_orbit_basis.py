@@ -1,0 +1,104 @@
+"""Periodic orbits of large structures with the monodromy in a reduced basis
+(vibroimpact.orbit_basis; docs/periodic-orbits.md, "Large structures"): the gap coordinates
+plus retained fixed-interface modes, the complement by its own linear maps, Newton on the full
+map's residual."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import vibroimpact as vi
+from vibroimpact.benchmarks.continuation import SHAFT_DT, shaft_on_sliders
+from vibroimpact.orbit_basis import _newmark_mode_maps
+from vibroimpact.orbits import MAX_TRANSITION_DOFS, Shooting, solve_orbit
+
+
+@pytest.mark.parametrize("method", [vi.Newmark(), vi.HHT(), vi.GeneralizedAlpha()])
+def test_complement_maps_are_the_core_discrete_map(method: vi.Integrator) -> None:
+    """Each complement mode's 2 x 2 map (closed form of the α-form step, raised to the steps)
+    equals the core's state-transition matrix of the same oscillator, from a slow mode to one
+    far beyond the step (ω h = 100, heavily damped)."""
+    for w, c in [(3.0, 0.1), (1e3, 50.0), (1e5, 1e5)]:
+        model = vi.Model(vi.Structure.sdof(mass=1.0, stiffness=w * w, damping=c),
+                         loads=[vi.HarmonicLoad(dof=0, amplitude=1.0, frequency=1.0)])
+        _, phi, _ = Shooting(model, method=method, dt=1e-3).flow(np.array([0.1, 0.2]))
+        parameters = method._run_spec()["method"].newmark_parameters()
+        maps = _newmark_mode_maps(np.array([w]), np.array([c]), 1e-3, 1000, parameters)
+        assert np.max(np.abs(maps[0] - phi)) <= 1e-12 * max(np.max(np.abs(phi)), 1e-300) + 1e-13
+
+
+def test_reduced_multipliers_converge_to_the_exact_ones() -> None:
+    """The shaft on its sliders at 150 DOFs, where the exact (dense) monodromy of HHT's map
+    still exists: the orbit found with the reduced Jacobian is the exact-Jacobian orbit (an
+    exact Newton step from it moves it by less than 1e-8 of the state), and the four dominant
+    multipliers of the reduced monodromy tend to the exact ones as modes are added (measured:
+    1.1e-2, 2.1e-4, 2.2e-5, 1.5e-5 off with 0, 2, 4, 8 modes; 1.5e-5 is where the reduced
+    model's trajectory, on which Φ_r is formed, stops converging to the full one)."""
+    model = shaft_on_sliders(74)
+    assert model.n_dof == 150
+    start = np.concatenate([model.initial_displacement, np.zeros(model.n_dof)])
+    shootings = {modes: Shooting(model, method=vi.HHT(), dt=SHAFT_DT, modes=modes)
+                 for modes in (0, 2, 4, 8)}
+    guess = shootings[8].settle(start, 60)
+    orbits = {modes: solve_orbit(s, guess) for modes, s in shootings.items()}
+    orbit = orbits[8]
+    assert len(orbit.impacts) >= 6
+    assert orbit.basis.startswith("3 gap coordinates (DOFs [0, 74, 148]) + 8 fixed-interface")
+    exact = Shooting(model, method=vi.HHT(), dt=SHAFT_DT)
+    assert exact.basis is None
+    end, phi, _ = exact.flow(orbit.state)
+    newton = np.linalg.solve(phi - np.eye(len(phi)), orbit.state - end)
+    norm = np.linalg.norm(orbit.state)
+    assert np.linalg.norm(end - orbit.state) <= 1e-9 * norm
+    # the exact-Jacobian orbit is one exact Newton step away: within the residual's 1e-9
+    # times |(Φ − I)⁻¹| (about 10: multipliers of modulus 0.9)
+    assert np.linalg.norm(newton) <= 1e-8 * norm
+    reference = vi.orbits.multipliers_of(phi)[:4]
+    errors = [float(np.max(np.abs(orbits[m].multipliers[:4] - reference))) for m in (0, 2, 4, 8)]
+    assert errors[0] > 10 * errors[2], errors  # the modes matter
+    assert errors[1] < 1e-3 and errors[2] < 1e-4 and errors[3] < 5e-5, errors
+    # the complement (HHT damps its modes) is far inside the unit circle
+    assert orbit.complement_multipliers is not None
+    assert np.max(np.abs(orbit.complement_multipliers)) < 1e-3
+
+
+def test_thousand_dof_beam_orbit_matches_finite_differences_of_the_full_map() -> None:
+    """The shaft meshed with 500 elements (1,002 DOFs, beyond the dense limit: the reduced
+    basis is the default, 20 modes): the full map's residual falls below the tolerance and the
+    two dominant multiplier pairs are those of central differences of the full map along
+    their eigenvectors lifted to the full state (1e-3 of the state: the map is noisy at about
+    1e-6 of it at fixed steps, so the difference is good to about 1e-3)."""
+    model = shaft_on_sliders(500)
+    assert model.n_dof > MAX_TRANSITION_DOFS
+    orbit = vi.periodic_orbit(model, transient=60, dt=SHAFT_DT, tol=1e-6)
+    shooting, basis = orbit.shooting, orbit.shooting.basis
+    assert basis is not None and basis.cb.n_modes == 20
+    z = orbit.state
+    assert orbit.residual <= 1e-6 * np.linalg.norm(z)
+    assert len(orbit.impacts) >= 6
+    values, vectors = np.linalg.eig(orbit.monodromy)
+    order = np.argsort(-np.abs(values))
+    none = np.zeros((basis.complement.shape[1], 2))
+    for k in order[[0, 2]]:
+        mu, w = values[k], vectors[:, k]
+        image = []
+        for part in (w.real, w.imag):
+            v = basis.state(part, none)
+            step = 1e-3 * np.linalg.norm(z) / np.linalg.norm(v)
+            up, _ = shooting.plain_flow(z + step * v)
+            down, _ = shooting.plain_flow(z - step * v)
+            image.append(basis.coordinates((up - down) / (2 * step))[0])
+        fd = np.vdot(w, image[0] + 1j * image[1]) / np.vdot(w, w)
+        assert abs(fd - mu) < 2e-3, (mu, fd)
+    assert abs(orbit.multipliers[0]) > 0.5  # a lightly damped pair, not a trivial check
+
+
+def test_reduced_basis_mistakes_are_one_line() -> None:
+    model = shaft_on_sliders(74)
+    with pytest.raises(vi.ModelError, match=r"^solver.method: 'dop853' has no monodromy in a "
+                       "reduced basis"):
+        Shooting(model, method=vi.Dop853(), modes=4)
+    with pytest.raises(vi.ModelError, match=r"^modes: 500 is not valid; expected an integer"):
+        Shooting(model, method=vi.HHT(), dt=SHAFT_DT, modes=500)
+    with pytest.raises(vi.ModelError, match=r"^structure: 1002 DOFs is more than continuation"):
+        vi.continue_orbit(shaft_on_sliders(500), "loads.0.frequency", 30.0, 31.0)
