@@ -5,6 +5,8 @@ map's residual."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import vibroimpact as vi
@@ -102,3 +104,61 @@ def test_reduced_basis_mistakes_are_one_line() -> None:
         Shooting(model, method=vi.HHT(), dt=SHAFT_DT, modes=500)
     with pytest.raises(vi.ModelError, match=r"^structure: 1002 DOFs is more than continuation"):
         vi.continue_orbit(shaft_on_sliders(500), "loads.0.frequency", 30.0, 31.0)
+
+
+CHAIN = """
+schema_version = 1
+[structure]
+kind = "matrices"
+mass = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+stiffness = [[2000.0, -1000.0, 0.0], [-1000.0, 2000.0, -1000.0], [0.0, -1000.0, 1000.0]]
+damping = [[2.0, -1.0, 0.0], [-1.0, 2.0, -1.0], [0.0, -1.0, 1.0]]
+[[gaps]]
+dof = 0
+clearance = 0.002
+side = "positive"
+[gaps.law]
+kind = "hertz"
+stiffness = 1.0e7
+exponent = 1.5
+[[loads]]
+kind = "harmonic"
+dof = 2
+amplitude = 20.0
+frequency = 4.0
+phase = 0.0
+[solver]
+method = "newmark"
+dt = 1e-4
+t_end = 1.0
+"""
+
+
+def test_all_modes_retained_is_the_exact_monodromy_and_the_cli_states_the_basis(
+        tmp_path, capsys) -> None:
+    """With every interior mode retained the basis is an exact change of coordinates: the
+    reduced Jacobian is the exact one, so the orbit and its multipliers are those of the full
+    monodromy (to Newton's tolerance). ``vibroimpact orbit --modes N --json`` states the basis
+    and the complement's largest multiplier (none here). On this 3-DOF chain one mode is not
+    enough: the complement (the other interior mode) is as slow as the response, and the
+    quasi-Newton iteration diverges (docs: what the basis neglects)."""
+    from vibroimpact.cli import main
+    from vibroimpact.io.model_file import load_model
+
+    path = tmp_path / "chain.toml"
+    path.write_text(CHAIN)
+    model = load_model(path).model
+    exact = vi.periodic_orbit(model, transient=30, method=vi.Newmark())
+    assert exact.impacts_per_period >= 1
+    full_basis = vi.periodic_orbit(model, transient=30, method=vi.Newmark(), modes=2)
+    assert full_basis.complement_multipliers is not None
+    assert full_basis.complement_multipliers.size == 0
+    assert np.max(np.abs(full_basis.multipliers - exact.multipliers)) < 1e-7
+    assert np.linalg.norm(full_basis.state - exact.state) < 1e-8 * np.linalg.norm(exact.state)
+    assert main(["orbit", str(path), "--transient", "30", "--modes", "2", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["basis"].startswith("1 gap coordinates (DOFs [0]) + 2 fixed-interface modes")
+    assert summary["complement_multiplier_max"] == 0.0
+    assert summary["impacts_per_period"] == exact.impacts_per_period
+    assert summary["initial_state"]["displacement"] == pytest.approx(
+        exact.displacement.tolist(), rel=1e-6, abs=1e-9)

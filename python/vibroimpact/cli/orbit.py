@@ -1,6 +1,6 @@
-"""``vibroimpact orbit MODEL.toml [--period N] [--transient N] [-o ORBIT.nc] [--json]``: the
-periodic orbit of a model file with a harmonic load, by shooting, and its Floquet
-multipliers (docs/periodic-orbits.md)."""
+"""``vibroimpact orbit MODEL.toml [--period N] [--transient N] [--modes N] [-o ORBIT.nc]
+[--json]``: the periodic orbit of a model file with a harmonic load, by shooting, and its
+Floquet multipliers (docs/periodic-orbits.md)."""
 
 from __future__ import annotations
 
