@@ -10,6 +10,7 @@ import json
 import numpy as np
 import pytest
 import vibroimpact as vi
+import xarray as xr
 from vibroimpact.benchmarks.continuation import SHAFT_DT, shaft_on_sliders
 from vibroimpact.orbit_basis import _newmark_mode_maps
 from vibroimpact.orbits import MAX_TRANSITION_DOFS, Shooting, solve_orbit
@@ -155,8 +156,13 @@ def test_all_modes_retained_is_the_exact_monodromy_and_the_cli_states_the_basis(
     assert full_basis.complement_multipliers.size == 0
     assert np.max(np.abs(full_basis.multipliers - exact.multipliers)) < 1e-7
     assert np.linalg.norm(full_basis.state - exact.state) < 1e-8 * np.linalg.norm(exact.state)
-    assert main(["orbit", str(path), "--transient", "30", "--modes", "2", "--json"]) == 0
+    out = tmp_path / "orbit.nc"
+    assert main(["orbit", str(path), "--transient", "30", "--modes", "2", "--json",
+                 "-o", str(out)]) == 0
     summary = json.loads(capsys.readouterr().out)
+    with xr.open_dataset(out) as ds:
+        assert ds.attrs["orbit_basis"] == summary["basis"]
+        assert ds["complement_multiplier_real"].size == 0
     assert summary["basis"].startswith("1 gap coordinates (DOFs [0]) + 2 fixed-interface modes")
     assert summary["complement_multiplier_max"] == 0.0
     assert summary["impacts_per_period"] == exact.impacts_per_period

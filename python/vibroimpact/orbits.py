@@ -419,7 +419,8 @@ class PeriodicOrbit:
         """The orbit's time histories as :func:`vibroimpact.io.results_file.to_dataset` has
         them, with the multipliers (``multiplier_real``, ``multiplier_imag``), the monodromy
         matrix and the attributes ``orbit_period`` (s), ``orbit_forcing_periods``,
-        ``orbit_residual`` and ``orbit_stable`` (0/1)."""
+        ``orbit_residual`` and ``orbit_stable`` (0/1); in a reduced basis also the attribute
+        ``orbit_basis`` and ``complement_multiplier_real``/``_imag``."""
         from vibroimpact.io import results_file
 
         ds = results_file.to_dataset(self.result)
@@ -428,6 +429,12 @@ class PeriodicOrbit:
         ds["monodromy"] = (("state", "state_from"), self.monodromy)
         ds.attrs.update(orbit_period=self.period, orbit_forcing_periods=self.shooting.periods,
                         orbit_residual=self.residual, orbit_stable=int(self.stable))
+        if self.basis:
+            extra = self.complement_multipliers
+            assert extra is not None
+            ds["complement_multiplier_real"] = ("complement_multiplier", extra.real)
+            ds["complement_multiplier_imag"] = ("complement_multiplier", extra.imag)
+            ds.attrs["orbit_basis"] = self.basis
         return ds
 
     def summary(self) -> dict[str, Any]:
