@@ -658,7 +658,10 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
                 and specials[-1].type == "period-doubling"):
             switched = True
             points.append(specials[-1].point)
-            run, new = _switch(run, specials[-1], ds)
+            # at the initial step, not a grown one: the period-2 branch leaves at a right
+            # angle, and a long first step can land on another orbit (the rigid stop's
+            # period-doubling at step 0.1: an unstable period-2 orbit 0.009 further in w)
+            run, new = _switch(run, specials[-1], min(ds, float(step)))
         points.append(new.point)
         through = None if last else _through_grazing(run, points, new, low, high)
         if through is not None:  # a rigid stop's grazing ahead: past it, clear of the stop
