@@ -31,7 +31,7 @@ from vibroimpact.fe.reduction import CraigBampton, craig_bampton
 from vibroimpact.integrators import Integrator
 from vibroimpact.model import Model
 
-__all__ = ["MIN_MODES", "MODE_FREQUENCY_FACTOR", "OrbitBasis", "default_modes"]
+__all__ = ["MIN_MODES", "MODE_FREQUENCY_FACTOR", "BlockJacobian", "OrbitBasis", "default_modes"]
 
 #: The default basis keeps every fixed-interface mode up to this many times the highest
 #: forcing frequency ...
@@ -163,6 +163,16 @@ class OrbitBasis:
             parts.append(x)
         return np.concatenate(parts)
 
+    def adjoint(self, a: NDArray[np.float64]) -> tuple[NDArray[np.float64],
+                                                       NDArray[np.float64]]:
+        """``Lᵀ a`` for :meth:`state`'s linear map ``L`` (retained, complement ``h × 2``): the
+        row ``a · L`` of a linear condition ``a · z`` on the full state in the coordinates."""
+        n, t = len(a) // 2, self.cb.transform
+        halves = [(t.T @ a[i * n:(i + 1) * n], self.complement.T @ a[i * n:(i + 1) * n][
+            self.interior]) for i in range(2)]
+        return (np.concatenate([halves[0][0], halves[1][0]]),
+                np.column_stack([halves[0][1], halves[1][1]]))
+
     def complement_maps(self, method: Integrator, dt: float, duration: float
                         ) -> NDArray[np.float64]:
         """Each complement mode's ``2 × 2`` map over ``duration`` by ``method`` (the Newmark
@@ -171,3 +181,103 @@ class OrbitBasis:
         parameters = method._run_spec()["method"].newmark_parameters()
         return _newmark_mode_maps(self.omega, self.damping, duration / steps, steps,
                                   parameters)
+
+
+@dataclass
+class BlockJacobian:
+    """``∂P^N/∂z`` of the full map in :class:`OrbitBasis` coordinates, block-diagonal: the
+    reduced model's monodromy ``phi_r`` on the retained coordinates and each complement mode's
+    ``2 × 2`` map ``maps[j]`` (module doc). Offers what Newton and the continuation need
+    without a ``2n × 2n`` matrix: solves with ``Φ − I`` (bordered or not), the determinants of
+    ``Φ ± I`` and the multipliers."""
+
+    basis: OrbitBasis
+    phi_r: NDArray[np.float64]
+    maps: NDArray[np.float64]
+
+    @property
+    def monodromy(self) -> NDArray[np.float64]:
+        """``Φ_r`` (the retained block; its eigenvalues are :attr:`multipliers`)."""
+        return self.phi_r
+
+    @property
+    def multipliers(self) -> NDArray[np.complex128]:
+        """The eigenvalues of ``Φ_r``, largest modulus first."""
+        return _sorted(np.linalg.eigvals(self.phi_r))
+
+    @property
+    def complement_multipliers(self) -> NDArray[np.complex128]:
+        """The eigenvalues of the complement's maps, largest modulus first."""
+        return _sorted(np.linalg.eigvals(self.maps).ravel())
+
+    def solve(self, rhs: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``δ`` with ``(Φ − I) δ = rhs``: the retained block by a dense solve, each complement
+        mode in closed form, lifted back to the full state."""
+        r_retained, r_complement = self.basis.coordinates(rhs)
+        d_retained = np.linalg.solve(self.phi_r - np.eye(len(self.phi_r)), r_retained)
+        d_complement = np.linalg.solve(self.maps - np.eye(2), r_complement[..., None])[..., 0]
+        return self.basis.state(d_retained, d_complement)
+
+    def _bordered(self, column: NDArray[np.float64], weights: NDArray[np.float64],
+                  row: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                                     NDArray[np.float64], NDArray[np.float64]]:
+        """The complement eliminated from ``[[Φ − I, c], [row ⊙ w]]`` (Schur complement, its
+        ``2 × 2`` blocks in closed form): the retained bordered matrix, the complement's
+        ``(E_j − I)⁻¹``, its column ``(E_j − I)⁻¹ c_j`` and its part of the row."""
+        c_retained, c_complement = self.basis.coordinates(column)
+        rho_retained, rho_complement = self.basis.adjoint(row[:-1] * weights[:-1])
+        inverse = np.linalg.inv(self.maps - np.eye(2))
+        beta = (inverse @ c_complement[..., None])[..., 0]
+        r = len(self.phi_r)
+        matrix = np.empty((r + 1, r + 1))
+        matrix[:r, :r] = self.phi_r - np.eye(r)
+        matrix[:r, r] = c_retained
+        matrix[r, :r] = rho_retained
+        matrix[r, r] = row[-1] * weights[-1] - float(np.sum(rho_complement * beta))
+        return matrix, inverse, beta, rho_complement
+
+    def solve_bordered(self, column: NDArray[np.float64], weights: NDArray[np.float64],
+                       row: NDArray[np.float64], rhs: NDArray[np.float64]
+                       ) -> NDArray[np.float64]:
+        """``du`` with ``[[Φ − I, c] / w, row] du = rhs`` (pseudo-arclength's bordered system
+        in the scaled unknowns ``u = w ⊙ (z, p)``): the complement's blocks eliminated in
+        closed form (:meth:`_bordered`), a dense solve of the retained ``2(b + k) + 1``."""
+        matrix, inverse, beta, rho_complement = self._bordered(column, weights, row)
+        r_retained, r_complement = self.basis.coordinates(rhs[:-1])
+        alpha = (inverse @ r_complement[..., None])[..., 0]
+        reduced_rhs = np.append(r_retained, rhs[-1] - float(np.sum(rho_complement * alpha)))
+        solution = np.linalg.solve(matrix, reduced_rhs)
+        dp = solution[-1]
+        dz = self.basis.state(solution[:-1], alpha - beta * dp)
+        return np.append(dz, dp) * weights
+
+    def bordered_determinant(self, column: NDArray[np.float64], weights: NDArray[np.float64],
+                             row: NDArray[np.float64]) -> float:
+        """``det [[Φ − I, c], [row ⊙ w]]`` in the basis coordinates (a change of coordinates
+        of determinant 1): the retained Schur complement's times the complement's
+        ``det(E_j − I)``; the sign of ``det([[Φ − I, c] / w, row])``."""
+        matrix = self._bordered(column, weights, row)[0]
+        return float(np.linalg.det(matrix) * self._complement_det(-1.0))
+
+    def _complement_det(self, shift: float) -> float:
+        return float(np.prod(np.linalg.det(self.maps + shift * np.eye(2))))
+
+    def determinant(self, shift: float) -> float:
+        """``det(Φ + shift · I)``: ``Φ_r``'s times the complement's blocks'."""
+        return float(np.linalg.det(self.phi_r + shift * np.eye(len(self.phi_r)))
+                     * self._complement_det(shift))
+
+    def pair_test(self) -> float:
+        """The Neimark–Sacker test ``Π (μ_i μ_j − 1)``: over the pairs of ``Φ_r``'s multipliers
+        and each complement block's own pair (``det E_j − 1``); pairs across blocks are left
+        out (they vanish only at a neutral saddle's ``μ_i μ_j = 1``, not a bifurcation)."""
+        mu = self.multipliers
+        pairs = [mu[i] * mu[j] - 1 for i in range(mu.size) for j in range(i + 1, mu.size)]
+        own = np.linalg.det(self.maps) - 1
+        return float((np.prod(pairs) * np.prod(own)).real)
+
+
+def _sorted(values: NDArray[np.complex128]) -> NDArray[np.complex128]:
+    """``values`` as complex, largest modulus first."""
+    values = np.asarray(values).astype(complex)
+    return values[np.argsort(-np.abs(values), kind="stable")]

@@ -41,13 +41,13 @@ from vibroimpact.integrators import (
     Newmark,
 )
 from vibroimpact.model import ConstantLoad, HarmonicLoad, Model, TableLoad
-from vibroimpact.orbit_basis import OrbitBasis
+from vibroimpact.orbit_basis import BlockJacobian, OrbitBasis, _sorted
 from vibroimpact.result import ImpactTable, Result
 from vibroimpact.simulate import _run_core, check_run
 from vibroimpact.sweeps.grid import canonical_path
 
-__all__ = ["PeriodicOrbit", "Shooting", "contact_onsets", "forcing_period", "periodic_orbit",
-           "solve_orbit"]
+__all__ = ["DenseJacobian", "PeriodicOrbit", "Shooting", "contact_onsets", "forcing_period",
+           "periodic_orbit", "solve_orbit"]
 
 #: DOP853's first step per forcing period by default.
 STEPS_PER_PERIOD = 1000
@@ -190,8 +190,7 @@ class Shooting:
         )
         #: The reduced basis of the monodromy (None: the full ``Φ`` from the core).
         self.basis: OrbitBasis | None = None
-        #: The reduced model's shooting, which carries ``Φ_r`` (with :attr:`basis`).
-        self.reduced: Shooting | None = None
+        self._reduced: Shooting | None = None
         if large:
             self._reduce(modes)
 
@@ -207,8 +206,15 @@ class Shooting:
             raise ModelError(f"modes: {self.basis.cb.n_modes} is not valid; expected at most "
                              f"{MAX_TRANSITION_DOFS - len(self.basis.boundary)} (the gap "
                              f"coordinates plus the modes within {MAX_TRANSITION_DOFS})")
-        self.reduced = Shooting(self.basis.cb.reduce_model(self.model), self.periods,
-                                self.method, self.dt)
+
+    @property
+    def reduced(self) -> Shooting | None:
+        """The reduced model's shooting, which carries ``Φ_r`` (with :attr:`basis`; made when
+        first asked for, at this problem's parameter value, period and step)."""
+        if self.basis is not None and self._reduced is None:
+            self._reduced = Shooting(self.basis.cb.reduce_model(self.model), self.periods,
+                                     self.method, self.dt)
+        return self._reduced
 
     def at(self, path: str, value: float) -> Shooting:
         """This problem for the model with the number at ``path`` (the paths of ``sweep
@@ -217,11 +223,14 @@ class Shooting:
         stay the same fraction of it; so does a rotor's spin speed (``structure.spin_speed``:
         the unbalance's period ``2π/Ω``, its ``Ω²`` force and the gyroscopic ``Ω G``). The
         core checks the value at the first :meth:`flow`
-        (:class:`ModelError` naming the field)."""
-        if self.basis is not None:
-            raise ModelError(f"'{path}': a shooting in a reduced basis is not moved to another "
-                             "parameter value; expected a model within "
-                             f"{MAX_TRANSITION_DOFS} DOFs (its full monodromy)")
+        (:class:`ModelError` naming the field). In a reduced basis, the basis (the
+        structure's) stays and the reduced model is made again from the moved model (a load's
+        reduced loads, a gap's reduced gap), so a structure's number is refused."""
+        if self.basis is not None and canonical_path(path).startswith("structure."):
+            raise ModelError(f"--param {canonical_path(path)}: a structure's number is not "
+                             "valid in a reduced basis (the basis is the structure's, formed "
+                             "once); expected a load's or a gap's number, or a model within "
+                             f"{MAX_TRANSITION_DOFS} DOFs without modes")
         core = self._spec["model"].with_value(canonical_path(path), float(value))
         period = _common_period(tuple(f for f in core.load_frequencies() if f > 0))
         shooting = copy.copy(self)
@@ -231,6 +240,7 @@ class Shooting:
         shooting.duration = self.periods * period
         shooting.dt = self.dt * period / self.forcing_period
         shooting._spec = dict(self._spec, model=core, t_end=shooting.duration, dt=shooting.dt)
+        shooting._reduced = None
         return shooting
 
     @property
@@ -250,6 +260,7 @@ class Shooting:
         shooting.periods = period
         shooting.duration = period * self.forcing_period
         shooting._spec = dict(self._spec, t_end=shooting.duration)
+        shooting._reduced = None
         return shooting
 
     def settle(self, z: NDArray[np.float64], periods: int) -> NDArray[np.float64]:
@@ -303,6 +314,28 @@ class Shooting:
                               f"{raw['error']}")
         end = np.concatenate([raw["displacement"][-1], raw["velocity"][-1]])
         return end, raw["state_transition"], raw
+
+    def linearised(self, z: NDArray[np.float64]) -> tuple[NDArray[np.float64],
+                                                          DenseJacobian | BlockJacobian,
+                                                          dict[str, Any]]:
+        """``P^N(z)``, its Jacobian and the core's output of the run: the full ``Φ``
+        (:meth:`flow`), or in a reduced basis the full map's plain run (:meth:`plain_flow`)
+        with the :class:`BlockJacobian` of ``Φ_r`` (the reduced model's flow from ``z``'s
+        retained coordinates) and the complement's maps; its ``parameter_column`` is then
+        None (``parameter_column_note`` says why)."""
+        if self.basis is None:
+            end, phi, raw = self.flow(z)
+            return end, DenseJacobian(phi), raw
+        reduced = self.reduced
+        assert reduced is not None
+        end, raw = self.plain_flow(z)
+        raw["parameter_column"] = None
+        raw["parameter_column_note"] = (
+            "the full map's, in a reduced basis (the reduced model's column lacks the "
+            "complement's part and the truncation of the full residual)")
+        phi_r = reduced.flow(self.basis.coordinates(z)[0])[1]
+        maps = self.basis.complement_maps(self.method, self.dt, self.duration)
+        return end, BlockJacobian(self.basis, phi_r, maps), raw
 
     def plain_flow(self, z: NDArray[np.float64]) -> tuple[NDArray[np.float64],
                                                           dict[str, Any]]:
@@ -461,6 +494,45 @@ class PeriodicOrbit:
         }
 
 
+@dataclass
+class DenseJacobian:
+    """The full ``Φ = ∂P^N/∂z`` with the operations of a reduced basis's
+    :class:`~vibroimpact.orbit_basis.BlockJacobian` (dense solves and determinants)."""
+
+    monodromy: NDArray[np.float64]
+    complement_multipliers = None
+
+    @property
+    def multipliers(self) -> NDArray[np.complex128]:
+        return multipliers_of(self.monodromy)
+
+    def _bordered(self, column: NDArray[np.float64], weights: NDArray[np.float64],
+                  row: NDArray[np.float64]) -> NDArray[np.float64]:
+        n = len(self.monodromy)
+        return np.vstack([np.column_stack([self.monodromy - np.eye(n), column]) / weights, row])
+
+    def solve_bordered(self, column: NDArray[np.float64], weights: NDArray[np.float64],
+                       row: NDArray[np.float64], rhs: NDArray[np.float64]
+                       ) -> NDArray[np.float64]:
+        """``du`` with ``[[Φ − I, c] / w, row] du = rhs``."""
+        return np.linalg.solve(self._bordered(column, weights, row), rhs)
+
+    def bordered_determinant(self, column: NDArray[np.float64], weights: NDArray[np.float64],
+                             row: NDArray[np.float64]) -> float:
+        """``det [[Φ − I, c] / w, row]``."""
+        return float(np.linalg.det(self._bordered(column, weights, row)))
+
+    def determinant(self, shift: float) -> float:
+        """``det(Φ + shift · I)``."""
+        return float(np.linalg.det(self.monodromy + shift * np.eye(len(self.monodromy))))
+
+    def pair_test(self) -> float:
+        """The Neimark–Sacker test ``Π_{i<j} (μ_i μ_j − 1)``."""
+        mu = self.multipliers
+        pairs = [mu[i] * mu[j] - 1 for i in range(mu.size) for j in range(i + 1, mu.size)]
+        return float(np.prod(pairs).real) if pairs else 1.0
+
+
 def multipliers_of(monodromy: NDArray[np.float64]) -> NDArray[np.complex128]:
     """The eigenvalues of ``monodromy`` (the Floquet multipliers), largest modulus first."""
     return _sorted(np.linalg.eigvals(monodromy))
@@ -570,7 +642,6 @@ def _solve_reduced(shooting: Shooting, z: NDArray[np.float64], tol: float,
     model = shooting.model
     n = model.n_dof
     maps = basis.complement_maps(shooting.method, shooting.dt, shooting.duration)
-    identity = np.eye(2)
 
     def plain(state: NDArray[np.float64]) -> tuple[NDArray[np.float64], None,
                                                    dict[str, Any]]:
@@ -589,14 +660,11 @@ def _solve_reduced(shooting: Shooting, z: NDArray[np.float64], tol: float,
             raise _not_converged(max_iterations, residual, tol)
         iteration += 1
         phi_r = monodromy(z)
-        r_retained, r_complement = basis.coordinates(z - end)
         try:
-            d_retained = np.linalg.solve(phi_r - np.eye(len(phi_r)), r_retained)
+            step = BlockJacobian(basis, phi_r, maps).solve(z - end)
         except np.linalg.LinAlgError:
             raise SolverError(f"periodic orbit: the reduced Jacobian Phi_r - I is singular at "
                               f"iteration {iteration}; residual {residual:.3e}") from None
-        d_complement = np.linalg.solve(maps - identity, r_complement[..., None])[..., 0]
-        step = basis.state(d_retained, d_complement)
         z, end, _, raw, residual = _line_search(plain, z, step, residual)
         phi_r = None
     if phi_r is None:
@@ -612,8 +680,3 @@ def _solve_reduced(shooting: Shooting, z: NDArray[np.float64], tol: float,
                          basis=basis.describe(),
                          complement_multipliers=_sorted(np.linalg.eigvals(maps).ravel()))
 
-
-def _sorted(values: NDArray[np.complex128]) -> NDArray[np.complex128]:
-    """``values`` as complex, largest modulus first."""
-    values = np.asarray(values).astype(complex)
-    return values[np.argsort(-np.abs(values), kind="stable")]
