@@ -110,20 +110,26 @@ def test_core_parameter_column_equals_the_difference_of_the_map(path: str,
 
 
 
-def test_event_driven_clearance_column_equals_the_difference_of_the_map() -> None:
+@pytest.mark.parametrize(("path", "value"), [
+    ("gaps.0.clearance", 0.5),
+    ("loads.0.amplitude", 1.0),
+    ("loads.0.phase", np.pi / 2),
+    ("loads.0.frequency", 1.1 / (2 * np.pi)),
+])
+def test_event_driven_columns_equal_the_difference_of_the_map(path: str, value: float) -> None:
     """The event-driven method carries a clearance's column (the impacts' saltation with
-    ``∂δ/∂d = −1``): the central difference of its map; a load's it does not."""
+    ``∂δ/∂d = −1``) and a load's (the flights' exponential differentiated, then the
+    saltation): the central difference of its map, at the rigid stop's orbit."""
     model = oscillator(vi.contact.Rigid(restitution=R), 1.1, 0.5)
     orbit = vi.periodic_orbit(model, transient=30)
-    raw = orbit.shooting.at("gaps.0.clearance", 0.5).flow(orbit.state)[2]
+    raw = orbit.shooting.at(path, value).flow(orbit.state)[2]
     assert raw["parameter_column_note"] == ""
-    fd = parameter_column(orbit.shooting, orbit.state, "gaps.0.clearance", 0.5, 0.5)
+    fd = parameter_column(orbit.shooting, orbit.state, path, value, abs(value))
     assert np.max(np.abs(raw["parameter_column"] - fd)) < 1e-6 * np.max(np.abs(fd))
     assert np.max(np.abs(fd)) > 0.1
-    load = orbit.shooting.at("loads.0.amplitude", 1.0).flow(orbit.state)[2]
-    assert load["parameter_column"] is None
-    assert load["parameter_column_note"].startswith(
-        "method 'event-driven' does not carry the column of 'loads.0.amplitude'")
+    other = orbit.shooting.at("gaps.0.law.restitution", R).flow(orbit.state)[2]
+    assert other["parameter_column"] is None
+
 
 def test_fold_of_a_hertz_stop_branch() -> None:
     model = oscillator(vi.contact.Hertz(stiffness=10.0, exponent=1.5), 0.8, 0.5)
@@ -202,7 +208,7 @@ def test_rigid_branch_stops_at_its_grazing_against_the_closed_form() -> None:
     assert abs(grazing.value - expected) < 1e-9 * expected
     assert abs(grazing.wall_margins[0]) < 1e-8
     assert branch.stopped.startswith(f"stopped at the grazing of a rigid stop at {FREQUENCY} = ")
-    assert branch.parameter_column.startswith("central difference: method 'event-driven'")
+    assert branch.parameter_column == "exact"
     assert branch.points[-1].value == pytest.approx(expected, rel=1e-5)
     assert len(branch.points) < 100  # it ended there, not at max_points or the range's end
 

@@ -5,8 +5,8 @@ The unknowns are ``y = (z, p)``: the state on the section and the parameter (any
 sweep can set: :func:`vibroimpact.sweeps.apply`). Each point solves ``P^N(z; p) − z = 0`` plus
 the arclength condition ``t·(y − y_pred) = 0`` by Newton with the Jacobian
 ``[Φ − I, ∂P^N/∂p]``: ``Φ`` from the core's state-transition matrix, the parameter column from
-the core too where it carries it (DOP853 and the Newmark family, for a load's amplitude,
-frequency or phase and a gap's clearance; the event-driven method for a gap's clearance), else
+the core too where it carries it (DOP853, the Newmark family and the event-driven method, for
+a load's amplitude, frequency or phase and a gap's clearance), else
 by a central difference of the simulated map
 (:func:`parameter_column`; :attr:`Branch.parameter_column` says which). The
 unknowns are scaled (the state by its largest component at the start, the parameter by the
@@ -40,7 +40,8 @@ from numpy.typing import NDArray
 from vibroimpact.errors import ModelError, SolverError
 from vibroimpact.integrators import Integrator
 from vibroimpact.model import Model
-from vibroimpact.orbits import Shooting, contact_onsets, multipliers_of, solve_orbit
+from vibroimpact.orbit_basis import BlockJacobian
+from vibroimpact.orbits import DenseJacobian, Shooting, contact_onsets, solve_orbit
 from vibroimpact.sweeps.grid import canonical_path, units_of
 
 __all__ = ["BRANCH_KIND", "SPECIAL_POINT_TYPES", "Branch", "BranchPoint", "SpecialPoint",
@@ -108,11 +109,18 @@ class BranchPoint:
     arclength: float
     #: Per gap: the largest approach speed of its impacts over the orbit, m/s (0 without).
     impact_speed_max: NDArray[np.float64]
+    #: In a reduced basis: the complement's multipliers (``monodromy`` and ``multipliers``
+    #: are then ``Φ_r``'s, as :class:`vibroimpact.PeriodicOrbit`'s); None for the full ``Φ``.
+    complement_multipliers: NDArray[np.complex128] | None = None
 
     @property
     def stable(self) -> bool:
-        """Every multiplier inside the unit circle."""
-        return bool(np.max(np.abs(self.multipliers)) < 1.0)
+        """Every multiplier inside the unit circle (the complement's too)."""
+        largest = float(np.max(np.abs(self.multipliers)))
+        extra = self.complement_multipliers
+        if extra is not None and extra.size:
+            largest = max(largest, float(np.max(np.abs(extra))))
+        return largest < 1.0
 
     def summary(self) -> dict[str, Any]:
         """The point as ``vibroimpact continue --json`` prints it."""
@@ -154,13 +162,16 @@ class Branch:
     #: How ``∂P^N/∂p`` was taken: ``"exact"`` (the core's column, beside ``Φ``) or
     #: ``"central difference: <why the core has no column>"``.
     parameter_column: str = "exact"
+    #: The reduced basis of the monodromy in words ("" for the full ``Φ``).
+    basis: str = ""
 
     def summary(self) -> dict[str, Any]:
         """The JSON of ``vibroimpact continue --json``: ``parameter`` (the path), ``points``
-        and ``special_points``."""
+        and ``special_points`` (in a reduced basis also ``basis``)."""
         return {"parameter": self.parameter,
                 "points": [p.summary() for p in self.points],
-                "special_points": [s.summary() for s in self.special_points]}
+                "special_points": [s.summary() for s in self.special_points],
+                **({"basis": self.basis} if self.basis else {})}
 
     def to_dataset(self) -> xr.Dataset:
         """The branch along its arclength (dimension ``point``, coordinate ``arclength``): the
@@ -170,7 +181,8 @@ class Branch:
         ``multiplier_real``/``_imag`` (point, multiplier), ``impact_speed_max`` (point, gap),
         the coordinate ``dof_unit`` (dof) and the attribute ``kind = "vibroimpact-branch"``; the
         special points along dimension ``special`` (and the attributes ``stopped``: why the
-        branch ended early, if it did, and ``parameter_column``: how ``∂P/∂p`` was taken):
+        branch ended early, if it did, ``parameter_column``: how ``∂P/∂p`` was taken, and in
+        a reduced basis ``basis``, the basis in words):
         ``special_type``, ``special_value``, ``special_arclength``,
         ``special_multiplier_real``/``_imag``."""
         pts, sps = self.points, self.special_points
@@ -201,7 +213,8 @@ class Branch:
             coords={"arclength": ("point", [p.arclength for p in pts]),
                     **({"dof_unit": ("dof", list(self.dof_units))} if self.dof_units else {})},
             attrs={"parameter": self.parameter, "kind": BRANCH_KIND, "stopped": self.stopped,
-                   "parameter_column": self.parameter_column},
+                   "parameter_column": self.parameter_column,
+                   **({"basis": self.basis} if self.basis else {})},
         )
         return ds
 
@@ -231,8 +244,13 @@ class _Solution:
     point: BranchPoint
     u: NDArray[np.float64]
     column: NDArray[np.float64]
+    jacobian: Jacobian
     tangent: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0))
     tests: dict[str, NDArray[np.float64]] = field(default_factory=dict)
+
+
+#: ``∂P^N/∂z`` at a point: the full ``Φ`` or, in a reduced basis, its blocks.
+Jacobian = DenseJacobian | BlockJacobian
 
 
 #: A wall's measure at a state's displacements and velocities: its distance towards the wall
@@ -287,21 +305,22 @@ class _Continuation:
 
     def correct(self, u0: NDArray[np.float64], row: NDArray[np.float64], target: float,
                 column: NDArray[np.float64], tol: float | None = None
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict[str, Any],
+                ) -> tuple[NDArray[np.float64], Jacobian, dict[str, Any],
                            NDArray[np.float64], int]:
         """Newton on ``P^N(z; p) − z = 0`` and ``row · u = target`` (scaled ``u``) from
         ``u0``, with the core's parameter column at each iterate, or without one the central
         difference ``column`` kept while the residual falls fast (a chord in that column),
-        taken again at the iterate where it does not. Returns ``u``, ``Φ``, the core's output
-        there, the last column (the core's: at ``u``) and the iterations."""
+        taken again at the iterate where it does not. Returns ``u``, the Jacobian
+        (:meth:`Shooting.linearised`: in a reduced basis a quasi-Newton iteration), the
+        core's output there, the last column (the core's: at ``u``) and the iterations."""
         tol = self.tol if tol is None else tol
-        w, n = self.weights, self.shooting.n_state
+        w = self.weights
         u = u0.copy()
         previous = math.inf
         for iteration in range(MAX_CORRECTOR_ITERATIONS + 1):
             y = u / w
             try:
-                end, phi, raw = self.at(float(y[-1])).flow(y[:-1])
+                end, phi, raw = self.at(float(y[-1])).linearised(y[:-1])
                 if raw["parameter_column"] is not None:
                     column = np.asarray(raw["parameter_column"], dtype=float)
                 residual = end - y[:-1]
@@ -315,9 +334,8 @@ class _Continuation:
             except (ModelError, SolverError) as e:
                 raise _StepFailed(str(e)) from None
             previous = norm
-            jacobian = np.vstack([np.column_stack([phi - np.eye(n), column]) / w, row])
             try:
-                du = np.linalg.solve(jacobian, -np.append(residual, row @ u - target))
+                du = phi.solve_bordered(column, w, row, -np.append(residual, row @ u - target))
             except np.linalg.LinAlgError:
                 break
             if not np.all(np.isfinite(du)):
@@ -325,31 +343,30 @@ class _Continuation:
             u = u + du
         raise _StepFailed(f"Newton did not converge in {MAX_CORRECTOR_ITERATIONS} iterations")
 
-    def tangent(self, phi: NDArray[np.float64], column: NDArray[np.float64],
+    def tangent(self, phi: Jacobian, column: NDArray[np.float64],
                 previous: NDArray[np.float64]) -> NDArray[np.float64]:
         """The unit tangent (scaled) oriented as ``previous``: the bordered system's
         solution for ``[0, …, 0, 1]``."""
-        n = self.shooting.n_state
-        bordered = np.vstack([np.column_stack([phi - np.eye(n), column]) / self.weights,
-                              previous])
-        t = np.linalg.solve(bordered, np.append(np.zeros(n), 1.0))
+        rhs = np.append(np.zeros(self.shooting.n_state), 1.0)
+        t = phi.solve_bordered(column, self.weights, previous, rhs)
         return t / np.linalg.norm(t)
 
     # --- a point and its test functions ---------------------------------------------------
 
-    def point(self, u: NDArray[np.float64], phi: NDArray[np.float64], raw: dict[str, Any],
+    def point(self, u: NDArray[np.float64], phi: Jacobian, raw: dict[str, Any],
               arclength: float, refine: bool = False) -> BranchPoint:
         y = u / self.weights
         shooting = self.at(float(y[-1]))
         return BranchPoint(
-            value=float(y[-1]), periods=shooting.periods, state=y[:-1].copy(), monodromy=phi,
-            multipliers=multipliers_of(phi),
+            value=float(y[-1]), periods=shooting.periods, state=y[:-1].copy(),
+            monodromy=phi.monodromy, multipliers=phi.multipliers,
             displacement_max=np.asarray(raw["displacement_max"], dtype=float),
             displacement_min=np.asarray(raw["displacement_min"], dtype=float),
             impacts_per_period=contact_onsets(raw["impacts"]["t_start"]),
             wall_margins=self.wall_margins(shooting, y[:-1], raw, refine),
             arclength=arclength,
-            impact_speed_max=self.impact_speeds(raw))
+            impact_speed_max=self.impact_speeds(raw),
+            complement_multipliers=phi.complement_multipliers)
 
     def impact_speeds(self, raw: dict[str, Any]) -> NDArray[np.float64]:
         """Per gap: the largest approach speed of its impacts in the core's output ``raw``."""
@@ -423,18 +440,17 @@ class _Continuation:
         return coordinate(root)[0]
 
     def tests(self, sol: _Solution) -> dict[str, NDArray[np.float64]]:
-        """The test functions at a solution whose tangent is set."""
-        point, n = sol.point, self.shooting.n_state
-        mu = point.multipliers
-        pairs = [mu[i] * mu[j] - 1 for i in range(mu.size) for j in range(i + 1, mu.size)]
-        bordered = np.vstack([np.column_stack([point.monodromy - np.eye(n), sol.column])
-                              / self.weights, sol.tangent])
+        """The test functions at a solution whose tangent is set (in a reduced basis the
+        complement's blocks are factors of each determinant: see
+        :class:`~vibroimpact.orbit_basis.BlockJacobian`)."""
+        phi = sol.jacobian
         return {
-            "fold": np.array([np.linalg.det(point.monodromy - np.eye(n))]),
-            "period-doubling": np.array([np.linalg.det(point.monodromy + np.eye(n))]),
-            "neimark-sacker": np.array([float(np.prod(pairs).real) if pairs else 1.0]),
-            "branch-point": np.array([np.linalg.det(bordered)]),
-            "grazing": point.wall_margins,
+            "fold": np.array([phi.determinant(-1.0)]),
+            "period-doubling": np.array([phi.determinant(1.0)]),
+            "neimark-sacker": np.array([phi.pair_test()]),
+            "branch-point": np.array([phi.bordered_determinant(sol.column, self.weights,
+                                                               sol.tangent)]),
+            "grazing": sol.point.wall_margins,
         }
 
     # --- a step and a special point --------------------------------------------------------
@@ -466,7 +482,7 @@ class _Continuation:
                 column = self.column(u / self.weights, raw)
         except (ModelError, SolverError) as e:
             raise _StepFailed(str(e)) from None
-        new = _Solution(point=point, u=u, column=column)
+        new = _Solution(point=point, u=u, column=column, jacobian=phi)
         new.tangent = self.tangent(phi, column, sol.tangent)
         new.tests = self.tests(new)
         return new, iterations
@@ -550,7 +566,7 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
                    period: int = 1, transient: int = 50, method: Integrator | None = None,
                    dt: float | None = None, max_points: int = 200, step: float = 0.02,
                    max_step: float = 0.1, min_step: float = 1e-7, tol: float = 1e-10,
-                   switch: bool = False) -> Branch:
+                   switch: bool = False, modes: int | None = None) -> Branch:
     """The branch of periodic orbits of ``period`` forcing periods through the one found at
     ``parameter = start`` (as :func:`vibroimpact.periodic_orbit` finds it after ``transient``
     forcing periods), continued by pseudo-arclength until the parameter reaches ``end``
@@ -559,7 +575,11 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
     ``max_step``, ``min_step``: arclength steps in scaled units (the parameter by
     ``|end − start|``, the state by its largest component at the start); ``tol``: Newton's
     relative residual. ``switch``: at the first period-doubling, go on along its period-2
-    branch. ``method``, ``dt``: as :class:`vibroimpact.orbits.Shooting`.
+    branch. ``method``, ``dt``, ``modes``: as :class:`vibroimpact.orbits.Shooting` (above
+    its dense limit, or with ``modes``, the monodromy in a reduced basis: each point is the
+    full model's orbit, corrected by a quasi-Newton iteration with the block Jacobian
+    :class:`~vibroimpact.orbit_basis.BlockJacobian` and the full map's central-difference
+    parameter column; docs/periodic-orbits.md, "Large structures").
 
     Raises :class:`ModelError` for a bad parameter path or value and :class:`SolverError` if
     the first orbit is not found or a step fails at ``min_step``.
@@ -577,9 +597,9 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
                          "values")
     _check_count(max_points, "--max-points", 2)
     _check_count(transient, "--transient", 0)
-    base = Shooting(model, period, method, dt)
+    base = Shooting(model, period, method, dt, modes)
     first = base.at(path, start)
-    base.at(path, end).flow(np.zeros(base.n_state))  # a bad END is refused before any work
+    base.at(path, end).linearised(np.zeros(base.n_state))  # a bad END is refused first
     z = np.concatenate([np.asarray(model.initial_displacement, dtype=float),
                         np.asarray(model.initial_velocity, dtype=float)])
     try:
@@ -592,10 +612,10 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
     u = np.append(z, start) * run.weights
     row = np.zeros(u.size)
     row[-1] = 1.0
-    _, phi, raw = first.flow(z)
+    _, phi, raw = first.linearised(z)
     note = raw["parameter_column_note"]
     sol = _Solution(point=run.point(u, phi, raw, 0.0), u=u,
-                    column=run.column(u / run.weights, raw))
+                    column=run.column(u / run.weights, raw), jacobian=phi)
     sol.tangent = run.tangent(phi, sol.column, np.sign(end - start) * row)
     sol.tests = run.tests(sol)
     points, specials = [sol.point], []
@@ -647,7 +667,10 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
                 and specials[-1].type == "period-doubling"):
             switched = True
             points.append(specials[-1].point)
-            run, new = _switch(run, specials[-1], ds)
+            # at the initial step, not a grown one: the period-2 branch leaves at a right
+            # angle, and a long first step can land on another orbit (the rigid stop's
+            # period-doubling at step 0.1: an unstable period-2 orbit 0.009 further in w)
+            run, new = _switch(run, specials[-1], min(ds, float(step)))
         points.append(new.point)
         through = None if last else _through_grazing(run, points, new, low, high)
         if through is not None:  # a rigid stop's grazing ahead: past it, clear of the stop
@@ -664,7 +687,8 @@ def continue_orbit(model: Model, parameter: str, start: float, end: float, *,
     specials.sort(key=lambda s: s.point.arclength)
     return Branch(parameter=path, points=tuple(points), special_points=tuple(specials),
                   dof_units=tuple(model.structure.dof_units), stopped=stop,
-                  parameter_column=f"central difference: {note}" if note else "exact")
+                  parameter_column=f"central difference: {note}" if note else "exact",
+                  basis=base.basis.describe() if base.basis is not None else "")
 
 
 #: A rigid wall's grazing test function (its distance, or minus the impact speed) this small
@@ -755,7 +779,7 @@ def _through_grazing(run: _Continuation, points: list[BranchPoint], sol: _Soluti
     def clear(value: float) -> tuple[float, NDArray[np.float64], BranchPoint]:
         away = run.at(value).at(f"gaps.{g}.clearance", FAR)
         z = solve_orbit(away, sol.point.state, run.tol).state
-        _, phi, raw = away.flow(z)
+        _, phi, raw = away.linearised(z)
         u = np.append(z, value) * run.weights
         point = run.point(u, phi, raw, sol.point.arclength, refine=True)
         return float(point.wall_margins[wall]), u, point
@@ -819,7 +843,7 @@ def _through_grazing(run: _Continuation, points: list[BranchPoint], sol: _Soluti
             return None
     else:
         return None
-    new = _Solution(point=point, u=u, column=column)
+    new = _Solution(point=point, u=u, column=column, jacobian=phi)
     new.tangent = run.tangent(phi, column, (u - u_grazing) / moved)
     new.tests = run.tests(new)
     return SpecialPoint("grazing", grazing), new
@@ -865,6 +889,9 @@ def _switch(run: _Continuation, pd: SpecialPoint, ds: float) -> tuple[_Continuat
     point = pd.point
     values, vectors = np.linalg.eig(point.monodromy)
     v = np.real(vectors[:, int(np.argmin(np.abs(values + 1)))])
+    basis = run.shooting.basis
+    if basis is not None:  # an eigenvector of Φ_r: the retained coordinates
+        v = basis.state(v, np.zeros((basis.complement.shape[1], 2)))
     doubled = _Continuation(run.shooting.with_periods(2 * run.shooting.periods), run.path,
                             run.start, run.end, 1.0 / run.weights[0], run.tol)
     u = np.append(point.state, point.value) * doubled.weights
@@ -872,9 +899,9 @@ def _switch(run: _Continuation, pd: SpecialPoint, ds: float) -> tuple[_Continuat
     direction /= np.linalg.norm(direction)
     y = u / doubled.weights
     at = doubled.at(float(y[-1]))
-    _, phi, raw = at.flow(y[:-1])
+    _, phi, raw = at.linearised(y[:-1])
     sol = _Solution(point=doubled.point(u, phi, raw, point.arclength), u=u,
-                    column=doubled.column(y, raw), tangent=direction)
+                    column=doubled.column(y, raw), jacobian=phi, tangent=direction)
     for _ in range(SWITCH_ATTEMPTS):
         try:
             # the period-2 branch leaves at a right angle: its first correction is large

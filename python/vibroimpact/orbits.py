@@ -10,7 +10,9 @@ flights with the saltation matrices of its impacts; the exact derivative of each
 step of the Newmark family at fixed steps, whose multipliers are the discrete map's).
 :func:`periodic_orbit` solves ``P^N(z) = z`` by Newton from a state reached after a
 transient. :meth:`Shooting.at` is the same problem at another value of a model parameter
-(what :mod:`vibroimpact.continuation` follows).
+(what :mod:`vibroimpact.continuation` follows). A model above the Newmark family's dense limit
+(or with ``modes`` given) is shot on with its monodromy in a reduced basis
+(:mod:`vibroimpact.orbit_basis`): the full map's residual, a quasi-Newton Jacobian.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from __future__ import annotations
 import copy
 import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Any
@@ -28,14 +31,23 @@ from numpy.typing import ArrayLike, NDArray
 
 from vibroimpact import _core
 from vibroimpact.errors import ModelError, SolverError
-from vibroimpact.integrators import Adaptive, Dop853, EventDriven, Integrator
+from vibroimpact.integrators import (
+    HHT,
+    Adaptive,
+    Dop853,
+    EventDriven,
+    GeneralizedAlpha,
+    Integrator,
+    Newmark,
+)
 from vibroimpact.model import ConstantLoad, HarmonicLoad, Model, TableLoad
+from vibroimpact.orbit_basis import BlockJacobian, OrbitBasis, _sorted
 from vibroimpact.result import ImpactTable, Result
 from vibroimpact.simulate import _run_core, check_run
 from vibroimpact.sweeps.grid import canonical_path
 
-__all__ = ["PeriodicOrbit", "Shooting", "contact_onsets", "forcing_period", "periodic_orbit",
-           "solve_orbit"]
+__all__ = ["DenseJacobian", "PeriodicOrbit", "Shooting", "contact_onsets", "forcing_period",
+           "periodic_orbit", "solve_orbit"]
 
 #: DOP853's first step per forcing period by default.
 STEPS_PER_PERIOD = 1000
@@ -45,6 +57,9 @@ STEPS_PER_PERIOD = 1000
 EVENT_DRIVEN_STEPS_PER_PERIOD = 200
 #: Largest denominator of a ratio of two load frequencies taken as commensurate.
 MAX_FREQUENCY_DENOMINATOR = 64
+#: The core's largest model for the Newmark family's dense state-transition matrix
+#: (``MAX_TRANSITION_DOFS``); above it the monodromy is formed in a reduced basis.
+MAX_TRANSITION_DOFS = 200
 
 
 def forcing_period(model: Model) -> float:
@@ -131,10 +146,17 @@ class Shooting:
     state-transition matrix, integrated by ``method`` (default :func:`default_method`; one that
     carries the matrix: DOP853 with adaptive steps, the event-driven method, or Newmark-β,
     HHT-α and generalized-α with fixed steps) with steps of ``dt`` (s; default the forcing
-    period / :func:`default_steps_per_period`; DOP853: its first step)."""
+    period / :func:`default_steps_per_period`; DOP853: its first step).
+
+    ``modes``: the monodromy is formed in a reduced basis (:class:`OrbitBasis`: the gap
+    coordinates plus ``modes`` fixed-interface modes; the Newmark family only, default
+    :class:`~vibroimpact.HHT`, whose numerical damping takes the highest modes' multipliers
+    away from the unit circle); always so above :data:`MAX_TRANSITION_DOFS` DOFs, with
+    ``modes`` by default :func:`~vibroimpact.orbit_basis.default_modes`. :attr:`basis` is then
+    set and :attr:`reduced` is the shooting of the reduced model that carries ``Φ_r``."""
 
     def __init__(self, model: Model, period: int = 1, method: Integrator | None = None,
-                 dt: float | None = None) -> None:
+                 dt: float | None = None, modes: int | None = None) -> None:
         if not (isinstance(period, int) and not isinstance(period, bool) and period >= 1):
             raise ModelError(f"period: {period!r} is not valid; expected an integer >= 1 "
                              "(forcing periods per orbit)")
@@ -149,7 +171,10 @@ class Shooting:
         self.periods = period
         self.forcing_period = forcing_period(model)
         self.duration = period * self.forcing_period
-        self.method = default_method(model) if method is None else method
+        large = modes is not None or model.n_dof > MAX_TRANSITION_DOFS
+        if method is None:
+            method = HHT() if large else default_method(model)
+        self.method = method
         self.dt = (self.forcing_period / default_steps_per_period(self.method) if dt is None
                    else float(dt))
         check_run(model, self.duration, self.dt, self.method)
@@ -163,6 +188,33 @@ class Shooting:
             every=1,
             record_dofs=list(range(model.n_dof)),
         )
+        #: The reduced basis of the monodromy (None: the full ``Φ`` from the core).
+        self.basis: OrbitBasis | None = None
+        self._reduced: Shooting | None = None
+        if large:
+            self._reduce(modes)
+
+    def _reduce(self, modes: int | None) -> None:
+        """Sets :attr:`basis` and :attr:`reduced` (``modes``: as the constructor)."""
+        method = self.method
+        if not isinstance(method, (Newmark, HHT, GeneralizedAlpha)) or method.adaptive:
+            raise ModelError(f"solver.method: '{method.name}' has no monodromy in a reduced "
+                             f"basis ({self.n_dof} DOFs, modes = {modes!r}); expected the "
+                             "Newmark family with fixed steps")
+        self.basis = OrbitBasis.of(self.model, modes, 1.0 / self.forcing_period)
+        if self.basis.n_retained > MAX_TRANSITION_DOFS:
+            raise ModelError(f"modes: {self.basis.cb.n_modes} is not valid; expected at most "
+                             f"{MAX_TRANSITION_DOFS - len(self.basis.boundary)} (the gap "
+                             f"coordinates plus the modes within {MAX_TRANSITION_DOFS})")
+
+    @property
+    def reduced(self) -> Shooting | None:
+        """The reduced model's shooting, which carries ``Φ_r`` (with :attr:`basis`; made when
+        first asked for, at this problem's parameter value, period and step)."""
+        if self.basis is not None and self._reduced is None:
+            self._reduced = Shooting(self.basis.cb.reduce_model(self.model), self.periods,
+                                     self.method, self.dt)
+        return self._reduced
 
     def at(self, path: str, value: float) -> Shooting:
         """This problem for the model with the number at ``path`` (the paths of ``sweep
@@ -171,7 +223,14 @@ class Shooting:
         stay the same fraction of it; so does a rotor's spin speed (``structure.spin_speed``:
         the unbalance's period ``2π/Ω``, its ``Ω²`` force and the gyroscopic ``Ω G``). The
         core checks the value at the first :meth:`flow`
-        (:class:`ModelError` naming the field)."""
+        (:class:`ModelError` naming the field). In a reduced basis, the basis (the
+        structure's) stays and the reduced model is made again from the moved model (a load's
+        reduced loads, a gap's reduced gap), so a structure's number is refused."""
+        if self.basis is not None and canonical_path(path).startswith("structure."):
+            raise ModelError(f"--param {canonical_path(path)}: a structure's number is not "
+                             "valid in a reduced basis (the basis is the structure's, formed "
+                             "once); expected a load's or a gap's number, or a model within "
+                             f"{MAX_TRANSITION_DOFS} DOFs without modes")
         core = self._spec["model"].with_value(canonical_path(path), float(value))
         period = _common_period(tuple(f for f in core.load_frequencies() if f > 0))
         shooting = copy.copy(self)
@@ -181,6 +240,7 @@ class Shooting:
         shooting.duration = self.periods * period
         shooting.dt = self.dt * period / self.forcing_period
         shooting._spec = dict(self._spec, model=core, t_end=shooting.duration, dt=shooting.dt)
+        shooting._reduced = None
         return shooting
 
     @property
@@ -200,6 +260,7 @@ class Shooting:
         shooting.periods = period
         shooting.duration = period * self.forcing_period
         shooting._spec = dict(self._spec, t_end=shooting.duration)
+        shooting._reduced = None
         return shooting
 
     def settle(self, z: NDArray[np.float64], periods: int) -> NDArray[np.float64]:
@@ -254,6 +315,43 @@ class Shooting:
         end = np.concatenate([raw["displacement"][-1], raw["velocity"][-1]])
         return end, raw["state_transition"], raw
 
+    def linearised(self, z: NDArray[np.float64]) -> tuple[NDArray[np.float64],
+                                                          DenseJacobian | BlockJacobian,
+                                                          dict[str, Any]]:
+        """``P^N(z)``, its Jacobian and the core's output of the run: the full ``Φ``
+        (:meth:`flow`), or in a reduced basis the full map's plain run (:meth:`plain_flow`)
+        with the :class:`BlockJacobian` of ``Φ_r`` (the reduced model's flow from ``z``'s
+        retained coordinates) and the complement's maps; its ``parameter_column`` is then
+        None (``parameter_column_note`` says why)."""
+        if self.basis is None:
+            end, phi, raw = self.flow(z)
+            return end, DenseJacobian(phi), raw
+        reduced = self.reduced
+        assert reduced is not None
+        end, raw = self.plain_flow(z)
+        raw["parameter_column"] = None
+        raw["parameter_column_note"] = (
+            "the full map's, in a reduced basis (the reduced model's column lacks the "
+            "complement's part and the truncation of the full residual)")
+        phi_r = reduced.flow(self.basis.coordinates(z)[0])[1]
+        maps = self.basis.complement_maps(self.method, self.dt, self.duration)
+        return end, BlockJacobian(self.basis, phi_r, maps), raw
+
+    def plain_flow(self, z: NDArray[np.float64]) -> tuple[NDArray[np.float64],
+                                                          dict[str, Any]]:
+        """``P^N(z)`` and the core's output of the run without the state-transition matrix
+        (every step recorded; ``displacement_max``/``_min`` over the steps' ends, which is what
+        the Newmark family's runs with the matrix report too)."""
+        n = self.n_dof
+        raw, _ = _run_core(dict(self._spec, x0=np.ascontiguousarray(z[:n]),
+                                v0=np.ascontiguousarray(z[n:])))
+        if raw["error"] is not None:
+            raise SolverError(f"periodic orbit: the run from the section state failed: "
+                              f"{raw['error']}")
+        raw["displacement_max"] = np.max(raw["displacement"], axis=0)
+        raw["displacement_min"] = np.min(raw["displacement"], axis=0)
+        return np.concatenate([raw["displacement"][-1], raw["velocity"][-1]]), raw
+
     def residual(self, z: NDArray[np.float64]) -> tuple[NDArray[np.float64],
                                                         NDArray[np.float64]]:
         """``P^N(z) − z`` and its Jacobian ``∂P^N/∂z − I``."""
@@ -282,6 +380,12 @@ class PeriodicOrbit:
     #: impact instants included) and DOP853's turning points inside its steps.
     displacement_max: NDArray[np.float64]
     displacement_min: NDArray[np.float64]
+    #: With a reduced basis (:attr:`Shooting.basis`): the basis in words, and the multipliers
+    #: of the complement's own maps (largest modulus first); ``monodromy`` and
+    #: ``multipliers`` are then the reduced model's ``Φ_r`` at the orbit's retained
+    #: coordinates. "" and None for the full ``Φ``.
+    basis: str = ""
+    complement_multipliers: NDArray[np.complex128] | None = None
 
     @property
     def state(self) -> NDArray[np.float64]:
@@ -295,8 +399,12 @@ class PeriodicOrbit:
 
     @property
     def stable(self) -> bool:
-        """Every multiplier inside the unit circle."""
-        return bool(np.max(np.abs(self.multipliers)) < 1.0)
+        """Every multiplier inside the unit circle (the complement's too)."""
+        extra = self.complement_multipliers
+        largest = float(np.max(np.abs(self.multipliers)))
+        if extra is not None and extra.size:
+            largest = max(largest, float(np.max(np.abs(extra))))
+        return largest < 1.0
 
     @property
     def impacts(self) -> ImpactTable:
@@ -344,7 +452,8 @@ class PeriodicOrbit:
         """The orbit's time histories as :func:`vibroimpact.io.results_file.to_dataset` has
         them, with the multipliers (``multiplier_real``, ``multiplier_imag``), the monodromy
         matrix and the attributes ``orbit_period`` (s), ``orbit_forcing_periods``,
-        ``orbit_residual`` and ``orbit_stable`` (0/1)."""
+        ``orbit_residual`` and ``orbit_stable`` (0/1); in a reduced basis also the attribute
+        ``orbit_basis`` and ``complement_multiplier_real``/``_imag``."""
         from vibroimpact.io import results_file
 
         ds = results_file.to_dataset(self.result)
@@ -353,10 +462,22 @@ class PeriodicOrbit:
         ds["monodromy"] = (("state", "state_from"), self.monodromy)
         ds.attrs.update(orbit_period=self.period, orbit_forcing_periods=self.shooting.periods,
                         orbit_residual=self.residual, orbit_stable=int(self.stable))
+        if self.basis:
+            extra = self.complement_multipliers
+            assert extra is not None
+            ds["complement_multiplier_real"] = ("complement_multiplier", extra.real)
+            ds["complement_multiplier_imag"] = ("complement_multiplier", extra.imag)
+            ds.attrs["orbit_basis"] = self.basis
         return ds
 
     def summary(self) -> dict[str, Any]:
-        """The JSON summary of ``vibroimpact orbit --json``."""
+        """The JSON summary of ``vibroimpact orbit --json`` (with a reduced basis also
+        ``basis`` and ``complement_multiplier_max``, the complement's largest modulus)."""
+        reduced: dict[str, Any] = {}
+        if self.basis:
+            extra = self.complement_multipliers
+            reduced = {"basis": self.basis, "complement_multiplier_max": (
+                float(np.max(np.abs(extra))) if extra is not None and extra.size else 0.0)}
         return {
             "multipliers": [[float(m.real), float(m.imag)] for m in self.multipliers],
             "stable": self.stable,
@@ -369,46 +490,92 @@ class PeriodicOrbit:
             "impacts_per_period": self.impacts_per_period,
             "force_max": self.force_max,
             "penetration_max": self.penetration_max,
+            **reduced,
         }
+
+
+@dataclass
+class DenseJacobian:
+    """The full ``Φ = ∂P^N/∂z`` with the operations of a reduced basis's
+    :class:`~vibroimpact.orbit_basis.BlockJacobian` (dense solves and determinants)."""
+
+    monodromy: NDArray[np.float64]
+    complement_multipliers = None
+
+    @property
+    def multipliers(self) -> NDArray[np.complex128]:
+        return multipliers_of(self.monodromy)
+
+    def _bordered(self, column: NDArray[np.float64], weights: NDArray[np.float64],
+                  row: NDArray[np.float64]) -> NDArray[np.float64]:
+        n = len(self.monodromy)
+        return np.vstack([np.column_stack([self.monodromy - np.eye(n), column]) / weights, row])
+
+    def solve_bordered(self, column: NDArray[np.float64], weights: NDArray[np.float64],
+                       row: NDArray[np.float64], rhs: NDArray[np.float64]
+                       ) -> NDArray[np.float64]:
+        """``du`` with ``[[Φ − I, c] / w, row] du = rhs``."""
+        return np.linalg.solve(self._bordered(column, weights, row), rhs)
+
+    def bordered_determinant(self, column: NDArray[np.float64], weights: NDArray[np.float64],
+                             row: NDArray[np.float64]) -> float:
+        """``det [[Φ − I, c] / w, row]``."""
+        return float(np.linalg.det(self._bordered(column, weights, row)))
+
+    def determinant(self, shift: float) -> float:
+        """``det(Φ + shift · I)``."""
+        return float(np.linalg.det(self.monodromy + shift * np.eye(len(self.monodromy))))
+
+    def pair_test(self) -> float:
+        """The Neimark–Sacker test ``Π_{i<j} (μ_i μ_j − 1)``."""
+        mu = self.multipliers
+        pairs = [mu[i] * mu[j] - 1 for i in range(mu.size) for j in range(i + 1, mu.size)]
+        return float(np.prod(pairs).real) if pairs else 1.0
 
 
 def multipliers_of(monodromy: NDArray[np.float64]) -> NDArray[np.complex128]:
     """The eigenvalues of ``monodromy`` (the Floquet multipliers), largest modulus first."""
-    values = np.linalg.eigvals(monodromy).astype(complex)
-    return values[np.argsort(-np.abs(values), kind="stable")]
+    return _sorted(np.linalg.eigvals(monodromy))
 
 
 #: Halvings of a Newton step that does not lower the residual (or leaves a rigid wall's side).
 MAX_HALVINGS = 12
 
 
-def _line_search(shooting: Shooting, z: NDArray[np.float64], step: NDArray[np.float64],
+Flow = Callable[[NDArray[np.float64]], tuple[NDArray[np.float64], Any, dict[str, Any]]]
+
+
+def _line_search(flow: Flow, z: NDArray[np.float64], step: NDArray[np.float64],
                  residual: float) -> tuple[NDArray[np.float64], NDArray[np.float64],
-                                           NDArray[np.float64], dict[str, Any], float]:
-    """The first of ``z + step``, ``z + step/2``, ... whose residual is below ``residual``
-    (the map is only piecewise smooth: a full step may cross a grazing or start inside a
-    rigid wall, which the core refuses); the last halving if none is."""
+                                           Any, dict[str, Any], float]:
+    """The first of ``z + step``, ``z + step/2``, ... whose residual under ``flow``
+    (:meth:`Shooting.flow`, or a map without its matrix) is below ``residual`` (the map is
+    only piecewise smooth: a full step may cross a grazing or start inside a rigid wall, which
+    the core refuses); the last halving if none is."""
     for halving in range(MAX_HALVINGS):
         trial = z + step * 0.5**halving
         try:
-            end, phi, raw = shooting.flow(trial)
+            end, phi, raw = flow(trial)
         except ModelError:
             continue
         trial_residual = float(np.linalg.norm(end - trial))
         if trial_residual < residual:
             return trial, end, phi, raw, trial_residual
     trial = z + step * 0.5**MAX_HALVINGS
-    end, phi, raw = shooting.flow(trial)
+    end, phi, raw = flow(trial)
     return trial, end, phi, raw, float(np.linalg.norm(end - trial))
 
 
 def periodic_orbit(model: Model, period: int = 1, transient: int = 50, *,
                    method: Integrator | None = None, dt: float | None = None,
-                   tol: float = 1e-9, max_iterations: int = 30) -> PeriodicOrbit:
+                   tol: float = 1e-9, max_iterations: int = 30,
+                   modes: int | None = None) -> PeriodicOrbit:
     """The periodic orbit of ``period`` forcing periods near the state that ``model`` reaches
     after ``transient`` forcing periods from its initial state (0: the initial state itself is
     the guess), by Newton on ``P^N(z) − z`` with the exact Jacobian of the map; converged when
-    ``|P^N(z) − z| <= tol · max(|z|, 1e-300)``. ``method``, ``dt``: as :class:`Shooting`.
+    ``|P^N(z) − z| <= tol · max(|z|, 1e-300)``. ``method``, ``dt``, ``modes``: as
+    :class:`Shooting` (a model above :data:`MAX_TRANSITION_DOFS` DOFs, or ``modes`` given: the
+    monodromy in a reduced basis, :func:`solve_orbit`).
 
     Raises :class:`ModelError` for a model without a periodic load (or a method that does not
     carry the state-transition matrix) and :class:`SolverError` if Newton does not converge in
@@ -419,7 +586,7 @@ def periodic_orbit(model: Model, period: int = 1, transient: int = 50, *,
     if not (isinstance(transient, int) and not isinstance(transient, bool) and transient >= 0):
         raise ModelError(f"transient: {transient!r} is not valid; expected an integer >= 0 "
                          "(forcing periods)")
-    shooting = Shooting(model, period, method, dt)
+    shooting = Shooting(model, period, method, dt, modes)
     z = np.concatenate([np.asarray(model.initial_displacement, dtype=float),
                         np.asarray(model.initial_velocity, dtype=float)])
     return solve_orbit(shooting, shooting.settle(z, transient), tol, max_iterations)
@@ -429,6 +596,8 @@ def solve_orbit(shooting: Shooting, z: NDArray[np.float64], tol: float = 1e-9,
                 max_iterations: int = 30) -> PeriodicOrbit:
     """The periodic orbit of ``shooting`` by Newton on ``P^N(z) − z`` from the guess ``z``
     (:func:`periodic_orbit` says when it converges and what it raises)."""
+    if shooting.basis is not None:
+        return _solve_reduced(shooting, z, tol, max_iterations)
     model = shooting.model
     n = model.n_dof
     end, phi, raw = shooting.flow(z)
@@ -436,9 +605,7 @@ def solve_orbit(shooting: Shooting, z: NDArray[np.float64], tol: float = 1e-9,
     iteration = 0
     while residual > tol * max(float(np.linalg.norm(z)), 1e-300):
         if iteration == max_iterations:
-            raise SolverError(f"periodic orbit: Newton did not converge in {max_iterations} "
-                              f"iterations; residual |P^N(z) - z| = {residual:.3e}, expected "
-                              f"<= {tol:g} |z|")
+            raise _not_converged(max_iterations, residual, tol)
         iteration += 1
         try:
             step = np.linalg.solve(phi - np.eye(2 * n), z - end)
@@ -446,7 +613,7 @@ def solve_orbit(shooting: Shooting, z: NDArray[np.float64], tol: float = 1e-9,
             raise SolverError(f"periodic orbit: the Jacobian P^N' - I is singular at iteration "
                               f"{iteration} (a multiplier at 1: a fold or a family of orbits); "
                               f"residual {residual:.3e}") from None
-        z, end, phi, raw, residual = _line_search(shooting, z, step, residual)
+        z, end, phi, raw, residual = _line_search(shooting.flow, z, step, residual)
     result = Result.from_core(raw, model=replace(model, initial_displacement=z[:n],
                                                  initial_velocity=z[n:]),
                               method=shooting.method, t_end=shooting.duration)
@@ -455,3 +622,61 @@ def solve_orbit(shooting: Shooting, z: NDArray[np.float64], tol: float = 1e-9,
                          residual=residual, iterations=iteration,
                          displacement_max=np.asarray(raw["displacement_max"]),
                          displacement_min=np.asarray(raw["displacement_min"]))
+
+
+def _not_converged(max_iterations: int, residual: float, tol: float) -> SolverError:
+    return SolverError(f"periodic orbit: Newton did not converge in {max_iterations} "
+                       f"iterations; residual |P^N(z) - z| = {residual:.3e}, expected "
+                       f"<= {tol:g} |z|")
+
+
+def _solve_reduced(shooting: Shooting, z: NDArray[np.float64], tol: float,
+                   max_iterations: int) -> PeriodicOrbit:
+    """:func:`solve_orbit` with the monodromy in :attr:`Shooting.basis`: the residual is the
+    full map's (plain runs of the full model), the Newton step solves the block-diagonal
+    Jacobian of :mod:`vibroimpact.orbit_basis` — ``(Φ_r − I) δ_r = −r_r`` with the reduced
+    model's monodromy at the retained coordinates, ``(E_j − I) δ_j = −r_j`` per complement
+    mode — and lifts ``(δ_r, δ_h)`` back to the full state."""
+    basis, reduced = shooting.basis, shooting.reduced
+    assert basis is not None and reduced is not None
+    model = shooting.model
+    n = model.n_dof
+    maps = basis.complement_maps(shooting.method, shooting.dt, shooting.duration)
+
+    def plain(state: NDArray[np.float64]) -> tuple[NDArray[np.float64], None,
+                                                   dict[str, Any]]:
+        end, raw = shooting.plain_flow(state)
+        return end, None, raw
+
+    def monodromy(state: NDArray[np.float64]) -> NDArray[np.float64]:
+        return reduced.flow(basis.coordinates(state)[0])[1]
+
+    end, _, raw = plain(z)
+    residual = float(np.linalg.norm(end - z))
+    iteration = 0
+    phi_r = None
+    while residual > tol * max(float(np.linalg.norm(z)), 1e-300):
+        if iteration == max_iterations:
+            raise _not_converged(max_iterations, residual, tol)
+        iteration += 1
+        phi_r = monodromy(z)
+        try:
+            step = BlockJacobian(basis, phi_r, maps).solve(z - end)
+        except np.linalg.LinAlgError:
+            raise SolverError(f"periodic orbit: the reduced Jacobian Phi_r - I is singular at "
+                              f"iteration {iteration}; residual {residual:.3e}") from None
+        z, end, _, raw, residual = _line_search(plain, z, step, residual)
+        phi_r = None
+    if phi_r is None:
+        phi_r = monodromy(z)
+    result = Result.from_core(raw, model=replace(model, initial_displacement=z[:n],
+                                                 initial_velocity=z[n:]),
+                              method=shooting.method, t_end=shooting.duration)
+    return PeriodicOrbit(shooting=shooting, displacement=z[:n].copy(), velocity=z[n:].copy(),
+                         result=result, monodromy=phi_r, multipliers=multipliers_of(phi_r),
+                         residual=residual, iterations=iteration,
+                         displacement_max=np.asarray(raw["displacement_max"]),
+                         displacement_min=np.asarray(raw["displacement_min"]),
+                         basis=basis.describe(),
+                         complement_multipliers=_sorted(np.linalg.eigvals(maps).ravel()))
+

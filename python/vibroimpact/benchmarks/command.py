@@ -152,13 +152,14 @@ def _print_continuation() -> None:
           f"on the period-1 orbit at "
           f"{c['sweep_period_one_points']} of them (the stable part only)")
     r = reduced_orbit_benchmark()
-    print(f"  a large structure's orbit in a reduced basis (the hollow shaft on its sliders, "
-          f"{r['dofs']} DOFs, Craig-Bampton to its {r['reduced_dofs'] - r['modes']} slider "
-          f"DOFs + {r['modes']} modes, Newmark at T/1000): reduction {r['reduction_s']:.2f} s, "
-          f"orbit with multipliers {r['orbit_s']:.2f} s (CPU {r['reduction_cpu_s']:.2f} + "
-          f"{r['orbit_cpu_s']:.2f} s); {r['impacts_per_period']} impacts a period, largest "
-          f"|multiplier| {r['largest_multiplier']:.4f}")
-
+    print(f"  a large structure's orbit, monodromy in a reduced basis (the hollow shaft on its "
+          f"sliders, {r['dofs']} DOFs; {r['retained'] - r['modes']} slider coordinates + "
+          f"{r['modes']} modes, the rest by their own maps; HHT at T/1000): basis "
+          f"{r['basis_s']:.2f} s (CPU {r['basis_cpu_s']:.2f}), transient of 60 periods + orbit "
+          f"{r['orbit_s']:.2f} s (CPU {r['orbit_cpu_s']:.2f}), {r['iterations']} Newton "
+          f"iterations to {r['residual']:.1e} |z|; {r['impacts_per_period']} impacts a period, "
+          f"largest |multiplier| {r['largest_multiplier']:.4f} (complement "
+          f"{r['complement_max']:.1e})")
 
 def _print_rotor_rub(repeats: int, quick: bool) -> None:
     """Issue 22's speed targets: the Jeffcott rotor rubbing on a seal, 100 revolutions by

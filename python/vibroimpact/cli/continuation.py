@@ -1,5 +1,5 @@
 """``vibroimpact continue MODEL.toml --param PATH=START:END [--period N] [--max-points N]
-[--switch] [-o BRANCH.nc] [--json]``: pseudo-arclength continuation of a model file's
+[--switch] [--modes N] [-o BRANCH.nc] [--json]``: pseudo-arclength continuation of a model file's
 periodic orbit in one parameter, with stability and special points
 (docs/periodic-orbits.md, Continuation)."""
 
@@ -26,8 +26,10 @@ reaches END (or START again after a fold) or after --max-points points. Each poi
 Floquet multipliers; folds, period-doublings, Neimark-Sacker and branch points (test
 functions on the multipliers) and grazings (a wall touched or left) are located between
 points. --switch: at the first period-doubling, go on along the period-2 branch born there.
-The file's method must carry the state-transition matrix: dop853 (compliant laws) or
-event-driven (rigid stops)."""
+The file's method must carry the state-transition matrix: dop853 (compliant laws),
+event-driven (rigid stops) or the Newmark family at fixed steps. Above 200 DOFs (or with
+--modes) the monodromy is formed in a reduced basis (the Newmark family): the gap coordinates
+plus N fixed-interface modes, each other mode by its own closed-form map."""
 
 _EPILOG = """\
 examples:
@@ -74,6 +76,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
                         help="points at most (default 200)")
     parser.add_argument("--switch", action="store_true",
                         help="at the first period-doubling, follow its period-2 branch")
+    parser.add_argument("--modes", type=int, default=None, metavar="N",
+                        help="form the monodromy in a reduced basis: the gap coordinates plus "
+                        "N fixed-interface modes (the Newmark family; always so above 200 "
+                        "DOFs, by default every mode up to 10x the forcing frequency, at "
+                        "least 20)")
     parser.add_argument("-o", "--output", metavar="BRANCH.nc",
                         help="write the branch along its arclength (NetCDF-4: .nc or .h5)")
     parser.add_argument("--json", action="store_true",
@@ -93,6 +100,8 @@ def _print(branch: Branch, name: str) -> None:
               f"{abs(worst):.6f})")
     if branch.stopped:
         print(f"  {branch.stopped}")
+    if branch.basis:
+        print(f"  basis: {branch.basis}")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -104,7 +113,8 @@ def main(args: argparse.Namespace) -> int:
     mf = load_model(args.model)
     branch = continue_orbit(mf.model, path, start, end, period=args.period,
                             transient=args.transient, method=mf.method,
-                            max_points=args.max_points, switch=args.switch)
+                            max_points=args.max_points, switch=args.switch,
+                            modes=args.modes)
     if not write_result(branch.to_dataset(), branch.summary(), out, args.json):
         _print(branch, Path(args.model).name)
     return 0

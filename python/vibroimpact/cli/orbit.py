@@ -1,6 +1,6 @@
-"""``vibroimpact orbit MODEL.toml [--period N] [--transient N] [-o ORBIT.nc] [--json]``: the
-periodic orbit of a model file with a harmonic load, by shooting, and its Floquet
-multipliers (docs/periodic-orbits.md)."""
+"""``vibroimpact orbit MODEL.toml [--period N] [--transient N] [--modes N] [-o ORBIT.nc]
+[--json]``: the periodic orbit of a model file with a harmonic load, by shooting, and its
+Floquet multipliers (docs/periodic-orbits.md)."""
 
 from __future__ import annotations
 
@@ -49,6 +49,11 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     parser.add_argument("--transient", type=int, default=50, metavar="N",
                         help="forcing periods simulated before Newton starts (default 50; 0: "
                         "the file's initial state is the guess)")
+    parser.add_argument("--modes", type=int, default=None, metavar="N",
+                        help="form the monodromy in a reduced basis: the gap coordinates plus "
+                        "N fixed-interface modes (the Newmark family; always so above 200 "
+                        "DOFs, by default every mode up to 10x the forcing frequency, at "
+                        "least 20)")
     parser.add_argument("-o", "--output", metavar="ORBIT.nc",
                         help="write the orbit's time histories over its period, its "
                         "multipliers and monodromy matrix (NetCDF-4: .nc or .h5)")
@@ -100,6 +105,9 @@ def _print(orbit: PeriodicOrbit, name: str) -> None:
     print(f"  impacts per period   {s['impacts_per_period']}")
     for m in orbit.multipliers:
         print(f"  multiplier           {m.real:+.9f} {m.imag:+.9f}i  |{abs(m):.9f}|")
+    if orbit.basis:
+        print(f"  basis                {orbit.basis}")
+        print(f"  complement |mult.|  <= {s['complement_multiplier_max']:.3e}")
     print(f"  stable               {'yes' if orbit.stable else 'no'}")
 
 
@@ -108,7 +116,7 @@ def main(args: argparse.Namespace) -> int:
     out = netcdf_output(args.output)
     mf = load_model(args.model)
     orbit = periodic_orbit(mf.model, period=args.period, transient=args.transient,
-                           method=mf.method)
+                           method=mf.method, modes=args.modes)
     if not write_result(orbit.to_dataset(), orbit.summary(), out, args.json):
         _print(orbit, Path(args.model).name)
     return 0

@@ -13,8 +13,9 @@
 //! it in [`crate::output::RunOutput::state_transition`].
 //!
 //! Asked for a model [`Parameter`] too (a load's amplitude, frequency or phase, a gap's
-//! clearance), DOP853 and the Newmark family carry its column `∂z/∂p` beside `Φ`: the same
-//! variational (or discrete) equations with the parameter's forcing term `∂f/∂p`, the same
+//! clearance), DOP853, the Newmark family and the event-driven method carry its column `∂z/∂p`
+//! beside `Φ`: the same variational (or discrete) equations with the parameter's forcing term
+//! `∂f/∂p` (the event-driven flights: the derivative of their exponential), the same
 //! saltation with the switch's `∂δ/∂p`. A load's frequency also scales the run's time (its
 //! length and steps are a fixed number of forcing periods and of steps), so its column is that
 //! of the map over the forcing period ([`Parameter::time_scale`]).
@@ -274,14 +275,24 @@ impl Parameter {
     }
 }
 
-/// Whether `method` carries `parameter`'s column: DOP853 every [`Parameter`], the Newmark
-/// family every one but the spin speed (its gyroscopic and friction terms are DOP853's
-/// only), the event-driven method a gap's clearance (its flights do not depend on it; its
-/// impacts' saltation takes `∂δ/∂p`).
-pub fn carries_parameter(method: Method, parameter: Parameter) -> bool {
-    match method {
-        Method::Dop853 => true,
-        Method::EventDriven(_) => matches!(parameter, Parameter::Clearance(_)),
+/// Whether `method` carries `parameter`'s column in `sys`: DOP853 every [`Parameter`]; the
+/// Newmark family every one but the spin speed (its gyroscopic and friction terms are
+/// DOP853's only); the event-driven method a gap's clearance (its flights do not depend on
+/// it; its impacts' saltation takes `∂δ/∂p`) and, where every load is constant or harmonic
+/// (the output of the flight's load oscillator), a load's amplitude, frequency and phase (the
+/// derivative of the flight's exponential, `impulsive::event_driven`).
+pub fn carries_parameter(sys: &System, method: Method, parameter: Parameter) -> bool {
+    match (method, parameter) {
+        (Method::Dop853, _) => true,
+        (Method::EventDriven(_), Parameter::Clearance(_)) => true,
+        (Method::EventDriven(_), Parameter::SpinSpeed) => false,
+        (Method::EventDriven(_), _) => sys.loads.iter().all(|l| {
+            matches!(
+                l.history,
+                crate::structure::LoadHistory::Constant
+                    | crate::structure::LoadHistory::Harmonic { .. }
+            )
+        }),
         _ => method.newmark_family().is_some() && parameter != Parameter::SpinSpeed,
     }
 }
@@ -290,10 +301,11 @@ pub fn carries_parameter(method: Method, parameter: Parameter) -> bool {
 /// the caller differentiates the map another way, e.g. by central differences).
 pub fn parameter_for(sys: &System, method: Method, path: &str) -> Result<Parameter, String> {
     let parameter = Parameter::of_path(sys, path)?;
-    if !carries_parameter(method, parameter) {
+    if !carries_parameter(sys, method, parameter) {
         return Err(format!(
-            "method '{}' does not carry the column of '{path}' (DOP853 and the Newmark family \
-             carry every one with a column, the event-driven method a gap's clearance)",
+            "method '{}' does not carry the column of '{path}' (DOP853 carries every one with \
+             a column, the Newmark family every one but the spin speed's, the event-driven \
+             method a gap's clearance and, with constant and harmonic loads only, a load's)",
             method.name()
         ));
     }

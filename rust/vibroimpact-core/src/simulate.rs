@@ -67,10 +67,11 @@ pub fn simulate_with_sensitivity(
     observer: Option<&mut dyn StepObserver>,
 ) -> Result<RunOutput, SimError> {
     crate::sensitivity::check_supported(sys, method, settings.adaptive.is_some())?;
-    if let Some(p) = parameter.filter(|&p| !crate::sensitivity::carries_parameter(method, p)) {
+    if let Some(p) = parameter.filter(|&p| !crate::sensitivity::carries_parameter(sys, method, p)) {
         return invalid(format!(
             "solver.method: '{}' does not carry the column of {p:?}; expected 'dop853' or the \
-             Newmark family (or 'event-driven' for a gap's clearance)",
+             Newmark family (or 'event-driven' for a gap's clearance, or a load's with constant and \
+             harmonic loads only)",
             method.name()
         ));
     }

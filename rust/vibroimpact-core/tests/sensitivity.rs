@@ -209,8 +209,13 @@ fn methods_without_a_state_transition_are_refused() {
 /// The oscillator with one of its numbers changed: `(parameter path, value)`; with the run's
 /// length one forcing period (and its first step the same fraction of it).
 fn varied(law: &Law, path: &str, value: f64) -> (System, RunSettings) {
+    varied_for(Method::Dop853, law, path, value)
+}
+
+/// [`varied`] with `method`'s settings.
+fn varied_for(method: Method, law: &Law, path: &str, value: f64) -> (System, RunSettings) {
     let mut sys = oscillator(law.clone());
-    let mut settings = settings(Method::Dop853);
+    let mut settings = settings(method);
     match path {
         "loads.0.amplitude" => sys.loads[0].amplitude = value,
         "loads.0.phase" | "loads.0.frequency" => {
@@ -369,10 +374,87 @@ fn event_driven_clearance_column_matches_finite_differences() {
         );
     }
     assert!(column.amax() > 0.1, "{column}");
-    let amplitude = Parameter::of_path(&sys, "loads.0.amplitude").unwrap();
-    let err = run(Some(amplitude)).unwrap_err().to_string();
+    let mut table = sys.clone();
+    table.loads[0].history = LoadHistory::Table {
+        time: vec![0.0, PERIOD],
+        value: vec![0.0, 1.0],
+    };
+    let amplitude = Parameter::of_path(&table, "loads.0.amplitude").unwrap();
+    let err = simulate_with_sensitivity(
+        &table,
+        method,
+        &settings(method),
+        x0.clone(),
+        v0.clone(),
+        Some(amplitude),
+        None,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(
         err.starts_with("solver.method: 'event-driven' does not carry the column"),
         "{err}"
     );
+}
+
+/// The event-driven method's column of a load's amplitude, frequency (the map over its
+/// forcing period: the run's length and steps scale with `1/f`) and phase, carried through
+/// the flights' exponential (Van Loan's block) and the impacts' saltation, equals the central
+/// differences of the simulated map over a period with two impacts of a rigid stop.
+#[test]
+fn event_driven_load_columns_match_finite_differences() {
+    let method = Method::EventDriven(EventDriven::default());
+    let law = Law::Rigid(Rigid::new(0.8).unwrap());
+    let z = [0.2, 1.0];
+    let f0 = 0.8 / (2.0 * std::f64::consts::PI);
+    for (path, p) in [
+        ("loads.0.amplitude", 1.0),
+        ("loads.0.frequency", f0),
+        ("loads.0.phase", std::f64::consts::FRAC_PI_2),
+    ] {
+        let (sys, settings) = varied_for(method, &law, path, p);
+        let parameter = Parameter::of_path(&sys, path).unwrap();
+        let out = simulate_with_sensitivity(
+            &sys,
+            method,
+            &settings,
+            DVector::from_element(1, z[0]),
+            DVector::from_element(1, z[1]),
+            Some(parameter),
+            None,
+        )
+        .unwrap();
+        assert_eq!(out.impacts.len(), 2, "{path}: {:?}", out.impacts);
+        let transition = out.state_transition.unwrap();
+        let column = transition.parameter_column().expect("asked for");
+        let h = 1e-6 * p;
+        let end = |value: f64| {
+            let (sys, settings) = varied_for(method, &law, path, value);
+            end_state(&sys, method, &settings, z)
+        };
+        let (up, down) = (end(p + h), end(p - h));
+        for i in 0..2 {
+            let fd = (up[i] - down[i]) / (2.0 * h);
+            assert!(
+                (fd - column[i]).abs() <= 1e-6 * column.amax().max(1.0),
+                "{path}: ∂P/∂p[{i}] = {}, FD {fd}",
+                column[i]
+            );
+        }
+        assert!(column.amax() > 0.1, "{path}: {column}");
+        let plain = simulate_with_sensitivity(
+            &sys,
+            method,
+            &settings,
+            DVector::from_element(1, z[0]),
+            DVector::from_element(1, z[1]),
+            None,
+            None,
+        )
+        .unwrap();
+        assert_eq!(
+            plain.state_transition.unwrap().matrix,
+            transition.monodromy()
+        );
+    }
 }

@@ -60,7 +60,7 @@ use crate::gap::ImpactRecord;
 use crate::integrators::expm::{duhamel, expm, expm_action};
 use crate::interpolation::QuinticSegment;
 use crate::observe::Turn;
-use crate::sensitivity::{saltation_update, StateTransition};
+use crate::sensitivity::{saltation_update, Parameter, StateTransition};
 use crate::structure::LoadHistory;
 use crate::system::{State, System};
 
@@ -443,11 +443,7 @@ impl Driver<'_> {
         let mut rates = None;
         let z1 = match &mode.flow {
             Flow::Autonomous { a, full: cached } => {
-                let osc = self.loads.as_ref().expect("autonomous flow");
-                let mut z = DVector::zeros(a.nrows());
-                z.rows_mut(0, n).copy_from(&p.x);
-                z.rows_mut(n, n).copy_from(&p.v);
-                osc.state(p.t, &mut z.as_mut_slice()[2 * n..]);
+                let z = self.flight_state(p);
                 let z1 = if full {
                     cached.as_ref().expect("prepared") * z
                 } else {
@@ -496,6 +492,71 @@ impl Driver<'_> {
             },
             None => self.point(t, x, v),
         }
+    }
+
+    /// The autonomous flight's state `z̃ = [x; v; w]` at `p` (constant and harmonic loads).
+    fn flight_state(&self, p: &Point) -> DVector<f64> {
+        let osc = self.loads.as_ref().expect("autonomous flow");
+        let n = self.rig.n;
+        let mut z = DVector::zeros(2 * n + osc.generator.nrows());
+        z.rows_mut(0, n).copy_from(&p.x);
+        z.rows_mut(n, n).copy_from(&p.v);
+        osc.state(p.t, &mut z.as_mut_slice()[2 * n..]);
+        z
+    }
+
+    /// The forcing `Q` of a load parameter's column in the current wall set's flight: the
+    /// column `c = ∂z/∂p` obeys `c' = A_S c + Q z̃`. An amplitude or a phase enters through the
+    /// loads' output, `∂F/∂p = (∂P/∂p) w`: the load's own state `w_k` (`sin θ`; a constant
+    /// load's 1) for its amplitude, `a_k cos θ` for its phase. The frequency `f` of the forcing
+    /// period scales the run's time (its length and steps are fixed fractions of `1/f`): at a
+    /// fixed phase `s = f t` the flight is `dz̃/ds = Ã z̃/f` with `Ω/f` constant, so
+    /// `dc/ds = A_S c/f − ż/f²`, that is `c' = A_S c + r ż`, `r = −1/f`
+    /// ([`Parameter::time_scale`]), `Q = r Ã_z` (the rows of `Ã` that give `ż`).
+    fn column_forcing(&self, parameter: Parameter) -> DMatrix<f64> {
+        let mode = self.mode();
+        let Flow::Autonomous { a, .. } = &mode.flow else {
+            unreachable!("carries_parameter: constant and harmonic loads only")
+        };
+        let osc = self.loads.as_ref().expect("autonomous flow");
+        let n2 = 2 * self.rig.n;
+        let mut q = DMatrix::zeros(a.nrows(), a.ncols());
+        match parameter {
+            Parameter::LoadFrequency(_) => q
+                .rows_mut(0, n2)
+                .copy_from(&(a.rows(0, n2) * parameter.time_scale(self.sys))),
+            Parameter::LoadAmplitude(k) | Parameter::LoadPhase(k) => {
+                let first = osc.states[k].0;
+                let (state, weight) = match parameter {
+                    Parameter::LoadAmplitude(_) => (first, 1.0),
+                    _ => (first + 1, self.sys.loads[k].amplitude),
+                };
+                q.view_mut((0, n2 + state), (n2, 1))
+                    .copy_from(&(mode.b.column(k) * weight));
+            }
+            Parameter::Clearance(_) => {}
+            Parameter::SpinSpeed => unreachable!("carries_parameter: not the spin speed"),
+        }
+        q
+    }
+
+    /// `(∫₀^h exp(Ã (h − τ)) Q exp(Ã τ) dτ)_z` for the current wall set's flight of length
+    /// `h` and a load parameter's forcing `Q` ([`Driver::column_forcing`]): the upper right
+    /// block of `exp([[Ã, Q], [0, Ã]] h)` (Van Loan 1978), its `z` rows. Applied to the
+    /// flight's start `z̃₀` it is what the parameter adds to the column over the flight.
+    fn column_flow(&self, parameter: Parameter, h: f64) -> DMatrix<f64> {
+        let Flow::Autonomous { a, .. } = &self.mode().flow else {
+            unreachable!("carries_parameter: constant and harmonic loads only")
+        };
+        let m = a.nrows();
+        let mut big = DMatrix::zeros(2 * m, 2 * m);
+        big.view_mut((0, 0), (m, m)).copy_from(a);
+        big.view_mut((0, m), (m, m))
+            .copy_from(&self.column_forcing(parameter));
+        big.view_mut((m, m), (m, m)).copy_from(a);
+        expm(&(big * h))
+            .view((0, m), (2 * self.rig.n, m))
+            .into_owned()
     }
 
     /// The point at `t`, `x`, `v` with its acceleration and forces, for the current wall set.
@@ -877,9 +938,13 @@ pub(crate) struct EventDrivenSteps<'s> {
     /// The state-transition matrix, when the run asks for it (`Run::wants_sensitivity`):
     /// `exp(A h)` of every flight (exact for the linear structure) and the saltation matrix
     /// of every impact; with a clearance's column (`Run::sensitivity_parameter`), each wall's
-    /// `∂δ/∂p` for its impacts.
+    /// `∂δ/∂p` for its impacts; with a load's, the flights' part ([`Driver::column_forcing`]).
     transition: Option<StateTransition>,
     clearance_derivative: Vec<f64>,
+    /// A load's parameter whose column the flights carry ([`Driver::column_forcing`]), with
+    /// each wall set's [`Driver::column_flow`] over the full step, cached.
+    load_parameter: Option<Parameter>,
+    column_flows: Vec<Option<DMatrix<f64>>>,
 }
 
 impl<'s> EventDrivenSteps<'s> {
@@ -937,6 +1002,8 @@ impl<'s> EventDrivenSteps<'s> {
         let clearance_derivative = (0..nw)
             .map(|j| parameter.map_or(0.0, |p| p.penetration_derivative(sys, j)))
             .collect();
+        let load_parameter =
+            parameter.filter(|p| run.wants_sensitivity && !matches!(p, Parameter::Clearance(_)));
         let mut policy = Self {
             d,
             p,
@@ -945,6 +1012,8 @@ impl<'s> EventDrivenSteps<'s> {
             k: 0,
             transition,
             clearance_derivative,
+            load_parameter,
+            column_flows: Vec::new(),
         };
         policy.resolve(run, None, false);
         Ok(policy)
@@ -970,11 +1039,31 @@ impl<'s> EventDrivenSteps<'s> {
             .collect()
     }
 
-    /// `Φ ← exp(A h) Φ` for a flight of length `h` just committed.
+    /// `Φ ← exp(A h) Φ` for a flight of length `h` from the current point, just committed;
+    /// a load parameter's column `c ← exp(A h) c + (Van Loan's block) z̃₀`
+    /// ([`Driver::column_flow`]).
     fn carry_flight(&mut self, h: f64) {
-        if let Some(t) = &mut self.transition {
-            t.matrix = self.d.transition(h) * &t.matrix;
-        }
+        let Some(t) = &mut self.transition else {
+            return;
+        };
+        t.matrix = self.d.transition(h) * &t.matrix;
+        let Some(parameter) = self.load_parameter else {
+            return;
+        };
+        let d = &self.d;
+        let fresh;
+        let flow = if (h - self.h0).abs() <= 1e-12 * self.h0 {
+            if self.column_flows.len() <= d.current {
+                self.column_flows.resize(d.current + 1, None);
+            }
+            &*self.column_flows[d.current].get_or_insert_with(|| d.column_flow(parameter, h))
+        } else {
+            fresh = d.column_flow(parameter, h);
+            &fresh
+        };
+        let m = t.matrix.nrows();
+        let mut column = t.matrix.column_mut(m);
+        column += flow * d.flight_state(&self.p);
     }
 
     /// `Φ ← S Φ` at the impact of wall `j` from `before` to the current point: the velocity
