@@ -614,14 +614,7 @@ def solve_orbit(shooting: Shooting, z: NDArray[np.float64], tol: float = 1e-9,
                               f"{iteration} (a multiplier at 1: a fold or a family of orbits); "
                               f"residual {residual:.3e}") from None
         z, end, phi, raw, residual = _line_search(shooting.flow, z, step, residual)
-    result = Result.from_core(raw, model=replace(model, initial_displacement=z[:n],
-                                                 initial_velocity=z[n:]),
-                              method=shooting.method, t_end=shooting.duration)
-    return PeriodicOrbit(shooting=shooting, displacement=z[:n].copy(), velocity=z[n:].copy(),
-                         result=result, monodromy=phi, multipliers=multipliers_of(phi),
-                         residual=residual, iterations=iteration,
-                         displacement_max=np.asarray(raw["displacement_max"]),
-                         displacement_min=np.asarray(raw["displacement_min"]))
+    return _orbit(shooting, model, z, raw, phi, residual, iteration)
 
 
 def _not_converged(max_iterations: int, residual: float, tol: float) -> SolverError:
@@ -640,7 +633,6 @@ def _solve_reduced(shooting: Shooting, z: NDArray[np.float64], tol: float,
     basis, reduced = shooting.basis, shooting.reduced
     assert basis is not None and reduced is not None
     model = shooting.model
-    n = model.n_dof
     maps = basis.complement_maps(shooting.method, shooting.dt, shooting.duration)
 
     def plain(state: NDArray[np.float64]) -> tuple[NDArray[np.float64], None,
@@ -669,14 +661,24 @@ def _solve_reduced(shooting: Shooting, z: NDArray[np.float64], tol: float,
         phi_r = None
     if phi_r is None:
         phi_r = monodromy(z)
+    return _orbit(shooting, model, z, raw, phi_r, residual, iteration,
+                  basis=basis.describe(),
+                  complement_multipliers=_sorted(np.linalg.eigvals(maps).ravel()))
+
+
+def _orbit(shooting: Shooting, model: Model, z: NDArray[np.float64], raw: dict[str, Any],
+           monodromy: NDArray[np.float64], residual: float, iterations: int,
+           **reduced: Any) -> PeriodicOrbit:
+    """The converged orbit ``z`` with its run ``raw`` over the period and its monodromy
+    (``reduced``: the basis it was formed in and the complement's multipliers)."""
+    n = model.n_dof
     result = Result.from_core(raw, model=replace(model, initial_displacement=z[:n],
                                                  initial_velocity=z[n:]),
                               method=shooting.method, t_end=shooting.duration)
     return PeriodicOrbit(shooting=shooting, displacement=z[:n].copy(), velocity=z[n:].copy(),
-                         result=result, monodromy=phi_r, multipliers=multipliers_of(phi_r),
-                         residual=residual, iterations=iteration,
+                         result=result, monodromy=monodromy,
+                         multipliers=multipliers_of(monodromy), residual=residual,
+                         iterations=iterations,
                          displacement_max=np.asarray(raw["displacement_max"]),
-                         displacement_min=np.asarray(raw["displacement_min"]),
-                         basis=basis.describe(),
-                         complement_multipliers=_sorted(np.linalg.eigvals(maps).ravel()))
+                         displacement_min=np.asarray(raw["displacement_min"]), **reduced)
 

@@ -206,14 +206,10 @@ fn methods_without_a_state_transition_are_refused() {
     );
 }
 
-/// The oscillator with one of its numbers changed: `(parameter path, value)`; with the run's
-/// length one forcing period (and its first step the same fraction of it).
-fn varied(law: &Law, path: &str, value: f64) -> (System, RunSettings) {
-    varied_for(Method::Dop853, law, path, value)
-}
-
-/// [`varied`] with `method`'s settings.
-fn varied_for(method: Method, law: &Law, path: &str, value: f64) -> (System, RunSettings) {
+/// The oscillator with one of its numbers changed: `(parameter path, value)`, with
+/// `method`'s settings; the run's length one forcing period (and its first step the same
+/// fraction of it).
+fn varied(method: Method, law: &Law, path: &str, value: f64) -> (System, RunSettings) {
     let mut sys = oscillator(law.clone());
     let mut settings = settings(method);
     match path {
@@ -249,7 +245,6 @@ fn dop853_parameter_columns_match_finite_differences() {
         Law::Hysteretic(Hysteretic::new("lankarani-nikravesh", 1e4, 1.5, 0.7).unwrap()),
         Law::KelvinVoigt(KelvinVoigt::new(1e4, 20.0).unwrap()),
     ];
-    let z = [0.2, 1.0];
     let f0 = 0.8 / (2.0 * std::f64::consts::PI);
     let nominal = [
         ("loads.0.amplitude", 1.0),
@@ -257,51 +252,56 @@ fn dop853_parameter_columns_match_finite_differences() {
         ("loads.0.phase", std::f64::consts::FRAC_PI_2),
         ("gaps.0.clearance", 0.5),
     ];
-    let end = |sys: &System, settings: &RunSettings| end_state(sys, Method::Dop853, settings, z);
     for law in &laws {
-        for (path, p) in nominal {
-            let (sys, settings) = varied(law, path, p);
-            let parameter = Parameter::of_path(&sys, path).unwrap();
-            let out = simulate_with_sensitivity(
-                &sys,
-                Method::Dop853,
-                &settings,
-                DVector::from_element(1, z[0]),
-                DVector::from_element(1, z[1]),
-                Some(parameter),
-                None,
-            )
-            .unwrap();
-            assert_eq!(out.impacts.len(), 2, "{path}: {:?}", out.impacts);
-            let transition = out.state_transition.unwrap();
-            let column = transition.parameter_column().expect("asked for");
-            let h = 1e-5 * p;
-            let (up, down) = (varied(law, path, p + h), varied(law, path, p - h));
-            let (zu, zd) = (end(&up.0, &up.1), end(&down.0, &down.1));
-            for i in 0..2 {
-                let fd = (zu[i] - zd[i]) / (2.0 * h);
-                assert!(
-                    (fd - column[i]).abs() <= 1e-6 * column.amax().max(1.0),
-                    "{law:?} {path}: ∂P/∂p[{i}] = {}, FD {fd}",
-                    column[i]
-                );
-            }
-            // the monodromy is the one without the column
-            let plain = simulate_with_sensitivity(
-                &sys,
-                Method::Dop853,
-                &settings,
-                DVector::from_element(1, z[0]),
-                DVector::from_element(1, z[1]),
-                None,
-                None,
-            )
-            .unwrap();
-            assert_eq!(
-                plain.state_transition.unwrap().matrix,
-                transition.monodromy()
+        check_parameter_columns(Method::Dop853, law, &nominal, 1e-5);
+    }
+}
+
+/// `method`'s column `∂P/∂p` at each `(path, p)` of `nominal` equals the central difference
+/// (step `relative_step · p`) of the map from `z = (0.2, 1.0)` over a period with two
+/// contacts, is not negligible, and leaves the monodromy as it is without it.
+fn check_parameter_columns(method: Method, law: &Law, nominal: &[(&str, f64)], relative_step: f64) {
+    let z = [0.2, 1.0];
+    let run = |sys: &System, settings: &RunSettings, parameter| {
+        simulate_with_sensitivity(
+            sys,
+            method,
+            settings,
+            DVector::from_element(1, z[0]),
+            DVector::from_element(1, z[1]),
+            parameter,
+            None,
+        )
+        .unwrap()
+    };
+    for &(path, p) in nominal {
+        let (sys, settings) = varied(method, law, path, p);
+        let parameter = Parameter::of_path(&sys, path).unwrap();
+        let out = run(&sys, &settings, Some(parameter));
+        assert_eq!(out.impacts.len(), 2, "{path}: {:?}", out.impacts);
+        let transition = out.state_transition.unwrap();
+        let column = transition.parameter_column().expect("asked for");
+        let h = relative_step * p;
+        let end = |value: f64| {
+            let (sys, settings) = varied(method, law, path, value);
+            end_state(&sys, method, &settings, z)
+        };
+        let (up, down) = (end(p + h), end(p - h));
+        for i in 0..2 {
+            let fd = (up[i] - down[i]) / (2.0 * h);
+            assert!(
+                (fd - column[i]).abs() <= 1e-6 * column.amax().max(1.0),
+                "{law:?} {path}: ∂P/∂p[{i}] = {}, FD {fd}",
+                column[i]
             );
         }
+        assert!(column.amax() > 0.1, "{path}: {column}");
+        // the monodromy is the one without the column
+        let plain = run(&sys, &settings, None);
+        assert_eq!(
+            plain.state_transition.unwrap().matrix,
+            transition.monodromy()
+        );
     }
 }
 
@@ -405,56 +405,11 @@ fn event_driven_clearance_column_matches_finite_differences() {
 fn event_driven_load_columns_match_finite_differences() {
     let method = Method::EventDriven(EventDriven::default());
     let law = Law::Rigid(Rigid::new(0.8).unwrap());
-    let z = [0.2, 1.0];
     let f0 = 0.8 / (2.0 * std::f64::consts::PI);
-    for (path, p) in [
+    let nominal = [
         ("loads.0.amplitude", 1.0),
         ("loads.0.frequency", f0),
         ("loads.0.phase", std::f64::consts::FRAC_PI_2),
-    ] {
-        let (sys, settings) = varied_for(method, &law, path, p);
-        let parameter = Parameter::of_path(&sys, path).unwrap();
-        let out = simulate_with_sensitivity(
-            &sys,
-            method,
-            &settings,
-            DVector::from_element(1, z[0]),
-            DVector::from_element(1, z[1]),
-            Some(parameter),
-            None,
-        )
-        .unwrap();
-        assert_eq!(out.impacts.len(), 2, "{path}: {:?}", out.impacts);
-        let transition = out.state_transition.unwrap();
-        let column = transition.parameter_column().expect("asked for");
-        let h = 1e-6 * p;
-        let end = |value: f64| {
-            let (sys, settings) = varied_for(method, &law, path, value);
-            end_state(&sys, method, &settings, z)
-        };
-        let (up, down) = (end(p + h), end(p - h));
-        for i in 0..2 {
-            let fd = (up[i] - down[i]) / (2.0 * h);
-            assert!(
-                (fd - column[i]).abs() <= 1e-6 * column.amax().max(1.0),
-                "{path}: ∂P/∂p[{i}] = {}, FD {fd}",
-                column[i]
-            );
-        }
-        assert!(column.amax() > 0.1, "{path}: {column}");
-        let plain = simulate_with_sensitivity(
-            &sys,
-            method,
-            &settings,
-            DVector::from_element(1, z[0]),
-            DVector::from_element(1, z[1]),
-            None,
-            None,
-        )
-        .unwrap();
-        assert_eq!(
-            plain.state_transition.unwrap().matrix,
-            transition.monodromy()
-        );
-    }
+    ];
+    check_parameter_columns(method, &law, &nominal, 1e-6);
 }
