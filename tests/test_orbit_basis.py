@@ -150,9 +150,10 @@ def test_all_modes_retained_is_the_exact_monodromy_and_the_cli_states_the_basis(
     path = tmp_path / "chain.toml"
     path.write_text(CHAIN)
     model = load_model(path).model
-    exact = vi.periodic_orbit(model, transient=30, method=vi.Newmark())
+    # the file's dt, 2,500 steps a forcing period, as `vibroimpact orbit` takes it
+    exact = vi.periodic_orbit(model, transient=30, method=vi.Newmark(), dt=1e-4)
     assert exact.impacts_per_period >= 1
-    full_basis = vi.periodic_orbit(model, transient=30, method=vi.Newmark(), modes=2)
+    full_basis = vi.periodic_orbit(model, transient=30, method=vi.Newmark(), dt=1e-4, modes=2)
     assert full_basis.complement_multipliers is not None
     assert full_basis.complement_multipliers.size == 0
     assert np.max(np.abs(full_basis.multipliers - exact.multipliers)) < 1e-7
@@ -304,7 +305,7 @@ def test_continue_cli_modes_states_the_basis(tmp_path, capsys) -> None:
 
     branch = vi.continue_orbit(load_model(path).model, "loads.0.amplitude", 20.0, 22.0,
                                transient=30, max_points=4, modes=2,
-                               method=vi.Newmark())
+                               method=vi.Newmark(), dt=1e-4)  # the file's, as the CLI
     assert [p["value"] for p in summary["points"]] == pytest.approx(
         [p.value for p in branch.points], rel=1e-12)
     with xr.open_dataset(out) as ds:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import itertools
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -429,3 +430,20 @@ def test_reduced_basis_multipliers_converge_to_the_full_ones() -> None:
         errors.append(float(np.max(np.abs(orbit.multipliers[:4] - full.multipliers[:4]))))
     assert all(b < 0.5 * a for a, b in itertools.pairwise(errors)), errors
     assert errors[0] > 1e-4 and errors[-1] < 2e-6, errors
+
+
+def test_a_model_files_fixed_step_is_the_orbits_step_in_whole_steps_a_period() -> None:
+    """vibroimpact orbit / continue shoot a fixed-step Newmark file at its dt, shortened to a
+    whole number of steps a forcing period; DOP853 and the event-driven method keep their own."""
+    from vibroimpact.orbits import file_step, forcing_period
+
+    mf = vi.load_model(Path(__file__).parents[1] / "examples" / "models" / "impact_oscillator.toml")
+    period = forcing_period(mf.model)
+    for dt in (period / 1000, period / 999.5, 1e-5):
+        step = file_step(vi.Newmark(), dt, mf.model)
+        assert step is not None and step <= dt * (1 + 1e-12)
+        steps = period / step
+        assert abs(steps - round(steps)) < 1e-9 and round(steps) == math.ceil(period / dt - 1e-9)
+    assert file_step(vi.Dop853(), 1e-5, mf.model) is None
+    assert file_step(vi.EventDriven(), 1e-5, mf.model) is None
+    assert file_step(vi.Newmark(adaptive=vi.Adaptive(rtol=1e-6)), 1e-5, mf.model) is None

@@ -111,6 +111,17 @@ def default_steps_per_period(method: Integrator) -> int:
     return EVENT_DRIVEN_STEPS_PER_PERIOD if isinstance(method, EventDriven) else STEPS_PER_PERIOD
 
 
+def file_step(method: Integrator, dt: float, model: Model) -> float | None:
+    """The step of a model file's shooting (``vibroimpact orbit`` and ``continue``): where its
+    ``method`` steps at a fixed ``dt`` (the Newmark family), that ``dt`` shortened to a whole
+    number of steps a forcing period, so a stiff contact keeps the step the file resolves it
+    with; None (the method's default, :func:`default_steps_per_period`) for the others."""
+    if not isinstance(method, (Newmark, HHT, GeneralizedAlpha)) or method.adaptive:
+        return None
+    period = forcing_period(model)
+    return period / math.ceil(period / dt * (1 - 1e-12))
+
+
 def contact_onsets(t_start: ArrayLike) -> int:
     """The contacts that begin over an orbit's period, from its impact table's start times:
     a contact under way at the section is in the table from ``t = 0`` and again from its onset

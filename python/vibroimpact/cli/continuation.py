@@ -13,6 +13,7 @@ from typing import Any
 from vibroimpact.continuation import Branch, continue_orbit
 from vibroimpact.errors import ModelError
 from vibroimpact.io.model_file import load_model
+from vibroimpact.orbits import file_step
 from vibroimpact.sweeps.grid import canonical_path
 
 __all__ = ["add_parser", "main", "parse_range"]
@@ -27,7 +28,8 @@ Floquet multipliers; folds, period-doublings, Neimark-Sacker and branch points (
 functions on the multipliers) and grazings (a wall touched or left) are located between
 points. --switch: at the first period-doubling, go on along the period-2 branch born there.
 The file's method must carry the state-transition matrix: dop853 (compliant laws),
-event-driven (rigid stops) or the Newmark family at fixed steps. Above 200 DOFs (or with
+event-driven (rigid stops) or the Newmark family at fixed steps (the file's dt, shortened to
+a whole number of steps a forcing period). Above 200 DOFs (or with
 --modes) the monodromy is formed in a reduced basis (the Newmark family): the gap coordinates
 plus N fixed-interface modes, each other mode by its own closed-form map."""
 
@@ -113,6 +115,7 @@ def main(args: argparse.Namespace) -> int:
     mf = load_model(args.model)
     branch = continue_orbit(mf.model, path, start, end, period=args.period,
                             transient=args.transient, method=mf.method,
+                            dt=file_step(mf.method, mf.dt, mf.model),
                             max_points=args.max_points, switch=args.switch,
                             modes=args.modes)
     if not write_result(branch.to_dataset(), branch.summary(), out, args.json):

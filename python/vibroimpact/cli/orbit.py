@@ -13,7 +13,7 @@ from typing import Any
 from vibroimpact.errors import ModelError
 from vibroimpact.io import results_file
 from vibroimpact.io.model_file import load_model
-from vibroimpact.orbits import PeriodicOrbit, periodic_orbit
+from vibroimpact.orbits import PeriodicOrbit, file_step, periodic_orbit
 
 __all__ = ["add_parser", "main", "netcdf_output"]
 
@@ -24,9 +24,11 @@ with the exact Jacobian of the map (state-transition matrix and saltation matric
 orbit's state on the section (t = 0 of a forcing period), its peaks and impacts, and its
 Floquet multipliers (stable: all inside the unit circle). The forcing period is the common
 period of the harmonic loads. The file's method must carry the state-transition matrix:
-dop853 (compliant laws; its tolerances are used; its first step is the forcing period / 1000)
-or event-driven (rigid stops; 200 steps a forcing period: its flights are exact and the
-displacements' extremes are located inside them)."""
+dop853 (compliant laws; its tolerances are used; its first step is the forcing period / 1000),
+event-driven (rigid stops; 200 steps a forcing period: its flights are exact and the
+displacements' extremes are located inside them) or the Newmark family at fixed steps (the
+file's dt, shortened to a whole number of steps a forcing period). Above 200 DOFs (or with
+--modes) the monodromy is formed in a reduced basis (the Newmark family)."""
 
 _EPILOG = """\
 examples:
@@ -116,7 +118,8 @@ def main(args: argparse.Namespace) -> int:
     out = netcdf_output(args.output)
     mf = load_model(args.model)
     orbit = periodic_orbit(mf.model, period=args.period, transient=args.transient,
-                           method=mf.method, modes=args.modes)
+                           method=mf.method, dt=file_step(mf.method, mf.dt, mf.model),
+                           modes=args.modes)
     if not write_result(orbit.to_dataset(), orbit.summary(), out, args.json):
         _print(orbit, Path(args.model).name)
     return 0
