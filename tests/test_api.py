@@ -149,3 +149,46 @@ def test_every_exception_of_the_core_is_the_packages_own() -> None:
     model = vi.Model(structure=vi.Structure(mass=np.eye(1), stiffness=np.array([[-4e6]])))
     with pytest.raises(vi.SolverError, match="singular"):
         vi.simulate(model, t_end=0.01, dt=1e-3)
+
+
+def test_a_result_from_the_core_equals_one_built_by_its_constructors(
+        sdof_result: vi.Result) -> None:
+    """``Result.from_core`` sets the fields of the result and of its impact table, energy
+    account and statistics in one step each (``result._assembled``, not their ``__init__``):
+    every one of them holds exactly its dataclass's fields, and equals the object those
+    classes' constructors (with ``__post_init__``) build from the same values; without a model,
+    the DOF units are ``__post_init__``'s default."""
+    from dataclasses import fields, replace
+
+    def rebuilt(obj):
+        values = {f.name: getattr(obj, f.name) for f in fields(obj)}
+        return type(obj)(**{k: rebuilt(v) if k in {"impacts", "energy", "stats"} else v
+                            for k, v in values.items()})
+
+    def same(a, b) -> None:
+        assert type(a) is type(b) and set(vars(a)) == {f.name for f in fields(a)}
+        for f in fields(a):
+            x, y = getattr(a, f.name), getattr(b, f.name)
+            if f.name in {"impacts", "energy", "stats"}:
+                same(x, y)
+            elif isinstance(x, np.ndarray):
+                assert x.dtype == y.dtype and np.array_equal(x, y, equal_nan=True)
+            else:
+                assert x == y
+
+    r = sdof_result
+    assert len(r.impacts) > 0
+    same(r, rebuilt(r))
+    assert r.energy.balance_error > 0 and r.stats.steps == 5000
+    assert r.dof_units == ("m",) and r.complete and r.message == "completed"
+    # from_core without a model: the default units, as the constructor sets them
+    from vibroimpact import _core
+
+    model = cases.sdof_model("lankarani-nikravesh")
+    spec = model._run_spec()
+    spec.update(vi.Newmark()._run_spec(), t_end=0.001, dt=1e-6, every=1, record_dofs=[0])
+    run = _core.start(spec, None, False)
+    run.wait(1.0)
+    bare = vi.Result.from_core(run.finish(), model=None, method=None, t_end=0.001)
+    same(bare, replace(bare, dof_units=()))
+    assert bare.dof_units == ("m",) and bare.dof_map is None
