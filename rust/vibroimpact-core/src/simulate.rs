@@ -26,6 +26,9 @@ pub use crate::observe::{Event, Sink, StepObserver, Turn};
 pub use crate::output::{BalanceError, EnergyHistory, Rows, RunOutput, Stats};
 pub use crate::settings::{Adaptive, RunSettings};
 
+/// The most rows an adaptive run reserves before its first step.
+const MAX_RESERVED_ROWS: usize = 1024;
+
 /// Runs `sys` from `x0, v0` at `t = 0`. Invalid settings are refused before the run; a
 /// failure during the run is returned in `RunOutput::error` with the results up to then.
 pub fn simulate(
@@ -197,8 +200,10 @@ fn run_watched<'o>(
         None => newton.max_step_cuts,
     };
 
+    // rows reserved: fixed steps, every one; adaptive steps, one per longest step up to
+    // MAX_RESERVED_ROWS (the buffers grow past it), so that a short run reserves little
     let n_rec = if adaptive.is_some() {
-        1024
+        ((t_end / h0).ceil() as usize / every + 2).min(MAX_RESERVED_ROWS)
     } else {
         n_steps / every + 2
     };
@@ -511,6 +516,61 @@ mod tests {
         for (end, record) in ends.iter().zip(&out.impacts) {
             assert!(end.0 >= record.t_end && end.0 - record.t_end <= 2e-5 + 1e-12);
             assert!(end.1 >= 2 && end.2 >= end.1, "{end:?}");
+        }
+    }
+
+    /// An adaptive run reserves one row per longest step (a short run: a few), up to
+    /// `MAX_RESERVED_ROWS`; a run that records more grows its buffers and keeps every row: the
+    /// same rows as the run streamed in blocks of 40, which start with fresh buffers.
+    #[test]
+    fn adaptive_rows_reserved_by_the_longest_step_and_grown_past_it() {
+        let sys = sdof();
+        let (x0, v0) = (DVector::zeros(1), DVector::from_element(1, 8.0));
+        let tol = |dt_max| Adaptive {
+            rtol: 1e-7,
+            atol: 1e-14,
+            dt_min: 1e-12,
+            dt_max,
+        };
+        let short = RunSettings {
+            t_end: 2e-6,
+            every: 1,
+            ..settings(1e-6, Some(tol(2e-6)), 25)
+        };
+        let out = simulate(&sys, Method::Dop853, &short, x0.clone(), v0.clone()).unwrap();
+        let rows = out.rows.time.len();
+        assert!(
+            rows >= 2 && out.rows.time.capacity() <= 3.max(rows),
+            "{rows} rows"
+        );
+        for method in [
+            Method::Dop853,
+            Method::Newmark(NewmarkFamily::average_acceleration()),
+        ] {
+            let long = RunSettings {
+                every: 1,
+                ..settings(1e-6, Some(tol(1e-5)), 25)
+            };
+            let whole = simulate(&sys, method, &long, x0.clone(), v0.clone()).unwrap();
+            let n = whole.rows.time.len();
+            assert!(n > MAX_RESERVED_ROWS, "{n} rows");
+            let mut sink = Collect {
+                chunk: Some(40),
+                ..Collect::default()
+            };
+            let rest =
+                simulate_streamed(&sys, method, &long, x0.clone(), v0.clone(), &mut sink).unwrap();
+            let mut time: Vec<f64> = sink.blocks.iter().flat_map(|b| b.time.clone()).collect();
+            let mut x: Vec<f64> = sink
+                .blocks
+                .iter()
+                .flat_map(|b| b.displacement.clone())
+                .collect();
+            time.extend(&rest.rows.time);
+            x.extend(&rest.rows.displacement);
+            assert_eq!(time, whole.rows.time);
+            assert_eq!(x, whole.rows.displacement);
+            assert_eq!(whole.rows.energy.kinetic.len(), n);
         }
     }
 }
