@@ -192,3 +192,21 @@ def test_a_result_from_the_core_equals_one_built_by_its_constructors(
     bare = vi.Result.from_core(run.finish(), model=None, method=None, t_end=0.001)
     same(bare, replace(bare, dof_units=()))
     assert bare.dof_units == ("m",) and bare.dof_map is None
+
+
+def test_integrators_share_the_default_newton_options() -> None:
+    """An integrator given no Newton options holds the one default instance (checked once),
+    equal to a fresh ``NewtonOptions()``; copies and pickles stay equal to the original and
+    run the same."""
+    import copy
+    import pickle
+
+    a, b = vi.Newmark(), vi.Dop853()
+    assert a.newton is b.newton and a.newton == vi.NewtonOptions()
+    assert vi.Newmark(newton=vi.NewtonOptions(max_iterations=7)).newton.max_iterations == 7
+    model = cases.sdof_model("hertz")
+    first = vi.simulate(model, t_end=0.002, dt=1e-6, method=a)
+    for twin in (copy.deepcopy(a), pickle.loads(pickle.dumps(a))):
+        assert twin == a
+        assert np.array_equal(vi.simulate(model, t_end=0.002, dt=1e-6, method=twin).displacement,
+                              first.displacement)

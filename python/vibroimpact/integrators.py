@@ -78,6 +78,11 @@ class NewtonOptions:
         return {s["name"]: _PLAIN[s["kind"]](getattr(self, s["name"])) for s in CATALOG["newton"]}
 
 
+#: The default Newton options, checked once and shared by every integrator given none (they
+#: are immutable).
+_DEFAULT_NEWTON = NewtonOptions()
+
+
 @dataclass(frozen=True)
 class Adaptive:
     """Adaptive stepping (Newmark family). Free flight: one Newmark step at a time, its local
@@ -127,7 +132,7 @@ class Integrator:
     impulsive: ClassVar[bool] = False
     #: False for the methods without Newton iterations (no ``newton_*`` options).
     uses_newton: ClassVar[bool] = True
-    newton: NewtonOptions = field(default_factory=NewtonOptions)
+    newton: NewtonOptions = _DEFAULT_NEWTON
     adaptive: Adaptive | None = None
 
     def __post_init__(self) -> None:
