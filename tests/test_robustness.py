@@ -204,6 +204,26 @@ def test_contact_period_estimate_is_close_to_the_hertz_contact_duration() -> Non
     assert period == pytest.approx(2 * duration, rel=0.1)
 
 
+def test_contact_periods_kept_on_a_model_follow_its_initial_state() -> None:
+    """A dense model keeps its contact periods for its initial state: an initial velocity
+    changed in place (the model's arrays are writable) gives the periods of a model built with
+    it, and a second fixed-step run of the model is warned about as the first was."""
+    model = cases.sdof_model("hertz")
+    first = contact_periods(model)
+    assert contact_periods(model) == first and model._contact_periods[1] == tuple(first)
+    model.initial_velocity[0] *= 4.0  # four times the speed: 16 times the energy
+    faster = contact_periods(model)
+    rebuilt = vi.Model(model.structure, gaps=model.gaps, loads=model.loads,
+                       initial_displacement=model.initial_displacement.copy(),
+                       initial_velocity=model.initial_velocity.copy())
+    assert faster == contact_periods(rebuilt)
+    # Hertz (n = 1.5): the period goes as E^(-1/10)
+    assert faster[0] == pytest.approx(first[0] * 16.0 ** -0.1, rel=1e-12)
+    for _ in range(2):
+        with pytest.warns(vi.ContactResolutionWarning):
+            vi.simulate(model, t_end=0.02, dt=2e-4, throw=False)
+
+
 def test_a_step_too_long_for_the_contact_is_warned_about(tmp_path: Path) -> None:
     model = cases.sdof_model("lankarani-nikravesh")
     with pytest.warns(vi.ContactResolutionWarning) as caught:

@@ -61,12 +61,20 @@ def contact_periods(model: Model) -> list[float | None]:
     energy enters the model (or ``δ`` underflows to 0), or when the structure is stiff enough
     (positive definite ``K``) that this energy cannot close the gap:
     ``E < d² / (2 b K⁻¹ bᵀ)``. Raises :class:`~vibroimpact.ModelError` naming the gap's law
-    if an estimate is not a finite number > 0 (absurd stiffness or masses)."""
+    if an estimate is not a finite number > 0 (absurd stiffness or masses).
+
+    Kept on a model with a dense structure for its initial state (the only part of such a
+    model that can change, its arrays being writable: see :meth:`Model.gap_flexibility`), so
+    that the fixed-step runs of one model estimate them once."""
     if not model.gaps:
         return []
     st = model.structure
     x0 = np.asarray(model.initial_displacement, dtype=float)
     v0 = np.asarray(model.initial_velocity, dtype=float)
+    state = (x0.tobytes(), v0.tobytes())
+    kept = model.__dict__.get("_contact_periods")
+    if kept is not None and kept[0] == state:
+        return list(kept[1])
     reach = max(max(float(g.clearance) for g in model.gaps), 1e-3)
     flexibility, compliance = model.gap_flexibility()
     periods: list[float | None] = []
@@ -104,6 +112,8 @@ def contact_periods(model: Model) -> list[float | None]:
                     f"{float(energy):g} J) is not a finite number > 0; expected a law "
                     "stiffness and masses whose contact time scale is a finite double")
             periods.append(float(period))
+    if not st.is_sparse:
+        object.__setattr__(model, "_contact_periods", (state, tuple(periods)))
     return periods
 
 
