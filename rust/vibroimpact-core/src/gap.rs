@@ -76,7 +76,7 @@ pub struct RadialKinematics {
 
 impl RadialKinematics {
     /// The kinematics at `p`, `q` (a rotor exactly at the centre takes `n = (1, 0)`).
-    #[inline]
+    #[inline(always)]
     pub fn new(p: [f64; 2], q: [f64; 2]) -> Self {
         // not `hypot`, which guards against an overflow no displacement in metres reaches and
         // costs as much as the rest of the contact force

@@ -555,7 +555,7 @@ impl LoadValues {
     }
 
     /// Evaluates `loads` (those this was built from) at `t` into [`Self::values`].
-    #[inline]
+    #[inline(always)]
     pub fn evaluate(&mut self, loads: &[Load], t: f64) {
         let groups = self.groups.iter().zip(&mut self.anchors);
         for ((&[omega, phase], anchor), trig) in groups.zip(&mut self.trig) {

@@ -120,7 +120,7 @@ struct Small {
 
 /// `$body` with `$n` bound to the model's DOF count `$size`, a constant for the small models
 /// (1 to 4 DOFs), whose loops over the DOFs then unroll (`$body` calls an `#[inline(always)]`
-/// function of `$n`): a 2-DOF rotor's evaluation costs a third less.
+/// function of `$n`): a 2-DOF rotor's evaluations cost a quarter less.
 macro_rules! by_size {
     ($size:expr, |$n:ident| $body:expr) => {
         match $size {
@@ -1788,6 +1788,7 @@ fn golden_max(f: impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
 /// Radial wall `j`'s kinematics and its normal force at the DOF state `x`, `v`, from the
 /// smallest positive penetration as a 1-D wall's (what [`Dynamics::accel`] applies and the
 /// variational equations differentiate).
+#[inline]
 fn radial_normal_force(
     sys: &System,
     j: usize,
