@@ -257,3 +257,22 @@ def test_full_annular_rub_closed_form_and_stability(damping: float, mu: float,
         assert off[0] > 1e-4 * rho
     else:
         assert off.max() > 0.1 * (rho - CLEARANCE)
+
+
+def test_full_annular_rub_orbit_is_one_contact_without_onset() -> None:
+    """The stable full rub (μ = 0.1) as a periodic orbit: one contact under way all period
+    (one row from t = 0, no end), so ``impacts_per_period`` — contact onsets — is 0, and the
+    contact shows in ``penetration_max`` and ``force_max``: the closed form's ``ρ − c`` and
+    ``k_s (ρ − c)`` to 1e-9."""
+    from vibroimpact.orbits import periodic_orbit
+
+    (w,) = full_annular_rub(50.0, 0.1)
+    z = 1j * OMEGA * w
+    model = rotor(50.0, friction=0.1, radius=0.01, x0=(w.real, w.imag), v0=(z.real, z.imag))
+    orbit = periodic_orbit(model, transient=5)
+    assert orbit.impacts_per_period == 0
+    assert len(orbit.impacts) == 1 and orbit.impacts.t_start[0] == 0.0
+    assert math.isnan(orbit.impacts.t_end[0])
+    depth = abs(w) - CLEARANCE
+    assert orbit.penetration_max[0] == pytest.approx(depth, rel=1e-9)
+    assert orbit.force_max[0] == pytest.approx(KS * depth, rel=1e-9)

@@ -76,7 +76,7 @@ pub struct RadialKinematics {
 
 impl RadialKinematics {
     /// The kinematics at `p`, `q` (a rotor exactly at the centre takes `n = (1, 0)`).
-    #[inline]
+    #[inline(always)]
     pub fn new(p: [f64; 2], q: [f64; 2]) -> Self {
         // not `hypot`, which guards against an overflow no displacement in metres reaches and
         // costs as much as the rest of the contact force
@@ -225,14 +225,9 @@ pub fn radial_contact(r: &Radial, k: &RadialKinematics, s: &WallState, spin: f64
         return out;
     }
     let (n, t, rho) = (k.normal, k.tangent, k.rho);
-    let (fs, dfs) = if r.friction > 0.0 {
-        let (f, d) = r.friction_factor(spin + k.slide);
-        (r.friction * f, r.friction * d)
-    } else {
-        (0.0, 0.0)
-    };
+    let (fs, dfs) = friction_coefficient(r, k, spin);
     let f_n = s.force;
-    out.friction = f_n * fs;
+    (out.phi, out.friction) = radial_phi(k, f_n, fs);
     // direction of φ per unit F_N
     let e = [n[0] + fs * t[0], n[1] + fs * t[1]];
     // dF_N/dp = F_δ nᵀ + F_δ̇ (ρθ̇/ρ) tᵀ, dF_N/dq = F_δ̇ nᵀ
@@ -242,7 +237,6 @@ pub fn radial_contact(r: &Radial, k: &RadialKinematics, s: &WallState, spin: f64
     ];
     let dfn_dq = [s.d_rate * n[0], s.d_rate * n[1]];
     for a in 0..2 {
-        out.phi[a] = f_n * e[a];
         for b in 0..2 {
             // F_N (dn + fs dt)/dp = F_N (t tᵀ − fs n tᵀ)/ρ; F_N μ s' t dv/dp, dv/dp = −(δ̇/ρ) tᵀ
             let turn = f_n * (t[a] - fs * n[a]) * t[b] / rho;
@@ -252,6 +246,35 @@ pub fn radial_contact(r: &Radial, k: &RadialKinematics, s: &WallState, spin: f64
         }
     }
     out
+}
+
+/// A radial wall's generalized force `φ` and friction `F_T` (as in [`radial_contact`]) at
+/// the normal force `force` (N), without the tangent: what an explicit integrator applies.
+#[inline]
+pub fn radial_force(r: &Radial, k: &RadialKinematics, force: f64, spin: f64) -> ([f64; 2], f64) {
+    radial_phi(k, force, friction_coefficient(r, k, spin).0)
+}
+
+/// `μ s(v_rel)` and its derivative in `v_rel = spin + ρθ̇` (0 without friction).
+#[inline]
+fn friction_coefficient(r: &Radial, k: &RadialKinematics, spin: f64) -> (f64, f64) {
+    if r.friction > 0.0 {
+        let (f, d) = r.friction_factor(spin + k.slide);
+        (r.friction * f, r.friction * d)
+    } else {
+        (0.0, 0.0)
+    }
+}
+
+/// `φ = F_N (n + μ s t)` and `F_T = μ s F_N` at the normal force `f_n` and the friction
+/// coefficient `fs = μ s(v_rel)`.
+#[inline]
+fn radial_phi(k: &RadialKinematics, f_n: f64, fs: f64) -> ([f64; 2], f64) {
+    let (n, t) = (k.normal, k.tangent);
+    (
+        [f_n * (n[0] + fs * t[0]), f_n * (n[1] + fs * t[1])],
+        f_n * fs,
+    )
 }
 
 /// One wall of one gap.

@@ -168,7 +168,7 @@ impl System {
     }
 
     /// The radial gap `g`'s kinematics at DOF displacements `x` and velocities `v`.
-    #[inline]
+    #[inline(always)]
     pub fn radial_at_dofs(&self, r: &Radial, g: usize, x: &[f64], v: &[f64]) -> RadialKinematics {
         let (ix, iy) = (self.gaps[g].dofs[0], self.gaps[r.partner].dofs[0]);
         RadialKinematics::new([x[ix] - r.center[0], x[iy] - r.center[1]], [v[ix], v[iy]])

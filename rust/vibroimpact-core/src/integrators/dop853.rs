@@ -29,11 +29,14 @@ use super::dop853_tableau::{A, A_DENSE, B, C, C_DENSE, D, DENSE_STAGES, E3, E5, 
 use crate::contact::{ContactForce, ContactLaw, Law, MIN_IMPACT_SPEED};
 use crate::driver::{Run, StepIntegrals, StepPolicy};
 use crate::error::SimError;
-use crate::gap::{radial_contact, Radial, RadialKinematics, Side, WallInterior, WallState};
+use crate::gap::{
+    radial_contact, radial_force, Radial, RadialKinematics, Side, WallInterior, WallState,
+};
 use crate::interpolation::QuinticSegment;
 use crate::observe::Turn;
 use crate::sensitivity::StateTransition;
 use crate::settings::Adaptive;
+use crate::structure::LoadValues;
 use crate::system::System;
 
 #[path = "dop853_variational.rs"]
@@ -101,6 +104,7 @@ struct Dynamics<'s> {
     /// dot products (a sparse product's row bookkeeping costs several times more at 2 DOFs).
     small: Option<Small>,
     rhs: Vec<f64>,
+    loads: LoadValues,
     /// Each wall's force at the last evaluation, N.
     forces: Vec<f64>,
     /// `K` has a nonzero entry (a free body has none).
@@ -112,6 +116,33 @@ struct Small {
     mass_inverse: Vec<f64>,
     damping: Vec<f64>,
     stiffness: Vec<f64>,
+}
+
+/// `$body` with `$n` bound to the model's DOF count `$size`, a constant for the small models
+/// (1 to 4 DOFs), whose loops over the DOFs then unroll (`$body` calls an `#[inline(always)]`
+/// function of `$n`): a 2-DOF rotor's evaluations cost a quarter less.
+macro_rules! by_size {
+    ($size:expr, |$n:ident| $body:expr) => {
+        match $size {
+            1 => {
+                let $n = 1;
+                $body
+            }
+            2 => {
+                let $n = 2;
+                $body
+            }
+            3 => {
+                let $n = 3;
+                $body
+            }
+            4 => {
+                let $n = 4;
+                $body
+            }
+            $n => $body,
+        }
+    };
 }
 
 /// `y += alpha A x` for a row-major `A`.
@@ -158,6 +189,7 @@ impl<'s> Dynamics<'s> {
             cv: vec![0.0; n],
             small,
             rhs: vec![0.0; n],
+            loads: LoadValues::new(&sys.loads),
             forces: vec![0.0; sys.walls.len()],
             has_stiffness: sys.structure.stiffness.values().iter().any(|&k| k != 0.0),
         }
@@ -176,13 +208,30 @@ impl<'s> Dynamics<'s> {
         v: &[f64],
         a: &mut [f64],
     ) -> [f64; 3] {
+        by_size!(x.len(), |n| self.accel_sized(n, contacts, root, t, x, v, a))
+    }
+
+    /// [`Self::accel`] for `n` DOFs.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn accel_sized(
+        &mut self,
+        n: usize,
+        contacts: &[Contact],
+        root: Option<(usize, f64)>,
+        t: f64,
+        x: &[f64],
+        v: &[f64],
+        a: &mut [f64],
+    ) -> [f64; 3] {
+        let (x, v, a) = (&x[..n], &v[..n], &mut a[..n]);
         let sys = self.sys;
         let st = &sys.structure;
-        let f = &mut self.rhs;
+        let f = &mut self.rhs[..n];
         f.fill(0.0);
         let mut external = 0.0;
-        for load in &sys.loads {
-            let g = load.value(t);
+        self.loads.evaluate(&sys.loads, t);
+        for (load, &g) in sys.loads.iter().zip(&self.loads.values) {
             for &d in &load.dofs {
                 f[d] += g;
                 external += g * v[d];
@@ -198,18 +247,12 @@ impl<'s> Dynamics<'s> {
             let gap = &sys.gaps[wall.gap];
             if let Side::Radial(r) = &gap.side {
                 let (k, force) = radial_normal_force(sys, j, r, c, x, v);
-                let state = WallState {
-                    force: force.force,
-                    d_penetration: force.d_penetration,
-                    d_rate: force.d_rate,
-                    ..WallState::default()
-                };
-                let rf = radial_contact(r, &k, &state, r.radius * st.spin.start);
+                let (phi, friction) = radial_force(r, &k, force.force, r.radius * st.spin.start);
                 let (ix, iy) = (gap.dofs[0], sys.gaps[r.partner].dofs[0]);
-                f[ix] -= rf.phi[0];
-                f[iy] -= rf.phi[1];
+                f[ix] -= phi[0];
+                f[iy] -= phi[1];
                 *wall_force = force.force;
-                contact += (force.force - force.elastic) * k.rate + rf.friction * k.slide;
+                contact += (force.force - force.elastic) * k.rate + friction * k.slide;
                 continue;
             }
             let (mut u, mut u_rate) = (0.0, 0.0);
@@ -231,12 +274,13 @@ impl<'s> Dynamics<'s> {
         }
         let mut damping = 0.0;
         if sys.has_damping {
-            self.cv.fill(0.0);
+            let cv = &mut self.cv[..n];
+            cv.fill(0.0);
             match &self.small {
-                Some(small) => dense_mul_add(&small.damping, 1.0, v, &mut self.cv),
-                None => st.damping.mul_add(1.0, v, &mut self.cv),
+                Some(small) => dense_mul_add(&small.damping[..n * n], 1.0, v, cv),
+                None => st.damping.mul_add(1.0, v, cv),
             }
-            for ((fi, ci), vi) in f.iter_mut().zip(&self.cv).zip(v) {
+            for ((fi, ci), vi) in f.iter_mut().zip(&*cv).zip(v) {
                 *fi -= ci;
                 damping += ci * vi;
             }
@@ -246,13 +290,18 @@ impl<'s> Dynamics<'s> {
             g.mul_add(-(st.spin.speed(t) - st.spin.start), v, f);
         }
         match &self.small {
-            Some(small) if self.has_stiffness => dense_mul_add(&small.stiffness, -1.0, x, f),
+            Some(small) if self.has_stiffness => {
+                dense_mul_add(&small.stiffness[..n * n], -1.0, x, f)
+            }
             None if self.has_stiffness => st.stiffness.mul_add(-1.0, x, f),
             _ => {}
         }
         match &self.small {
             Some(small) => {
-                for (ai, row) in a.iter_mut().zip(small.mass_inverse.chunks_exact(f.len())) {
+                for (ai, row) in a
+                    .iter_mut()
+                    .zip(small.mass_inverse[..n * n].chunks_exact(n))
+                {
                     *ai = dot(row, f);
                 }
             }
@@ -397,16 +446,34 @@ impl Stages {
         h: f64,
         end: &mut StepEnd,
     ) -> Option<f64> {
+        by_size!(start.x.len(), |n| self
+            .step_sized(n, dynamics, contacts, clock, t0, start, h, end))
+    }
+
+    /// [`Self::step`] for `n` DOFs.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn step_sized(
+        &mut self,
+        n: usize,
+        dynamics: &mut Dynamics,
+        contacts: &[Contact],
+        clock: Clock,
+        t0: f64,
+        start: &StepEnd,
+        h: f64,
+        end: &mut StepEnd,
+    ) -> Option<f64> {
         let g = clock.dt_dvar(dynamics.sys, 0.0, h, &start.v)?;
         self.kt[0] = g;
-        store(&mut self.kx, 0, &start.v, g);
-        store(&mut self.kv, 0, &start.a, g);
+        store(&mut self.kx[..n * K], 0, &start.v[..n], g);
+        store(&mut self.kv[..n * K], 0, &start.a[..n], g);
         store(&mut self.kp, 0, &start.power, g);
         store(&mut self.kf, 0, &start.forces, g);
         let root = matches!(clock, Clock::Root { .. });
         for i in 1..STAGES {
             let a = A[i];
-            self.stage_state(a, start, h);
+            self.stage_state(n, a, start, h);
             let t = if root {
                 t0 + h * dot(a, &self.kt)
             } else {
@@ -416,15 +483,14 @@ impl Stages {
             let wall = clock.penetration(C[i], h);
             let power = dynamics.accel(contacts, wall, t, &self.xs, &self.vs, &mut self.acc);
             self.kt[i] = g;
-            self.keep(i, g, power, &dynamics.forces);
+            self.keep(n, i, g, power, &dynamics.forces);
         }
-        for ((((x1, v1), kx), kv), (x0, v0)) in end
-            .x
+        for ((((x1, v1), kx), kv), (x0, v0)) in end.x[..n]
             .iter_mut()
-            .zip(end.v.iter_mut())
-            .zip(self.kx.chunks_exact(K))
-            .zip(self.kv.chunks_exact(K))
-            .zip(start.x.iter().zip(&start.v))
+            .zip(end.v[..n].iter_mut())
+            .zip(self.kx[..n * K].chunks_exact(K))
+            .zip(self.kv[..n * K].chunks_exact(K))
+            .zip(start.x[..n].iter().zip(&start.v[..n]))
         {
             *x1 = x0 + h * dot(&B, kx);
             *v1 = v0 + h * dot(&B, kv);
@@ -451,8 +517,8 @@ impl Stages {
         // integrated in ζ), so its `dt/dζ` is finite; the first-same-as-last stage
         let g = clock.dt_dvar(dynamics.sys, 1.0, h, &end.v)?;
         self.kt[STAGES] = g;
-        store(&mut self.kx, STAGES, &end.v, g);
-        store(&mut self.kv, STAGES, &end.a, g);
+        store(&mut self.kx[..n * K], STAGES, &end.v[..n], g);
+        store(&mut self.kv[..n * K], STAGES, &end.a[..n], g);
         store(&mut self.kp, STAGES, &end.power, g);
         Some(duration)
     }
@@ -481,15 +547,8 @@ impl Stages {
         h: f64,
         rough: bool,
     ) -> f64 {
-        let (mut e5, mut e3) = (0.0, 0.0);
-        let ends = start.x.iter().zip(&end.x).zip(&end.v).zip(v_max);
-        let stages = self.kx.chunks_exact(K).zip(self.kv.chunks_exact(K));
-        for ((((&x0, &x1), &v1), &speed), (kx, kv)) in ends.zip(stages) {
-            let sx = tol.atol + tol.rtol * x0.abs().max(x1.abs());
-            let sv = tol.atol / dt_max + tol.rtol * speed.max(v1.abs());
-            e5 += (dot(&E5, kx) / sx).powi(2) + (dot(&E5, kv) / sv).powi(2);
-            e3 += (dot(&E3, kx) / sx).powi(2) + (dot(&E3, kv) / sv).powi(2);
-        }
+        let [mut e5, mut e3] = by_size!(start.x.len(), |n| self
+            .motion_error(n, tol, dt_max, start, end, v_max));
         let mut components = 2 * start.x.len();
         if let Clock::Root { wall, .. } = clock {
             let at = |y0: &[f64], y1: &[f64]| {
@@ -522,16 +581,41 @@ impl Stages {
         motion.max(norm(w5, w3, 3.0, h, rough))
     }
 
+    /// The sums of the squared scaled fifth- and third-order error estimates of the `n` DOFs'
+    /// displacements and velocities ([`Self::error`]).
+    #[inline(always)]
+    fn motion_error(
+        &self,
+        n: usize,
+        tol: &Adaptive,
+        dt_max: f64,
+        start: &StepEnd,
+        end: &StepEnd,
+        v_max: &[f64],
+    ) -> [f64; 2] {
+        let (mut e5, mut e3) = (0.0, 0.0);
+        let ends = (start.x[..n].iter().zip(&end.x[..n]))
+            .zip(&end.v[..n])
+            .zip(&v_max[..n]);
+        let stages = (self.kx[..n * K].chunks_exact(K)).zip(self.kv[..n * K].chunks_exact(K));
+        for ((((&x0, &x1), &v1), &speed), (kx, kv)) in ends.zip(stages) {
+            let sx = tol.atol + tol.rtol * x0.abs().max(x1.abs());
+            let sv = tol.atol / dt_max + tol.rtol * speed.max(v1.abs());
+            e5 += (dot(&E5, kx) / sx).powi(2) + (dot(&E5, kv) / sv).powi(2);
+            e3 += (dot(&E3, kx) / sx).powi(2) + (dot(&E3, kv) / sv).powi(2);
+        }
+        [e5, e3]
+    }
+
     /// The state of a stage with coefficients `a` over the stages before it, into `xs`, `vs`.
-    #[inline]
-    fn stage_state(&mut self, a: &[f64], start: &StepEnd, h: f64) {
-        for ((((xs, vs), kx), kv), (x0, v0)) in self
-            .xs
+    #[inline(always)]
+    fn stage_state(&mut self, n: usize, a: &[f64], start: &StepEnd, h: f64) {
+        for ((((xs, vs), kx), kv), (x0, v0)) in self.xs[..n]
             .iter_mut()
-            .zip(self.vs.iter_mut())
-            .zip(self.kx.chunks_exact(K))
-            .zip(self.kv.chunks_exact(K))
-            .zip(start.x.iter().zip(&start.v))
+            .zip(self.vs[..n].iter_mut())
+            .zip(self.kx[..n * K].chunks_exact(K))
+            .zip(self.kv[..n * K].chunks_exact(K))
+            .zip(start.x[..n].iter().zip(&start.v[..n]))
         {
             *xs = x0 + h * dot(a, kx);
             *vs = v0 + h * dot(a, kv);
@@ -540,10 +624,10 @@ impl Stages {
 
     /// Keeps stage `i`'s rates (the velocities `vs`, the accelerations `acc`, the powers and
     /// the wall forces) times `dt/dvar`.
-    #[inline]
-    fn keep(&mut self, i: usize, dt_dvar: f64, power: [f64; 3], forces: &[f64]) {
-        store(&mut self.kx, i, &self.vs, dt_dvar);
-        store(&mut self.kv, i, &self.acc, dt_dvar);
+    #[inline(always)]
+    fn keep(&mut self, n: usize, i: usize, dt_dvar: f64, power: [f64; 3], forces: &[f64]) {
+        store(&mut self.kx[..n * K], i, &self.vs[..n], dt_dvar);
+        store(&mut self.kv[..n * K], i, &self.acc[..n], dt_dvar);
         store(&mut self.kp, i, &power, dt_dvar);
         store(&mut self.kf, i, forces, dt_dvar);
     }
@@ -558,8 +642,9 @@ impl Stages {
         start: &StepEnd,
         h: f64,
     ) {
+        let n = self.xs.len();
         for (m, (a, c)) in A_DENSE.iter().zip(C_DENSE).enumerate() {
-            self.stage_state(a, start, h);
+            self.stage_state(n, a, start, h);
             let power = dynamics.accel(
                 contacts,
                 None,
@@ -568,7 +653,7 @@ impl Stages {
                 &self.vs,
                 &mut self.acc,
             );
-            self.keep(STAGES + 1 + m, 1.0, power, &dynamics.forces);
+            self.keep(n, STAGES + 1 + m, 1.0, power, &dynamics.forces);
         }
     }
 
@@ -1703,6 +1788,7 @@ fn golden_max(f: impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
 /// Radial wall `j`'s kinematics and its normal force at the DOF state `x`, `v`, from the
 /// smallest positive penetration as a 1-D wall's (what [`Dynamics::accel`] applies and the
 /// variational equations differentiate).
+#[inline]
 fn radial_normal_force(
     sys: &System,
     j: usize,
