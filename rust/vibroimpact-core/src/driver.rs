@@ -700,10 +700,7 @@ impl EnergyForm {
             unreachable!("the energies come from the rows only with diagonal forms")
         };
         let rows = &rows[column.len() * d.len()..];
-        column.reserve(rows.len() / d.len());
-        for y in rows.chunks_exact(d.len()) {
-            column.push(diagonal_form(d, y));
-        }
+        column.extend(rows.chunks_exact(d.len()).map(|y| diagonal_form(d, y)));
     }
 
     /// `(x₁ − x₀)ᵀ A (y₀ + y₁)` with [`Csr::increment_form`]'s sums.
