@@ -242,6 +242,7 @@ fn run_watched<'o>(
                 Err(e) => return Err(e),
                 Ok(mut stepper) => {
                     run.report_linear_solver(stepper.as_dyn(), h0);
+                    run.stats.step_path = stepper.as_dyn().step_path(sys);
                     let cuts = newton.max_step_cuts;
                     match (&control, &mut stepper) {
                         (None, Implicit::Newmark(s)) => {
