@@ -245,9 +245,16 @@ fn run_watched<'o>(
                     run.stats.step_path = stepper.as_dyn().step_path(sys);
                     let cuts = newton.max_step_cuts;
                     match (&control, &mut stepper) {
-                        (None, Implicit::Newmark(s)) => {
-                            fixed_steps(&mut run, sys, method, s, h0, n_steps, cuts, every)?
-                        }
+                        (None, Implicit::Newmark(s)) => fixed_steps(
+                            &mut run,
+                            sys,
+                            method,
+                            s.as_mut(),
+                            h0,
+                            n_steps,
+                            cuts,
+                            every,
+                        )?,
                         (None, Implicit::Other(s)) => fixed_steps(
                             &mut run,
                             sys,
@@ -273,14 +280,14 @@ fn run_watched<'o>(
 /// The stepper of an implicit or precise method: the Newmark family's by its type, so that
 /// the fixed-step loop is compiled for it ([`FixedSteps`]), the others behind `dyn`.
 enum Implicit {
-    Newmark(NewmarkStepper),
+    Newmark(Box<NewmarkStepper>),
     Other(Box<dyn Stepper>),
 }
 
 impl Implicit {
     fn as_dyn(&mut self) -> &mut dyn Stepper {
         match self {
-            Implicit::Newmark(s) => s,
+            Implicit::Newmark(s) => s.as_mut(),
             Implicit::Other(s) => s.as_mut(),
         }
     }
@@ -324,7 +331,7 @@ fn stepper(
             let mut s = NewmarkStepper::new(sys, scheme, newton)?;
             s.expect_steps(steps);
             s.prepare(sys, h0)?;
-            Implicit::Newmark(s)
+            Implicit::Newmark(Box::new(s))
         }
         Method::Precise(variant) => {
             let mut s = PreciseStepper::new(sys, variant, newton)?;
