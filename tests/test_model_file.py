@@ -415,6 +415,7 @@ def test_run_json_reproduces_the_paper_peak(tmp_path: Path) -> None:
         assert key in summary
     assert summary["max_abs_displacement"][0] == pytest.approx(6.19e-3, abs=0.05e-3)
     assert summary["steps"] == 20000
+    assert summary["step_path"] == "fixed-size N=1"  # the 1-DOF model's compiled step
     assert len(summary["impacts"]) >= 5
     assert {"t_start", "v_in", "v_out", "delta_max", "force_max"} <= set(summary["impacts"][0])
     assert list(tmp_path.iterdir()) == []

@@ -204,6 +204,9 @@ class SolverStats:
     rejected_steps: int
     step_cuts: int
     wall_time_s: float
+    #: Which step ran: ``"fixed-size N=1"`` ... ``"N=4"`` (the Newmark family's step compiled
+    #: for a model of that many DOFs) or ``"general"``.
+    step_path: str = "general"
 
 
 @dataclass(frozen=True)
@@ -299,6 +302,7 @@ class Result:
             "step_cuts": self.stats.step_cuts,
             "newton_iterations": self.stats.newton_iterations,
             "wall_time_s": self.stats.wall_time_s,
+            "step_path": self.stats.step_path,
             "energy_balance_error": self.energy.balance_error,
             "dt": self.dt,
             "t_end": self.t_end,

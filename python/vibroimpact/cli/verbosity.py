@@ -51,9 +51,10 @@ def log_run(logger: logging.Logger, summary: Mapping[str, Any]) -> None:
         return
     steps = max(int(summary["steps"]), 1)
     wall = float(summary["wall_time_s"])
-    logger.info("solver: %d steps (dt = %.3g s, t_end = %.6g s), %d rejected, %d step cuts",
-                summary["steps"], summary["dt"], summary["t_end"], summary["rejected_steps"],
-                summary["step_cuts"])
+    logger.info("solver: %d steps (dt = %.3g s, t_end = %.6g s), %d rejected, %d step cuts, "
+                "step path %s", summary["steps"], summary["dt"], summary["t_end"],
+                summary["rejected_steps"], summary["step_cuts"],
+                summary["step_path"])
     logger.info("solver: %d Newton iterations (%.3f per step), wall time %.4f s "
                 "(%.3g steps/s), energy balance error %.3e",
                 summary["newton_iterations"], summary["newton_iterations"] / steps, wall,

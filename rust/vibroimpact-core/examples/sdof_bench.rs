@@ -2,8 +2,10 @@
 //! `cargo run --release --example sdof_bench -p vibroimpact-core`; `METHOD=dop853` times
 //! adaptive DOP853 (rtol 1e-8) instead of Newmark, `METHOD=floor` the benchmark's floor
 //! (`vibroimpact_core::floor`: the same Newmark steps as a bare loop), `SCHEME=generalized-alpha`
-//! generalized-α (ρ∞ = 0.8) instead of average acceleration.
+//! generalized-α (ρ∞ = 0.8) instead of average acceleration; `SWEEP=1` times two points of the
+//! fixed-step sweep benchmark instead ([`sweep_points`]).
 
+use std::sync::Arc;
 use std::time::Instant;
 
 #[global_allocator]
@@ -16,10 +18,16 @@ use vibroimpact_core::gap::{Gap, Side};
 use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings};
 use vibroimpact_core::settings::Adaptive;
 use vibroimpact_core::simulate::{simulate, Method, RunSettings};
-use vibroimpact_core::structure::LinearStructure;
+use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
+use vibroimpact_core::sweep::{run_point, Sampling, SweepJob};
 use vibroimpact_core::system::System;
 
 fn main() {
+    if std::env::var("SWEEP").is_ok() {
+        let runs = std::env::var("RUNS").map_or(20, |s| s.parse().unwrap());
+        sweep_points(runs);
+        return;
+    }
     let k = 1.5087e11;
     for law in [
         Law::Hertz(Hertz::new(k, 1.5).unwrap()),
@@ -135,4 +143,76 @@ fn main() {
             stats.rejected_steps
         );
     }
+}
+
+/// `SWEEP=1`: one point of the fixed-step sweep benchmark
+/// (`vibroimpact.benchmarks.sweep.fixed_step_sweep_benchmark`) per forcing frequency of 20
+/// and 50 Hz: the 1-DOF damped oscillator (1 kg, 20 Hz, 5 %, 10 N harmonic) with a
+/// Lankarani–Nikravesh stop 1 mm away, fixed-step Newmark at dt = 1e-4 s, 200 transient and
+/// 100 sampled periods, reduced while it runs by the sweep's observer (no rows kept).
+fn sweep_points(runs: usize) {
+    let law = Hysteretic::new("lankarani-nikravesh", 1.5e10, 1.5, 0.8).unwrap();
+    let s = LinearStructure::new(
+        DMatrix::from_element(1, 1, 1.0),
+        DMatrix::from_element(1, 1, 12.566371),
+        DMatrix::from_element(1, 1, 15791.367),
+    )
+    .unwrap();
+    let gap = Gap {
+        dofs: vec![0],
+        coefficients: vec![1.0],
+        clearance: 0.001,
+        side: Side::Positive,
+        law: Law::Hysteretic(law),
+    };
+    let mut times = vec![];
+    let mut steps = 0;
+    for _ in 0..runs {
+        let t0 = Instant::now();
+        steps = 0;
+        for frequency in [20.0, 50.0] {
+            let load = Load {
+                dofs: vec![0],
+                amplitude: 10.0,
+                history: LoadHistory::Harmonic {
+                    frequency,
+                    phase: 0.0,
+                },
+            };
+            let sys = System::new(s.clone(), vec![gap.clone()], vec![load]).unwrap();
+            let job = SweepJob {
+                system: Arc::new(sys),
+                method: Method::Newmark(NewmarkFamily::average_acceleration()),
+                settings: RunSettings {
+                    t_end: 0.0,
+                    dt: 1e-4,
+                    every: 1,
+                    record_dofs: vec![0],
+                    newton: NewtonSettings::default(),
+                    adaptive: None,
+                },
+                x0: DVector::zeros(1),
+                v0: DVector::zeros(1),
+                sampling: Sampling {
+                    period: 1.0 / frequency,
+                    transient: 200,
+                    samples: 100,
+                    per_period: 1,
+                    dofs: vec![0],
+                    max_impacts: 10,
+                },
+            };
+            let point = run_point(&job, None);
+            assert!(point.error.is_none());
+            steps += point.stats.steps;
+        }
+        times.push(t0.elapsed().as_secs_f64());
+    }
+    times.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    let median = times[times.len() / 2];
+    println!(
+        "sweep points: median {:.3} ms, {steps} steps, {:.1} ns a step",
+        median * 1e3,
+        median / steps as f64 * 1e9
+    );
 }

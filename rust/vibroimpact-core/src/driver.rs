@@ -239,10 +239,10 @@ impl<'o> Run<'o> {
 
     /// Makes the trial state of a successful attempt of length `h` the current one: energy
     /// account, peaks and impact table. Returns an error if the state is not finite.
-    pub fn accept(
+    pub fn accept<S: Stepper + ?Sized>(
         &mut self,
         sys: &System,
-        stepper: &mut dyn Stepper,
+        stepper: &mut S,
         h: f64,
         iterations: usize,
     ) -> Result<(), SimError> {
@@ -384,29 +384,32 @@ impl<'o> Run<'o> {
 
     /// The one time loop: advances `policy` to the end of the run, recording a row every
     /// `every` advances and after the last one. Returns the error that stopped the run, if any.
-    pub(crate) fn drive(
+    /// Compiled per policy, so that a policy's `advance` is inlined into the loop.
+    pub(crate) fn drive<P: StepPolicy + ?Sized>(
         &mut self,
         sys: &System,
-        policy: &mut dyn StepPolicy,
+        policy: &mut P,
         every: usize,
     ) -> Option<SimError> {
-        let mut advances = 0usize;
+        // advances left until the next row (a countdown: no division per step)
+        let mut until_row = every;
         loop {
             match policy.advance(self, sys) {
                 Ok(true) => {
-                    if let (Some(observer), Some(s)) =
-                        (self.observer.as_deref_mut(), policy.sensitivity())
-                    {
-                        observer.sensitivity(s);
+                    if let Some(observer) = self.observer.as_deref_mut() {
+                        if let Some(s) = policy.sensitivity() {
+                            observer.sensitivity(s);
+                        }
                     }
-                    advances += 1;
-                    if advances % every == 0 {
+                    until_row -= 1;
+                    if until_row == 0 {
+                        until_row = every;
                         self.out.record(sys, &self.cur, &self.account);
                     }
                 }
                 Ok(false) => {
                     self.state_transition = policy.sensitivity().cloned();
-                    if advances % every != 0 {
+                    if until_row != every {
                         self.out.record(sys, &self.cur, &self.account);
                     }
                     return None;
@@ -697,10 +700,7 @@ impl EnergyForm {
             unreachable!("the energies come from the rows only with diagonal forms")
         };
         let rows = &rows[column.len() * d.len()..];
-        column.reserve(rows.len() / d.len());
-        for y in rows.chunks_exact(d.len()) {
-            column.push(diagonal_form(d, y));
-        }
+        column.extend(rows.chunks_exact(d.len()).map(|y| diagonal_form(d, y)));
     }
 
     /// `(x₁ − x₀)ᵀ A (y₀ + y₁)` with [`Csr::increment_form`]'s sums.

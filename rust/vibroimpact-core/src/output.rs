@@ -6,7 +6,7 @@ use crate::gap::ImpactRecord;
 use crate::sensitivity::StateTransition;
 
 /// Solver statistics.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Stats {
     /// Fixed steps: accepted steps (including the sub-steps of cut steps). Adaptive steps:
     /// every step solved for a kept result — in contact, average acceleration's step doubling
@@ -19,6 +19,22 @@ pub struct Stats {
     /// Newton failures retried with shorter steps (halved, or the next adaptive level).
     pub step_cuts: usize,
     pub wall_time_s: f64,
+    /// Which step ran: `"fixed-size N=…"` for the Newmark family's step compiled for a model
+    /// of that many DOFs (up to four), `"general"` otherwise (`--verbose`, `Result.stats`).
+    pub step_path: &'static str,
+}
+
+impl Default for Stats {
+    fn default() -> Self {
+        Self {
+            steps: 0,
+            newton_iterations: 0,
+            rejected_steps: 0,
+            step_cuts: 0,
+            wall_time_s: 0.0,
+            step_path: "general",
+        }
+    }
 }
 
 /// Energy account at the recorded instants, J (docs/conventions.md).

@@ -246,30 +246,32 @@ fn run_watched<'o>(
                 Err(e @ SimError::SingularTangent { .. }) => Some(e),
                 Err(e) => return Err(e),
                 Ok(mut stepper) => {
-                    run.report_linear_solver(stepper.as_ref(), h0);
-                    match &control {
-                        None => {
-                            let mut policy = FixedSteps::new(
-                                stepper.as_mut(),
-                                h0,
-                                n_steps,
-                                newton.max_step_cuts,
-                            );
-                            match method.newmark_family() {
-                                Some(scheme) if run.wants_sensitivity => {
-                                    let transition = NewmarkTransition::new(
-                                        sys,
-                                        scheme,
-                                        &run.cur,
-                                        run.sensitivity_parameter,
-                                    )?;
-                                    run.drive(sys, &mut policy.with_derivative(transition), every)
-                                }
-                                _ => run.drive(sys, &mut policy, every),
-                            }
-                        }
-                        Some(c) => {
-                            let mut policy = AdaptiveSteps::new(c, stepper.as_mut(), &run, sys);
+                    run.report_linear_solver(stepper.as_dyn(), h0);
+                    run.stats.step_path = stepper.as_dyn().step_path(sys);
+                    let cuts = newton.max_step_cuts;
+                    match (&control, &mut stepper) {
+                        (None, Implicit::Newmark(s)) => fixed_steps(
+                            &mut run,
+                            sys,
+                            method,
+                            s.as_mut(),
+                            h0,
+                            n_steps,
+                            cuts,
+                            every,
+                        )?,
+                        (None, Implicit::Other(s)) => fixed_steps(
+                            &mut run,
+                            sys,
+                            method,
+                            s.as_mut(),
+                            h0,
+                            n_steps,
+                            cuts,
+                            every,
+                        )?,
+                        (Some(c), s) => {
+                            let mut policy = AdaptiveSteps::new(c, s.as_dyn(), &run, sys);
                             run.drive(sys, &mut policy, every)
                         }
                     }
@@ -280,6 +282,46 @@ fn run_watched<'o>(
     Ok(run.finish(sys, error, h0, started, impacts))
 }
 
+/// The stepper of an implicit or precise method: the Newmark family's by its type, so that
+/// the fixed-step loop is compiled for it ([`FixedSteps`]), the others behind `dyn`.
+enum Implicit {
+    Newmark(Box<NewmarkStepper>),
+    Other(Box<dyn Stepper>),
+}
+
+impl Implicit {
+    fn as_dyn(&mut self) -> &mut dyn Stepper {
+        match self {
+            Implicit::Newmark(s) => s.as_mut(),
+            Implicit::Other(s) => s.as_mut(),
+        }
+    }
+}
+
+/// Drives `run` with fixed steps of `h0` (cut up to `max_cuts` times) taken by `stepper`,
+/// carrying the state-transition matrix along when the run wants it (the Newmark family).
+#[allow(clippy::too_many_arguments)]
+fn fixed_steps<S: Stepper + ?Sized>(
+    run: &mut Run,
+    sys: &System,
+    method: Method,
+    stepper: &mut S,
+    h0: f64,
+    n_steps: usize,
+    max_cuts: usize,
+    every: usize,
+) -> Result<Option<SimError>, SimError> {
+    let mut policy = FixedSteps::new(stepper, h0, n_steps, max_cuts);
+    Ok(match method.newmark_family() {
+        Some(scheme) if run.wants_sensitivity => {
+            let parameter = run.sensitivity_parameter;
+            let transition = NewmarkTransition::new(sys, scheme, &run.cur, parameter)?;
+            run.drive(sys, &mut policy.with_derivative(transition), every)
+        }
+        _ => run.drive(sys, &mut policy, every),
+    })
+}
+
 /// The stepper of an implicit or precise `method`, its operators prepared for steps of `h0`
 /// and chosen for a run of about `steps` of them (adaptive runs: at least that many).
 fn stepper(
@@ -288,23 +330,23 @@ fn stepper(
     newton: NewtonSettings,
     h0: f64,
     steps: usize,
-) -> Result<Box<dyn Stepper>, SimError> {
+) -> Result<Implicit, SimError> {
     Ok(match method {
         Method::Newmark(scheme) | Method::GeneralizedAlpha(scheme) | Method::Hht(scheme) => {
             let mut s = NewmarkStepper::new(sys, scheme, newton)?;
             s.expect_steps(steps);
             s.prepare(sys, h0)?;
-            Box::new(s)
+            Implicit::Newmark(Box::new(s))
         }
         Method::Precise(variant) => {
             let mut s = PreciseStepper::new(sys, variant, newton)?;
             s.prepare(sys, h0)?;
-            Box::new(s)
+            Implicit::Other(Box::new(s))
         }
         Method::Bathe(scheme) => {
             let mut s = BatheStepper::new(sys, scheme, newton)?;
             s.prepare(sys, h0)?;
-            Box::new(s)
+            Implicit::Other(Box::new(s))
         }
         Method::EventDriven(_) | Method::MoreauJean(_) | Method::Dop853 => {
             unreachable!("the impulsive and explicit methods have no stepper")

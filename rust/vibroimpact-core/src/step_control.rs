@@ -61,9 +61,11 @@ impl StepDerivative for NewmarkTransition {
 }
 
 /// Steps of a fixed size `h0` on the grid `k h0`, each halved (recursively, up to `max_cuts`
-/// times) when Newton fails; `derivative` composed along them.
-pub(crate) struct FixedSteps<'s, D: StepDerivative = ()> {
-    stepper: &'s mut dyn Stepper,
+/// times) when Newton fails; `derivative` composed along them. Compiled per stepper type `S`
+/// where the caller knows it (the Newmark family's), so that its step is inlined into the
+/// time loop; `dyn Stepper` otherwise.
+pub(crate) struct FixedSteps<'s, S: Stepper + ?Sized, D: StepDerivative = ()> {
+    stepper: &'s mut S,
     h0: f64,
     n_steps: usize,
     max_cuts: usize,
@@ -74,8 +76,8 @@ pub(crate) struct FixedSteps<'s, D: StepDerivative = ()> {
     derivative: D,
 }
 
-impl<'s> FixedSteps<'s> {
-    pub fn new(stepper: &'s mut dyn Stepper, h0: f64, n_steps: usize, max_cuts: usize) -> Self {
+impl<'s, S: Stepper + ?Sized> FixedSteps<'s, S> {
+    pub fn new(stepper: &'s mut S, h0: f64, n_steps: usize, max_cuts: usize) -> Self {
         Self {
             stepper,
             h0,
@@ -88,7 +90,7 @@ impl<'s> FixedSteps<'s> {
     }
 
     /// Carries `derivative` along every accepted (sub-)step.
-    pub fn with_derivative<D: StepDerivative>(self, derivative: D) -> FixedSteps<'s, D> {
+    pub fn with_derivative<D: StepDerivative>(self, derivative: D) -> FixedSteps<'s, S, D> {
         FixedSteps {
             stepper: self.stepper,
             h0: self.h0,
@@ -101,7 +103,7 @@ impl<'s> FixedSteps<'s> {
     }
 }
 
-impl<D: StepDerivative> StepPolicy for FixedSteps<'_, D> {
+impl<S: Stepper + ?Sized, D: StepDerivative> StepPolicy for FixedSteps<'_, S, D> {
     fn sensitivity(&self) -> Option<&StateTransition> {
         self.derivative.transition()
     }

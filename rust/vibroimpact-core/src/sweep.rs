@@ -133,6 +133,8 @@ struct Reducer<'a> {
     start: f64,
     /// Index (1-based) of the next stroboscopic sample.
     next_sample: usize,
+    /// Time between samples, `T / per_period`, s.
+    interval: f64,
     /// `∫ x² dt` per sampled DOF and the time it covers.
     square_integral: Vec<f64>,
     covered: f64,
@@ -148,6 +150,7 @@ impl<'a> Reducer<'a> {
             sampling,
             n_gaps,
             start: sampling.start(),
+            interval: sampling.period / sampling.per_period as f64,
             next_sample: 1,
             square_integral: vec![0.0; nd],
             covered: 0.0,
@@ -190,6 +193,16 @@ impl<'a> Reducer<'a> {
     }
 }
 
+/// `dst = src` for a state's per-DOF values: one value (a 1-DOF sweep, every step) without
+/// the call of a `memcpy`.
+#[inline(always)]
+fn copy_state(dst: &mut [f64], src: &[f64]) {
+    match (dst, src) {
+        ([d], [s]) => *d = *s,
+        (dst, src) => dst.copy_from_slice(src),
+    }
+}
+
 /// Hermite interpolant of DOF `d`'s displacement over the step.
 #[inline]
 fn displacement_segment(s0: &State, s1: &State, d: usize, h: f64) -> HermiteSegment {
@@ -211,8 +224,8 @@ impl StepObserver for Reducer<'_> {
         h: f64,
         turns: Option<&[Option<Turn>]>,
     ) {
-        self.out.final_displacement.copy_from_slice(&s1.x);
-        self.out.final_velocity.copy_from_slice(&s1.v);
+        copy_state(&mut self.out.final_displacement, &s1.x);
+        copy_state(&mut self.out.final_velocity, &s1.v);
         self.out.final_time = s1.t;
         let (t0, t1) = (s0.t, s0.t + h);
         // step ends closer than this to an instant are taken as landing on it
@@ -221,13 +234,9 @@ impl StepObserver for Reducer<'_> {
             return;
         }
         let Sampling {
-            period,
-            samples,
-            per_period,
-            ref dofs,
-            ..
+            samples, ref dofs, ..
         } = *self.sampling;
-        let interval = period / per_period as f64;
+        let interval = self.interval;
         let nd = dofs.len();
 
         // Stroboscopic samples inside (t0, t1].

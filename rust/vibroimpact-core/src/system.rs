@@ -253,13 +253,17 @@ impl System {
         phi: &mut [f64],
         tangent: &mut Tangent,
     ) {
-        phi.fill(0.0);
-        tangent.d_u.fill(0.0);
-        tangent.d_rate.fill(0.0);
         if self.has_radial {
+            phi.fill(0.0);
+            tangent.d_u.fill(0.0);
+            tangent.d_rate.fill(0.0);
             tangent.cross_u.fill(0.0);
             tangent.cross_rate.fill(0.0);
         }
+        // Without radial gaps every gap has one or two walls, adjacent in `walls`: the sums
+        // start from 0.0 at a gap's first wall (the same values as zeroing them first, without
+        // a fill per evaluation).
+        let mut summed = usize::MAX;
         for (j, wall) in self.walls.iter().enumerate() {
             let g = wall.gap;
             let gap = &self.gaps[g];
@@ -268,6 +272,12 @@ impl System {
                 continue;
             }
             let s = evaluate_wall(&gap.law, wall, &start[j], u[g], u_rate[g], h);
+            if !self.has_radial && summed != g {
+                summed = g;
+                phi[g] = 0.0;
+                tangent.d_u[g] = 0.0;
+                tangent.d_rate[g] = 0.0;
+            }
             phi[g] += wall.sign * s.force;
             tangent.d_u[g] += s.d_penetration;
             tangent.d_rate[g] += s.d_rate;
@@ -337,14 +347,17 @@ impl State {
     /// accelerations from the state's own `v`, `a` (the Newton iterate's rates differ from them
     /// by a residual within tolerance amplified by 2/h), and the walls' rates to match.
     pub fn finish_gaps(&mut self, sys: &System, u: &[f64]) {
-        self.u.copy_from_slice(u);
-        for ((g, rate), accel) in sys.gaps.iter().zip(&mut self.u_rate).zip(&mut self.u_accel) {
+        // (u copied in the same loop: no memcpy call for a few values)
+        let gaps = sys.gaps.iter().zip(u).zip(&mut self.u);
+        for (((g, &u), u_g), (rate, accel)) in
+            gaps.zip(self.u_rate.iter_mut().zip(&mut self.u_accel))
+        {
             let (mut r, mut acc) = (-0.0, -0.0); // as `Iterator::sum`
             for (&d, &c) in g.dofs.iter().zip(&g.coefficients) {
                 r += c * self.v[d];
                 acc += c * self.a[d];
             }
-            (*rate, *accel) = (r, acc);
+            (*u_g, *rate, *accel) = (u, r, acc);
         }
         for (wall, state) in sys.walls.iter().zip(self.walls.iter_mut()) {
             if sys.has_radial && wall.sign == 0.0 {

@@ -523,6 +523,7 @@ pub(crate) fn output_to_dict<'py>(
     stats.set_item(intern!(py, "rejected_steps"), out.stats.rejected_steps)?;
     stats.set_item(intern!(py, "step_cuts"), out.stats.step_cuts)?;
     stats.set_item(intern!(py, "wall_time_s"), out.stats.wall_time_s)?;
+    stats.set_item(intern!(py, "step_path"), out.stats.step_path)?;
     d.set_item(intern!(py, "stats"), stats)?;
     d.set_item(intern!(py, "energy_balance_error"), balance)?;
     d.set_item(intern!(py, "dt"), out.dt)?;

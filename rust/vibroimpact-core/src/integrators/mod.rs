@@ -144,4 +144,9 @@ pub trait Stepper {
     fn linear_solver(&self) -> Option<FactorInfo> {
         None
     }
+
+    /// Which step it takes for `sys` ([`crate::output::Stats::step_path`]).
+    fn step_path(&self, _sys: &System) -> &'static str {
+        "general"
+    }
 }

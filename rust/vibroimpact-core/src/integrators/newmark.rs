@@ -543,6 +543,17 @@ impl Stepper for NewmarkStepper {
     fn linear_solver(&self) -> Option<FactorInfo> {
         self.operators.largest().map(|op| op.info)
     }
+
+    /// The step [`Self::attempt`] dispatches to.
+    fn step_path(&self, sys: &System) -> &'static str {
+        match sys.n_dof() {
+            1 => "fixed-size N=1",
+            2 => "fixed-size N=2",
+            3 => "fixed-size N=3",
+            4 => "fixed-size N=4",
+            _ => "general",
+        }
+    }
 }
 
 impl NewmarkStepper {
@@ -891,6 +902,48 @@ mod tests {
                     "{n} DOFs, {scheme:?}: {contacts} steps in contact"
                 );
             }
+        }
+    }
+
+    /// The run's statistics name the step that ran: the sized step for one to four DOFs
+    /// (`attempt`'s dispatch), the general one for five, and for methods without a sized step.
+    #[test]
+    fn stats_name_the_step_path() {
+        use crate::simulate::{simulate, Method, RunSettings};
+        for n in 1..=5 {
+            let sys = small_chain(n, 1.0, &[(&[(0, 1.0)], 1e-3, Side::Both)]);
+            let settings = RunSettings {
+                t_end: 1e-3,
+                dt: 1e-5,
+                every: 1,
+                record_dofs: vec![0],
+                newton: NewtonSettings::default(),
+                adaptive: None,
+            };
+            let expected = match n {
+                1..=4 => format!("fixed-size N={n}"),
+                _ => "general".to_string(),
+            };
+            for method in [
+                Method::Newmark(NewmarkFamily::average_acceleration()),
+                Method::GeneralizedAlpha(TEST_SCHEMES[2]),
+            ] {
+                let (x0, v0) = (DVector::zeros(n), DVector::from_element(n, 0.1));
+                let out = simulate(&sys, method, &settings, x0, v0).unwrap();
+                assert_eq!(out.stats.step_path, expected, "{n} DOFs, {method:?}");
+            }
+            let adaptive = RunSettings {
+                adaptive: Some(crate::settings::Adaptive {
+                    rtol: 1e-6,
+                    atol: 1e-9,
+                    dt_min: 1e-9,
+                    dt_max: 1e-4,
+                }),
+                ..settings
+            };
+            let (x0, v0) = (DVector::zeros(n), DVector::from_element(n, 0.1));
+            let out = simulate(&sys, Method::Dop853, &adaptive, x0, v0).unwrap();
+            assert_eq!(out.stats.step_path, "general");
         }
     }
 
