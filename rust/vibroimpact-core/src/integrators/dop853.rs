@@ -471,20 +471,17 @@ impl Stages {
         store(&mut self.kp, 0, &start.power, g);
         store(&mut self.kf, 0, &start.forces, g);
         let root = matches!(clock, Clock::Root { .. });
-        for i in 1..STAGES {
-            let a = A[i];
-            self.stage_state(n, a, start, h);
-            let t = if root {
-                t0 + h * dot(a, &self.kt)
-            } else {
-                t0 + C[i] * h
+        // each stage its own code: its row of `A` a constant, its combination unrolls
+        macro_rules! stages {
+            ($this:expr; $($i:literal)*) => {
+                $($this.stage::<$i>(n, dynamics, contacts, clock, t0, start, h, root)?;)*
             };
-            let g = clock.dt_dvar(dynamics.sys, C[i], h, &self.vs)?;
-            let wall = clock.penetration(C[i], h);
-            let power = dynamics.accel(contacts, wall, t, &self.xs, &self.vs, &mut self.acc);
-            self.kt[i] = g;
-            self.keep(n, i, g, power, &dynamics.forces);
         }
+        stages!(self; 1 2 3 4 5 6 7 8 9 10 11);
+        const _: () = assert!(
+            STAGES == 12,
+            "one `stages!` entry per stage after the first"
+        );
         for ((((x1, v1), kx), kv), (x0, v0)) in end.x[..n]
             .iter_mut()
             .zip(end.v[..n].iter_mut())
@@ -521,6 +518,36 @@ impl Stages {
         store(&mut self.kv[..n * K], STAGES, &end.a[..n], g);
         store(&mut self.kp, STAGES, &end.power, g);
         Some(duration)
+    }
+
+    /// Stage `I` of a step: its state from the stages before it, the right-hand side there,
+    /// kept; `None` as [`Self::step`].
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn stage<const I: usize>(
+        &mut self,
+        n: usize,
+        dynamics: &mut Dynamics,
+        contacts: &[Contact],
+        clock: Clock,
+        t0: f64,
+        start: &StepEnd,
+        h: f64,
+        root: bool,
+    ) -> Option<()> {
+        let a = A[I];
+        self.stage_state(n, a, start, h);
+        let t = if root {
+            t0 + h * dot(a, &self.kt)
+        } else {
+            t0 + C[I] * h
+        };
+        let g = clock.dt_dvar(dynamics.sys, C[I], h, &self.vs)?;
+        let wall = clock.penetration(C[I], h);
+        let power = dynamics.accel(contacts, wall, t, &self.xs, &self.vs, &mut self.acc);
+        self.kt[I] = g;
+        self.keep(n, I, g, power, &dynamics.forces);
+        Some(())
     }
 
     /// Hairer's error norm of the last step (≤ 1 is acceptable): the fifth-order estimate
