@@ -276,3 +276,27 @@ def test_full_annular_rub_orbit_is_one_contact_without_onset() -> None:
     depth = abs(w) - CLEARANCE
     assert orbit.penetration_max[0] == pytest.approx(depth, rel=1e-9)
     assert orbit.force_max[0] == pytest.approx(KS * depth, rel=1e-9)
+
+
+def test_rub_benchmark_errors_equal_those_against_scipy() -> None:
+    """The accuracy `vibroimpact bench` states for the rub's long runs (against our DOP853
+    at rtol 1e-13) is their distance from SciPy's event-located DOP853 at rtol 1e-13 (here
+    over 20 revolutions), to within the two references' own difference; the reference is
+    converged (1e-12 against 1e-13) well below the errors it measures."""
+    from vibroimpact.benchmarks.rotor_rub import rub_benchmark, rub_model
+
+    p = RubRotor()
+    revolutions = 20
+    period = 2 * math.pi / p.spin_speed
+    b = rub_benchmark(repeats=1, revolutions=2, long_revolutions=revolutions)
+    y, _ = scipy_rub(p, revolutions * period, rtol=1e-13)
+    for key, method, dt in (
+            ("dop853_loose", vi.Dop853(adaptive=vi.Adaptive(rtol=1e-8, atol=1e-14)), period / 100),
+            ("newmark", vi.Newmark(), period / 200)):
+        r = vi.simulate(rub_model(p), t_end=revolutions * period, dt=dt, method=method,
+                        every=1_000_000)
+        against_scipy = float(np.abs(r.displacement[-1] - y[:2]).max())
+        assert b[f"{key}_1000_error_m"] == pytest.approx(against_scipy, abs=1e-13), key
+        assert b[f"{key}_1000_error_m"] > 1e3 * b["reference_convergence_m"], key
+    assert b["reference_convergence_m"] < 1e-13 * revolutions
+    assert b["reference_contacts_1000"] == b["newmark_contacts_1000"] == b["contacts_1000"]

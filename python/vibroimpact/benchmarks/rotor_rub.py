@@ -2,9 +2,9 @@
 seal (examples/models/jeffcott_seal_rub.toml: a radial gap with a linear stator and regularised
 friction), 100 revolutions by our DOP853 and by SciPy's ``solve_ivp`` DOP853 with the contact
 onsets and ends located as events, at the same rtol, side by side; then 1,000 revolutions by
-ours, and a sweep over 400 spin speeds of 300 revolutions each on 2 threads. CPU times (the
-machine may be shared). :func:`scipy_rub` is also the independent reference of
-tests/test_radial_gap.py."""
+ours with their accuracy against a converged run, and a sweep over 400 spin speeds of 300
+revolutions each on 2 threads. CPU times (the machine may be shared).
+:func:`scipy_rub` is also the independent reference of tests/test_radial_gap.py."""
 
 from __future__ import annotations
 
@@ -18,7 +18,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 __all__ = ["TARGET_1000_REVOLUTIONS_S", "TARGET_SPEEDUP", "TARGET_SWEEP_S", "RubRotor",
-           "rub_benchmark", "rub_sweep_benchmark", "scipy_rub"]
+           "rub_benchmark", "rub_errors", "rub_sweep_benchmark", "scipy_rub"]
 
 #: The issue's targets: at least 100× SciPy at 100 revolutions; 1,000 revolutions in 50 ms; a
 #: 400-point speed sweep of 300 revolutions each in 20 s on 2 cores.
@@ -101,43 +101,80 @@ def rub_model(p: RubRotor) -> Any:
     return vi.Model(st, gaps=[gap], loads=[vi.UnbalanceLoad(dof=[0, 1], magnitude=p.unbalance)])
 
 
-def rub_benchmark(repeats: int = 5, rtol: float = 1e-10) -> dict[str, Any]:
+def rub_benchmark(repeats: int = 5, rtol: float = 1e-10, loose_rtol: float = 1e-8,
+                  reference_rtol: float = 1e-13, revolutions: int = 100,
+                  long_revolutions: int = 1000) -> dict[str, Any]:
     """CPU times (the fastest of ``repeats``: the machine may be shared, the minimum is the
-    best estimate of the cost itself) of 100 revolutions by our DOP853 and by
+    best estimate of the cost itself) of ``revolutions`` by our DOP853 and by
     :func:`scipy_rub` (one run) at the same ``rtol``, the largest difference of their final
-    displacements (m) and their contact counts; and of 1,000 revolutions by our DOP853 and by
-    Newmark average acceleration at 200 steps a revolution."""
+    displacements (m) and their contact counts; and of ``long_revolutions`` by our DOP853 at
+    ``rtol`` and at ``loose_rtol`` and by Newmark average acceleration at 200 steps a
+    revolution, each with its accuracy against our DOP853 at ``reference_rtol`` (one untimed
+    run; ``reference_convergence_m``: its distance from the run at 10 × ``reference_rtol``):
+    ``*_error_m`` the largest difference of the final displacement (the once-per-revolution
+    Poincaré point at the last revolution; the motion is quasi-periodic, so a phase error
+    grows with the revolutions) and ``*_delta_max_error_m`` that of the deepest penetration
+    of the stator over the run (phase-blind: the largest stator force is ``k_s`` times it)."""
     import vibroimpact as vi
 
     p = RubRotor()
     model = rub_model(p)
     period = 2 * math.pi / p.spin_speed
-    dop853 = vi.Dop853(adaptive=vi.Adaptive(rtol=rtol, atol=1e-14))
 
-    def ours(revolutions: int, method: Any, dt: float) -> tuple[float, Any]:
+    def dop853(tolerance: float) -> Any:
+        return vi.Dop853(adaptive=vi.Adaptive(rtol=tolerance, atol=min(1e-14, tolerance * 1e-4)))
+
+    def run(n: int, method: Any, dt: float) -> Any:
+        return vi.simulate(model, t_end=n * period, dt=dt, method=method, every=1_000_000)
+
+    def ours(n: int, method: Any, dt: float) -> tuple[float, Any]:
         times, r = [], None
         for _ in range(repeats):
             t0 = time.process_time()
-            r = vi.simulate(model, t_end=revolutions * period, dt=dt, method=method,
-                            every=1_000_000)
+            r = run(n, method, dt)
             times.append(time.process_time() - t0)
         return float(np.min(times)), r
 
-    ours_100_s, r = ours(100, dop853, period / 100)
+    ours_100_s, r = ours(revolutions, dop853(rtol), period / 100)
     t0 = time.process_time()
-    y, onsets = scipy_rub(p, 100 * period, rtol=rtol)
+    y, onsets = scipy_rub(p, revolutions * period, rtol=rtol)
     scipy_s = time.process_time() - t0
-    dop853_1000_s, r1000 = ours(1000, dop853, period / 100)
-    newmark_1000_s, n1000 = ours(1000, vi.Newmark(), period / 200)
-    return {
-        "revolutions": 100, "rtol": rtol, "ours_s": ours_100_s, "scipy_s": scipy_s,
+    reference = run(long_revolutions, dop853(reference_rtol), period / 100)
+    convergence = rub_errors(run(long_revolutions, dop853(10 * reference_rtol), period / 100),
+                             reference)
+    timed = {"dop853": (dop853(rtol), period / 100), "newmark": (vi.Newmark(), period / 200),
+             "dop853_loose": (dop853(loose_rtol), period / 100)}
+    out: dict[str, Any] = {
+        "revolutions": revolutions, "rtol": rtol, "ours_s": ours_100_s, "scipy_s": scipy_s,
         "speedup": scipy_s / ours_100_s, "target_speedup": TARGET_SPEEDUP,
         "contacts": len(r.impacts), "scipy_contacts": len(onsets),
         "final_difference_m": float(np.abs(r.displacement[-1] - y[:2]).max()),
-        "dop853_1000_s": dop853_1000_s, "contacts_1000": len(r1000.impacts),
-        "newmark_1000_s": newmark_1000_s, "newmark_contacts_1000": len(n1000.impacts),
-        "target_1000_s": TARGET_1000_REVOLUTIONS_S,
+        "target_1000_s": TARGET_1000_REVOLUTIONS_S, "long_revolutions": long_revolutions,
+        "loose_rtol": loose_rtol, "reference_rtol": reference_rtol,
+        "reference_contacts_1000": len(reference.impacts),
+        "reference_delta_max_m": float(reference.impacts.delta_max.max()),
+        "reference_convergence_m": convergence[0],
+        "reference_delta_max_convergence_m": convergence[1],
+        "clearance_m": p.clearance,
     }
+    for name, (method, dt) in timed.items():
+        seconds, result = ours(long_revolutions, method, dt)
+        final, deepest = rub_errors(result, reference)
+        out[f"{name}_1000_s"] = seconds
+        out[f"{name}_1000_error_m"] = final
+        out[f"{name}_1000_delta_max_error_m"] = deepest
+        out[{"dop853": "contacts_1000", "newmark": "newmark_contacts_1000",
+             "dop853_loose": "dop853_loose_contacts_1000"}[name]] = len(result.impacts)
+    return out
+
+
+def rub_errors(result: Any, reference: Any) -> tuple[float, float]:
+    """``result``'s distance from ``reference`` (two runs of the same rub to the same time,
+    m): the largest difference of the final displacements and the difference of the deepest
+    penetrations of the stator over the runs."""
+    final = float(np.abs(result.displacement[-1] - reference.displacement[-1]).max())
+    deepest = abs(float(result.impacts.delta_max.max() - reference.impacts.delta_max.max()))
+    return final, deepest
 
 
 def rub_sweep_benchmark(points: int = 400, revolutions: int = 300, threads: int = 2,

@@ -28,6 +28,7 @@ pub use catalog::{
 pub use geometry::{
     combined_modulus, johnson_cylinder_in_hole_approach, ContactGeometry, Material,
 };
+pub(crate) use hertz::power_law;
 pub use hertz::Hertz;
 pub use hysteretic::{exact_hysteresis_factor, restitution_of_factor, HuntCrossley, Hysteretic};
 pub use kelvin_voigt::KelvinVoigt;

@@ -26,7 +26,7 @@
 //! stiff high modes are better served by the implicit methods.
 
 use super::dop853_tableau::{A, A_DENSE, B, C, C_DENSE, D, DENSE_STAGES, E3, E5, STAGES};
-use crate::contact::{ContactForce, ContactLaw, Law, MIN_IMPACT_SPEED};
+use crate::contact::{power_law, ContactForce, ContactLaw, Law, MIN_IMPACT_SPEED};
 use crate::driver::{Run, StepIntegrals, StepPolicy};
 use crate::error::SimError;
 use crate::gap::{
@@ -471,20 +471,17 @@ impl Stages {
         store(&mut self.kp, 0, &start.power, g);
         store(&mut self.kf, 0, &start.forces, g);
         let root = matches!(clock, Clock::Root { .. });
-        for i in 1..STAGES {
-            let a = A[i];
-            self.stage_state(n, a, start, h);
-            let t = if root {
-                t0 + h * dot(a, &self.kt)
-            } else {
-                t0 + C[i] * h
+        // each stage its own code: its row of `A` a constant, its combination unrolls
+        macro_rules! stages {
+            ($this:expr; $($i:literal)*) => {
+                $($this.stage::<$i>(n, dynamics, contacts, clock, t0, start, h, root)?;)*
             };
-            let g = clock.dt_dvar(dynamics.sys, C[i], h, &self.vs)?;
-            let wall = clock.penetration(C[i], h);
-            let power = dynamics.accel(contacts, wall, t, &self.xs, &self.vs, &mut self.acc);
-            self.kt[i] = g;
-            self.keep(n, i, g, power, &dynamics.forces);
         }
+        stages!(self; 1 2 3 4 5 6 7 8 9 10 11);
+        const _: () = assert!(
+            STAGES == 12,
+            "one `stages!` entry per stage after the first"
+        );
         for ((((x1, v1), kx), kv), (x0, v0)) in end.x[..n]
             .iter_mut()
             .zip(end.v[..n].iter_mut())
@@ -521,6 +518,36 @@ impl Stages {
         store(&mut self.kv[..n * K], STAGES, &end.a[..n], g);
         store(&mut self.kp, STAGES, &end.power, g);
         Some(duration)
+    }
+
+    /// Stage `I` of a step: its state from the stages before it, the right-hand side there,
+    /// kept; `None` as [`Self::step`].
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn stage<const I: usize>(
+        &mut self,
+        n: usize,
+        dynamics: &mut Dynamics,
+        contacts: &[Contact],
+        clock: Clock,
+        t0: f64,
+        start: &StepEnd,
+        h: f64,
+        root: bool,
+    ) -> Option<()> {
+        let a = A[I];
+        self.stage_state(n, a, start, h);
+        let t = if root {
+            t0 + h * dot(a, &self.kt)
+        } else {
+            t0 + C[I] * h
+        };
+        let g = clock.dt_dvar(dynamics.sys, C[I], h, &self.vs)?;
+        let wall = clock.penetration(C[I], h);
+        let power = dynamics.accel(contacts, wall, t, &self.xs, &self.vs, &mut self.acc);
+        self.kt[I] = g;
+        self.keep(n, I, g, power, &dynamics.forces);
+        Some(())
     }
 
     /// Hairer's error norm of the last step (≤ 1 is acceptable): the fifth-order estimate
@@ -1811,9 +1838,9 @@ fn radial_normal_force(
 /// and a force that does not start from zero (Kelvin–Voigt's `c δ̇`) must not jump inside the
 /// step.
 fn force_in_contact(law: &Law, c: &Contact, penetration: f64, rate: f64) -> ContactForce {
-    if continues_through_wall(law) {
-        let max_penetration = c.max_penetration.max(penetration);
-        return law.evaluate_in_contact(penetration, rate, c.impact_speed, max_penetration);
+    if let Some(stiffness) = linear_stator(law) {
+        // the law's own formula (`Hertz::evaluate`'s), without its dispatch and branches
+        return power_law(stiffness, 1.0, penetration);
     }
     let penetration = penetration.max(f64::MIN_POSITIVE);
     let max_penetration = c.max_penetration.max(penetration);
@@ -1836,7 +1863,17 @@ fn force_in_contact(law: &Law, c: &Contact, penetration: f64, rate: f64) -> Cont
 /// the tensile force beyond the switching window ([`switch_walls`], the events located inside
 /// the step).
 fn continues_through_wall(law: &Law) -> bool {
-    matches!(law, Law::Hertz(h) if h.exponent == 1.0 && h.compliance == 0.0)
+    linear_stator(law).is_some()
+}
+
+/// The stiffness `K` (N/m) of a law linear in the penetration, `F = K δ` (Hertz's with
+/// exponent 1 and no series spring), or `None`.
+#[inline]
+fn linear_stator(law: &Law) -> Option<f64> {
+    match law {
+        Law::Hertz(h) if h.exponent == 1.0 && h.compliance == 0.0 => Some(h.stiffness),
+        _ => None,
+    }
 }
 
 /// Whether wall `j`'s force continues through its wall ([`continues_through_wall`]).
@@ -1856,6 +1893,35 @@ mod tests {
     use crate::simulate::simulate;
     use crate::structure::LinearStructure;
     use crate::system::System;
+
+    use super::{force_in_contact, linear_stator, Contact};
+    use crate::contact::ContactLaw;
+
+    /// A linear stator's force in contact (its own path) is its law's evaluation, bit for
+    /// bit, on both sides of the wall; other laws (a Hertz exponent, a series spring, another
+    /// family) take the law's path.
+    #[test]
+    fn linear_stator_force_is_the_laws() {
+        let linear = Law::Hertz(Hertz::new(1e6, 1.0).unwrap());
+        assert_eq!(linear_stator(&linear), Some(1e6));
+        for other in [
+            Law::Hertz(Hertz::new(1e6, 1.5).unwrap()),
+            Law::Hertz(Hertz::new(1e6, 1.0).unwrap().in_series(1e-7).unwrap()),
+        ] {
+            assert_eq!(linear_stator(&other), None);
+        }
+        let c = Contact {
+            active: true,
+            impact_speed: 0.3,
+            max_penetration: 2e-6,
+            ..Contact::default()
+        };
+        for i in 0..=200 {
+            let delta = (i as f64 - 40.0) * 3.7e-8;
+            let law = linear.evaluate_in_contact(delta, 0.1, 0.3, 2e-6_f64.max(delta));
+            assert_eq!(force_in_contact(&linear, &c, delta, 0.1), law, "{delta}");
+        }
+    }
 
     /// The dense output of one step of an undamped oscillator (`x = sin t`) against the exact
     /// motion inside the step: its error falls at least like `h⁸` (order 7, a local error),
