@@ -88,64 +88,24 @@ impl GapNewton {
         }
     }
 
-    /// The step's solution without iterating when no wall closes in it: every wall open at
-    /// the start (so no contact force there, and Newton's first iterate is the linear
-    /// predictor `Δu_lin` itself) and still open at `u₀ + Δu_lin` (so that iterate has no
-    /// force either: zero residual, what [`Self::solve`] would return after evaluating every
-    /// wall). Writes the walls' gaps, zero forces and `self.u`, `self.u_rate` as `solve` does;
-    /// `false` otherwise (only `self.u` written, which `solve` sets before it reads it), and
-    /// for a full rate map.
+    /// Whether no wall closes in the step: every wall open at its start `start` (so no contact
+    /// force there, and Newton's first iterate is the linear predictor `Δu_lin` itself) and
+    /// still open at `self.u`, which the caller has set to `u₀ + Δu_lin` (so that iterate has
+    /// no force either: zero residual, what [`Self::solve`] would return after evaluating every
+    /// wall). The step's gap coordinates are then `self.u`, its forces zero and its walls open
+    /// (`State::finish_free_flight`); `solve` sets `self.u` itself before it reads it.
     #[inline(always)]
-    pub fn free_flight(
-        &mut self,
-        sys: &System,
-        p: &GapProblem<'_>,
-        walls: &mut [WallState],
-        phi: &mut [f64],
-    ) -> bool {
-        let RateMap::Diagonal(c_v) = p.rate else {
-            return false;
-        };
-        let ng = self.du.len();
-        let (u0, du_lin, rate_lin) = (&p.u0[..ng], &p.du_lin[..ng], &p.rate_lin[..ng]);
-        let u = &mut self.u[..ng];
-        for ((u, &u0), &du) in u.iter_mut().zip(u0).zip(du_lin) {
-            *u = u0 + du;
-        }
+    pub fn free_flight(&self, sys: &System, start: &[WallState]) -> bool {
+        let u = &self.u;
         let open = |(wall, start): (&Wall, &WallState)| {
             !start.closed() && wall.sign * u[wall.gap] <= wall.clearance
         };
-        if !sys.walls.iter().zip(p.start).all(open) {
-            return false;
-        }
-        if sys.has_radial && !self.radial_open(sys) {
-            return false;
-        }
-        let (du, u_rate, phi) = (&mut self.du[..ng], &mut self.u_rate[..ng], &mut phi[..ng]);
-        for gi in 0..ng {
-            du[gi] = du_lin[gi];
-            u_rate[gi] = c_v * du_lin[gi] + rate_lin[gi];
-            phi[gi] = 0.0;
-        }
-        for (wall, state) in sys.walls.iter().zip(walls.iter_mut()) {
-            *state = WallState {
-                penetration: wall.sign * self.u[wall.gap] - wall.clearance,
-                rate: wall.sign * self.u_rate[wall.gap],
-                ..WallState::default()
-            };
-        }
-        if sys.has_radial {
-            for (j, state) in walls.iter_mut().enumerate() {
-                if sys.walls[j].sign == 0.0 {
-                    (state.penetration, state.rate) = sys.wall_motion(j, &self.u, &self.u_rate);
-                }
-            }
-        }
-        true
+        sys.walls.iter().zip(start).all(open) && (!sys.has_radial || self.radial_open(sys))
     }
 
     /// Every radial wall stays open at the linear predictor `self.u` (the 1-D walls are
-    /// checked by [`Self::free_flight`]; a radial wall's sign 0 passes that check).
+    /// checked by [`Self::free_flight`]; a radial wall's sign 0 passes that check; its
+    /// penetration depends on `self.u` only, not on the rates).
     fn radial_open(&self, sys: &System) -> bool {
         (0..sys.walls.len())
             .filter(|&j| sys.walls[j].sign == 0.0)
