@@ -271,7 +271,8 @@ impl System {
                 walls[j] = self.radial_wall(r, g, wall, &start[j], u, u_rate, h, phi, tangent);
                 continue;
             }
-            let s = evaluate_wall(&gap.law, wall, &start[j], u[g], u_rate[g], h);
+            let s = &mut walls[j];
+            evaluate_wall(&gap.law, wall, &start[j], u[g], u_rate[g], h, s);
             if !self.has_radial && summed != g {
                 summed = g;
                 phi[g] = 0.0;
@@ -281,7 +282,6 @@ impl System {
             phi[g] += wall.sign * s.force;
             tangent.d_u[g] += s.d_penetration;
             tangent.d_rate[g] += s.d_rate;
-            walls[j] = s;
         }
     }
 
