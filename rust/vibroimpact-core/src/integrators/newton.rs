@@ -144,7 +144,26 @@ impl GapNewton {
         walls: &mut [WallState],
         phi: &mut [f64],
     ) -> Result<usize, StepFailure> {
-        let ng = self.du.len();
+        if self.du.len() == 1 {
+            self.solve_sized::<1>(sys, settings, p, walls, phi)
+        } else {
+            self.solve_sized::<0>(sys, settings, p, walls, phi)
+        }
+    }
+
+    /// [`Self::solve`] with its loops over the gap coordinates compiled for `G` of them (a
+    /// model with one 1-D gap: `G = 1`), or for any number (`G = 0`): the same arithmetic in
+    /// the same order.
+    #[inline(always)]
+    fn solve_sized<const G: usize>(
+        &mut self,
+        sys: &System,
+        settings: &NewtonSettings,
+        p: &GapProblem<'_>,
+        walls: &mut [WallState],
+        phi: &mut [f64],
+    ) -> Result<usize, StepFailure> {
+        let ng = if G > 0 { G } else { self.du.len() };
         let (w, u0, du_lin, rate_lin) = (
             &p.w[..ng * ng],
             &p.u0[..ng],
@@ -225,9 +244,9 @@ impl GapNewton {
             }
             let solved = match p.rate {
                 RateMap::Diagonal(_) if sys.has_radial => {
-                    self.diagonal_step::<true>(w, &sys.partner)
+                    self.diagonal_step::<true>(ng, w, &sys.partner)
                 }
-                RateMap::Diagonal(_) => self.diagonal_step::<false>(w, &[]),
+                RateMap::Diagonal(_) => self.diagonal_step::<false>(ng, w, &[]),
                 RateMap::Full(s) => self.full_step(w, s),
             };
             if !solved {
@@ -239,15 +258,17 @@ impl GapNewton {
                 });
             }
             iterations += 1;
-            increment_small = self.apply_increment(settings, u0);
+            increment_small = self.apply_increment(settings, ng, u0);
         }
     }
 
-    /// `Δu += d`; whether every `|d|` is within `rtol |u| + atol` (paper eq. 27).
-    #[inline]
-    fn apply_increment(&mut self, settings: &NewtonSettings, u0: &[f64]) -> bool {
+    /// `Δu += d` on the `ng` gap coordinates; whether every `|d|` is within `rtol |u| + atol`
+    /// (paper eq. 27).
+    #[inline(always)]
+    fn apply_increment(&mut self, settings: &NewtonSettings, ng: usize, u0: &[f64]) -> bool {
         let mut small = true;
-        for ((du, &d), &u0) in self.du.iter_mut().zip(&self.increment).zip(u0) {
+        let (du, increment, u0) = (&mut self.du[..ng], &self.increment[..ng], &u0[..ng]);
+        for ((du, &d), &u0) in du.iter_mut().zip(increment).zip(u0) {
             *du += d;
             if d.abs() > settings.rtol * (u0 + *du).abs() + settings.atol {
                 small = false;
@@ -256,15 +277,20 @@ impl GapNewton {
         small
     }
 
-    /// Newton step with `S = c_v I`: solves `(I + W_AA K_A) d_A = −r_A` on the active gaps;
+    /// Newton step with `S = c_v I` on `ng` gap coordinates: solves `(I + W_AA K_A) d_A = −r_A`
+    /// on the active gaps;
     /// the others follow, `d_N = −W_NA K_A d_A` (their `r_N` is zero), with
     /// `K = ∂φ/∂u + c_v ∂φ/∂u̇`. Writes `d` for every gap into `self.increment`. `RADIAL`:
     /// `K` has the 2×2 blocks of the radial gaps' coordinate pairs, so
     /// `(W K)[g][h] = W[g][h] K[h][h] + W[g][p] K[p][h]` (`p` the partner of `h`); without
     /// radial gaps (the constant `false`) the partner terms are compiled out.
     #[inline(always)]
-    fn diagonal_step<const RADIAL: bool>(&mut self, w: &[f64], partner: &[Option<usize>]) -> bool {
-        let ng = self.du.len();
+    fn diagonal_step<const RADIAL: bool>(
+        &mut self,
+        ng: usize,
+        w: &[f64],
+        partner: &[Option<usize>],
+    ) -> bool {
         let m = self.active.len();
         let wk = |gi: usize, hi: usize, stiffness: &[f64], coupling: &[f64]| {
             let direct = w[gi * ng + hi] * stiffness[hi];
