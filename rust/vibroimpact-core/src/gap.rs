@@ -320,7 +320,8 @@ impl WallState {
     }
 }
 
-/// Evaluates a wall at the end of a step of length `h`, given its state at the start.
+/// Evaluates a wall at the end of a step of length `h`, given its state at the start, into
+/// `out` (written in place: no copy of the state per evaluation).
 /// A wall that opens→closes inside the step gets `v_imp` from the located crossing.
 #[inline]
 pub fn evaluate_wall(
@@ -330,14 +331,16 @@ pub fn evaluate_wall(
     u: f64,
     u_rate: f64,
     h: f64,
-) -> WallState {
-    contact_state(
+    out: &mut WallState,
+) {
+    write_contact_state(
+        out,
         law,
         start,
         wall.sign * u - wall.clearance,
         wall.sign * u_rate,
         h,
-    )
+    );
 }
 
 /// A wall's state at penetration `δ` and rate `δ̇` at the end of a step of length `h` from
@@ -350,13 +353,28 @@ pub fn contact_state(
     rate: f64,
     h: f64,
 ) -> WallState {
-    let mut s = WallState {
+    let mut s = WallState::default();
+    write_contact_state(&mut s, law, start, penetration, rate, h);
+    s
+}
+
+/// [`contact_state`] written into `s`.
+#[inline]
+fn write_contact_state(
+    s: &mut WallState,
+    law: &Law,
+    start: &WallState,
+    penetration: f64,
+    rate: f64,
+    h: f64,
+) {
+    *s = WallState {
         penetration,
         rate,
         ..WallState::default()
     };
     if penetration <= 0.0 {
-        return s;
+        return;
     }
     s.impact_speed = if start.closed() {
         start.impact_speed
@@ -383,7 +401,6 @@ pub fn contact_state(
     s.d_rate = f.d_rate;
     s.elastic_force = f.elastic;
     s.potential = f.potential;
-    s
 }
 
 /// One contact of one wall: a row of the impact table (docs/conventions.md).

@@ -271,7 +271,8 @@ impl System {
                 walls[j] = self.radial_wall(r, g, wall, &start[j], u, u_rate, h, phi, tangent);
                 continue;
             }
-            let s = evaluate_wall(&gap.law, wall, &start[j], u[g], u_rate[g], h);
+            let s = &mut walls[j];
+            evaluate_wall(&gap.law, wall, &start[j], u[g], u_rate[g], h, s);
             if !self.has_radial && summed != g {
                 summed = g;
                 phi[g] = 0.0;
@@ -281,7 +282,6 @@ impl System {
             phi[g] += wall.sign * s.force;
             tangent.d_u[g] += s.d_penetration;
             tangent.d_rate[g] += s.d_rate;
-            walls[j] = s;
         }
     }
 
@@ -347,29 +347,69 @@ impl State {
     /// accelerations from the state's own `v`, `a` (the Newton iterate's rates differ from them
     /// by a residual within tolerance amplified by 2/h), and the walls' rates to match.
     pub fn finish_gaps(&mut self, sys: &System, u: &[f64]) {
+        self.finish::<false>(sys, u);
+    }
+
+    /// [`Self::finish_gaps`] after a step in free flight (no wall closed at either end, found
+    /// without evaluating a wall: `GapNewton::free_flight`): also the zero contact forces and
+    /// each wall's whole state, open, its penetration from `u`.
+    pub fn finish_free_flight(&mut self, sys: &System, u: &[f64]) {
+        self.finish::<true>(sys, u);
+    }
+
+    #[inline(always)]
+    fn finish<const FREE: bool>(&mut self, sys: &System, u: &[f64]) {
+        let State {
+            x: _,
+            v,
+            a,
+            phi,
+            u: gap_u,
+            u_rate,
+            u_accel,
+            walls,
+            ..
+        } = self;
         // (u copied in the same loop: no memcpy call for a few values)
-        let gaps = sys.gaps.iter().zip(u).zip(&mut self.u);
-        for (((g, &u), u_g), (rate, accel)) in
-            gaps.zip(self.u_rate.iter_mut().zip(&mut self.u_accel))
+        let gaps = sys.gaps.iter().zip(u).zip(gap_u.iter_mut());
+        for ((((g, &u), u_g), rate), (accel, phi)) in gaps
+            .zip(u_rate.iter_mut())
+            .zip(u_accel.iter_mut().zip(phi.iter_mut()))
         {
             let (mut r, mut acc) = (-0.0, -0.0); // as `Iterator::sum`
             for (&d, &c) in g.dofs.iter().zip(&g.coefficients) {
-                r += c * self.v[d];
-                acc += c * self.a[d];
+                r += c * v[d];
+                acc += c * a[d];
             }
             (*u_g, *rate, *accel) = (u, r, acc);
+            if FREE {
+                *phi = 0.0;
+            }
         }
-        for (wall, state) in sys.walls.iter().zip(self.walls.iter_mut()) {
+        let (u, u_rate) = (&*gap_u, &*u_rate);
+        for (wall, state) in sys.walls.iter().zip(walls.iter_mut()) {
             if sys.has_radial && wall.sign == 0.0 {
                 let Side::Radial(r) = &sys.gaps[wall.gap].side else {
                     unreachable!("a wall of sign 0 is radial")
                 };
-                let k = sys.radial_kinematics(r, wall.gap, &self.u, &self.u_rate);
+                let k = sys.radial_kinematics(r, wall.gap, u, u_rate);
+                if FREE {
+                    *state = WallState {
+                        penetration: k.rho - wall.clearance,
+                        ..WallState::default()
+                    };
+                }
                 state.rate = k.rate;
                 state.slide = k.slide;
                 state.slip = r.radius * sys.structure.spin.start + k.slide;
+            } else if FREE {
+                *state = WallState {
+                    penetration: wall.sign * u[wall.gap] - wall.clearance,
+                    rate: wall.sign * u_rate[wall.gap],
+                    ..WallState::default()
+                };
             } else {
-                state.rate = wall.sign * self.u_rate[wall.gap];
+                state.rate = wall.sign * u_rate[wall.gap];
             }
         }
     }

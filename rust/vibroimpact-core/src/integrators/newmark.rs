@@ -671,15 +671,15 @@ impl NewmarkStepper {
             }
         }
         // The gap coordinates of e and of d̃ (as System::gap_coordinates, in one pass), and
-        // the gap rates that follow the increment through eq. 17: u̇₁ = a₁ Δu − a₄ u̇₀ − a₅ ü₀.
+        // the linear predictor's gap coordinates u₀ + Δu_lin (Newton's first iterate).
         let (dx, d_tilde) = (&self.dx[..n], &self.d_tilde[..n]);
-        let gap_rates = s0.u_rate.iter().zip(&s0.u_accel);
-        for (((gap, du), rate), (r0, acc0)) in sys
+        let newton = &mut self.gap_newton;
+        for (((gap, du), u), &u0) in sys
             .gaps
             .iter()
             .zip(&mut self.du_lin)
-            .zip(&mut self.rate_lin)
-            .zip(gap_rates)
+            .zip(&mut newton.u)
+            .zip(&s0.u)
         {
             let (mut e, mut p) = (-0.0, -0.0); // as `Iterator::sum`
             for (&d, &c) in gap.dofs.iter().zip(&gap.coefficients) {
@@ -687,36 +687,48 @@ impl NewmarkStepper {
                 p += c * d_tilde[d];
             }
             *du = e + p;
-            *rate = -a4 * r0 - a5 * acc0;
+            *u = u0 + *du;
         }
 
-        // Newton on the gap coordinates, starting from the previous step's contact forces.
-        let newton = &mut self.gap_newton;
-        let problem = GapProblem {
-            w: &op.w,
-            u0: &s0.u,
-            du_lin: &self.du_lin,
-            rate_lin: &self.rate_lin,
-            rate: RateMap::Diagonal(a1),
-            start: &s0.walls,
-            h,
-        };
-        let iterations = if newton.free_flight(sys, &problem, &mut s1.walls, &mut s1.phi) {
+        // Free flight (no wall closed at either end: the linear step is the step, with no
+        // contact force) needs no Newton, no contact terms and no wall evaluated; otherwise
+        // Newton on the gap coordinates, starting from the previous step's contact forces,
+        // with the gap rates that follow the increment through eq. 17:
+        // u̇₁ = a₁ Δu − a₄ u̇₀ − a₅ ü₀.
+        let free = newton.free_flight(sys, &s0.walls);
+        let iterations = if free {
             0
         } else {
+            let gap_rates = s0.u_rate.iter().zip(&s0.u_accel);
+            for (rate, (r0, acc0)) in self.rate_lin.iter_mut().zip(gap_rates) {
+                *rate = -a4 * r0 - a5 * acc0;
+            }
+            let problem = GapProblem {
+                w: &op.w,
+                u0: &s0.u,
+                du_lin: &self.du_lin,
+                rate_lin: &self.rate_lin,
+                rate: RateMap::Diagonal(a1),
+                start: &s0.walls,
+                h,
+            };
             newton.start_from(&op.w, &self.du_lin, &s0.phi);
-            newton.solve(sys, &self.newton, &problem, &mut s1.walls, &mut s1.phi)?
+            let iterations =
+                newton.solve(sys, &self.newton, &problem, &mut s1.walls, &mut s1.phi)?;
+            // e = e_lin − Σ_g G_g φ_g
+            let dx = &mut self.dx[..n];
+            for (col, &p) in op.gaps.iter().zip(&s1.phi) {
+                if p != 0.0 {
+                    axpy(-p, &col[..n], dx);
+                }
+            }
+            iterations
         };
 
-        // e = e_lin − Σ_g G_g φ_g; then the Newmark relations (eqs. 14, 18) in predictor
-        // form: x₁ = x₀ + d̃ + e and a₁ = a₀ e (the same as a₀ Δx − a₂ v₀ − a₃ a₀ without its
-        // cancellation of large terms), v₁ from a₁.
-        let dx = &mut self.dx[..n];
-        for (col, &p) in op.gaps.iter().zip(&s1.phi) {
-            if p != 0.0 {
-                axpy(-p, &col[..n], dx);
-            }
-        }
+        // The Newmark relations (eqs. 14, 18) in predictor form: x₁ = x₀ + d̃ + e and
+        // a₁ = a₀ e (the same as a₀ Δx − a₂ v₀ − a₃ a₀ without its cancellation of large
+        // terms), v₁ from a₁.
+        let dx = &self.dx[..n];
         let (x0, v0, a0_old) = (&s0.x[..n], &s0.v[..n], &s0.a[..n]);
         let (x1, v1, a1_new) = (&mut s1.x[..n], &mut s1.v[..n], &mut s1.a[..n]);
         let d_tilde = &self.d_tilde[..n];
@@ -726,7 +738,11 @@ impl NewmarkStepper {
             a1_new[i] = a0 * e;
             v1[i] = v0[i] + h * ((1.0 - gamma) * a0_old[i] + gamma * a1_new[i]);
         }
-        s1.finish_gaps(sys, &self.gap_newton.u);
+        if free {
+            s1.finish_free_flight(sys, &self.gap_newton.u);
+        } else {
+            s1.finish_gaps(sys, &self.gap_newton.u);
+        }
         Ok(iterations)
     }
 }

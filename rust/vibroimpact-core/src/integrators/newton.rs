@@ -88,64 +88,24 @@ impl GapNewton {
         }
     }
 
-    /// The step's solution without iterating when no wall closes in it: every wall open at
-    /// the start (so no contact force there, and Newton's first iterate is the linear
-    /// predictor `Δu_lin` itself) and still open at `u₀ + Δu_lin` (so that iterate has no
-    /// force either: zero residual, what [`Self::solve`] would return after evaluating every
-    /// wall). Writes the walls' gaps, zero forces and `self.u`, `self.u_rate` as `solve` does;
-    /// `false` otherwise (only `self.u` written, which `solve` sets before it reads it), and
-    /// for a full rate map.
+    /// Whether no wall closes in the step: every wall open at its start `start` (so no contact
+    /// force there, and Newton's first iterate is the linear predictor `Δu_lin` itself) and
+    /// still open at `self.u`, which the caller has set to `u₀ + Δu_lin` (so that iterate has
+    /// no force either: zero residual, what [`Self::solve`] would return after evaluating every
+    /// wall). The step's gap coordinates are then `self.u`, its forces zero and its walls open
+    /// (`State::finish_free_flight`); `solve` sets `self.u` itself before it reads it.
     #[inline(always)]
-    pub fn free_flight(
-        &mut self,
-        sys: &System,
-        p: &GapProblem<'_>,
-        walls: &mut [WallState],
-        phi: &mut [f64],
-    ) -> bool {
-        let RateMap::Diagonal(c_v) = p.rate else {
-            return false;
-        };
-        let ng = self.du.len();
-        let (u0, du_lin, rate_lin) = (&p.u0[..ng], &p.du_lin[..ng], &p.rate_lin[..ng]);
-        let u = &mut self.u[..ng];
-        for ((u, &u0), &du) in u.iter_mut().zip(u0).zip(du_lin) {
-            *u = u0 + du;
-        }
+    pub fn free_flight(&self, sys: &System, start: &[WallState]) -> bool {
+        let u = &self.u;
         let open = |(wall, start): (&Wall, &WallState)| {
             !start.closed() && wall.sign * u[wall.gap] <= wall.clearance
         };
-        if !sys.walls.iter().zip(p.start).all(open) {
-            return false;
-        }
-        if sys.has_radial && !self.radial_open(sys) {
-            return false;
-        }
-        let (du, u_rate, phi) = (&mut self.du[..ng], &mut self.u_rate[..ng], &mut phi[..ng]);
-        for gi in 0..ng {
-            du[gi] = du_lin[gi];
-            u_rate[gi] = c_v * du_lin[gi] + rate_lin[gi];
-            phi[gi] = 0.0;
-        }
-        for (wall, state) in sys.walls.iter().zip(walls.iter_mut()) {
-            *state = WallState {
-                penetration: wall.sign * self.u[wall.gap] - wall.clearance,
-                rate: wall.sign * self.u_rate[wall.gap],
-                ..WallState::default()
-            };
-        }
-        if sys.has_radial {
-            for (j, state) in walls.iter_mut().enumerate() {
-                if sys.walls[j].sign == 0.0 {
-                    (state.penetration, state.rate) = sys.wall_motion(j, &self.u, &self.u_rate);
-                }
-            }
-        }
-        true
+        sys.walls.iter().zip(start).all(open) && (!sys.has_radial || self.radial_open(sys))
     }
 
     /// Every radial wall stays open at the linear predictor `self.u` (the 1-D walls are
-    /// checked by [`Self::free_flight`]; a radial wall's sign 0 passes that check).
+    /// checked by [`Self::free_flight`]; a radial wall's sign 0 passes that check; its
+    /// penetration depends on `self.u` only, not on the rates).
     fn radial_open(&self, sys: &System) -> bool {
         (0..sys.walls.len())
             .filter(|&j| sys.walls[j].sign == 0.0)
@@ -184,7 +144,26 @@ impl GapNewton {
         walls: &mut [WallState],
         phi: &mut [f64],
     ) -> Result<usize, StepFailure> {
-        let ng = self.du.len();
+        if self.du.len() == 1 {
+            self.solve_sized::<1>(sys, settings, p, walls, phi)
+        } else {
+            self.solve_sized::<0>(sys, settings, p, walls, phi)
+        }
+    }
+
+    /// [`Self::solve`] with its loops over the gap coordinates compiled for `G` of them (a
+    /// model with one 1-D gap: `G = 1`), or for any number (`G = 0`): the same arithmetic in
+    /// the same order.
+    #[inline(always)]
+    fn solve_sized<const G: usize>(
+        &mut self,
+        sys: &System,
+        settings: &NewtonSettings,
+        p: &GapProblem<'_>,
+        walls: &mut [WallState],
+        phi: &mut [f64],
+    ) -> Result<usize, StepFailure> {
+        let ng = if G > 0 { G } else { self.du.len() };
         let (w, u0, du_lin, rate_lin) = (
             &p.w[..ng * ng],
             &p.u0[..ng],
@@ -265,9 +244,9 @@ impl GapNewton {
             }
             let solved = match p.rate {
                 RateMap::Diagonal(_) if sys.has_radial => {
-                    self.diagonal_step::<true>(w, &sys.partner)
+                    self.diagonal_step::<true>(ng, w, &sys.partner)
                 }
-                RateMap::Diagonal(_) => self.diagonal_step::<false>(w, &[]),
+                RateMap::Diagonal(_) => self.diagonal_step::<false>(ng, w, &[]),
                 RateMap::Full(s) => self.full_step(w, s),
             };
             if !solved {
@@ -279,15 +258,17 @@ impl GapNewton {
                 });
             }
             iterations += 1;
-            increment_small = self.apply_increment(settings, u0);
+            increment_small = self.apply_increment(settings, ng, u0);
         }
     }
 
-    /// `Δu += d`; whether every `|d|` is within `rtol |u| + atol` (paper eq. 27).
-    #[inline]
-    fn apply_increment(&mut self, settings: &NewtonSettings, u0: &[f64]) -> bool {
+    /// `Δu += d` on the `ng` gap coordinates; whether every `|d|` is within `rtol |u| + atol`
+    /// (paper eq. 27).
+    #[inline(always)]
+    fn apply_increment(&mut self, settings: &NewtonSettings, ng: usize, u0: &[f64]) -> bool {
         let mut small = true;
-        for ((du, &d), &u0) in self.du.iter_mut().zip(&self.increment).zip(u0) {
+        let (du, increment, u0) = (&mut self.du[..ng], &self.increment[..ng], &u0[..ng]);
+        for ((du, &d), &u0) in du.iter_mut().zip(increment).zip(u0) {
             *du += d;
             if d.abs() > settings.rtol * (u0 + *du).abs() + settings.atol {
                 small = false;
@@ -296,15 +277,20 @@ impl GapNewton {
         small
     }
 
-    /// Newton step with `S = c_v I`: solves `(I + W_AA K_A) d_A = −r_A` on the active gaps;
+    /// Newton step with `S = c_v I` on `ng` gap coordinates: solves `(I + W_AA K_A) d_A = −r_A`
+    /// on the active gaps;
     /// the others follow, `d_N = −W_NA K_A d_A` (their `r_N` is zero), with
     /// `K = ∂φ/∂u + c_v ∂φ/∂u̇`. Writes `d` for every gap into `self.increment`. `RADIAL`:
     /// `K` has the 2×2 blocks of the radial gaps' coordinate pairs, so
     /// `(W K)[g][h] = W[g][h] K[h][h] + W[g][p] K[p][h]` (`p` the partner of `h`); without
     /// radial gaps (the constant `false`) the partner terms are compiled out.
     #[inline(always)]
-    fn diagonal_step<const RADIAL: bool>(&mut self, w: &[f64], partner: &[Option<usize>]) -> bool {
-        let ng = self.du.len();
+    fn diagonal_step<const RADIAL: bool>(
+        &mut self,
+        ng: usize,
+        w: &[f64],
+        partner: &[Option<usize>],
+    ) -> bool {
         let m = self.active.len();
         let wk = |gi: usize, hi: usize, stiffness: &[f64], coupling: &[f64]| {
             let direct = w[gi * ng + hi] * stiffness[hi];
