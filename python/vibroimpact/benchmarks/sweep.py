@@ -55,10 +55,12 @@ def impact_oscillator_sweep(points: int = 400, transient: int = 200, periods: in
 #: issue 20's throughput target (at least twice it). A machine constant: re-measure it when the
 #: machine changes, by building 5f02a5a into a second environment and running this sweep in
 #: both, alternately, keeping each build's least CPU time. Measured so on this project's current
-#: 2-core machine (2026-12-02 16:22 UTC, load < 1, 29 runs of each build, this VM's times vary
-#: by 1.7x between runs): 0.48 s for 5f02a5a against 0.33 s for a8e908e. (The first machine's
-#: 0.265 s is not comparable: it ran this per-step path about twice as fast.)
-FIXED_STEP_BASELINE_CPU_S = 0.48
+#: 2-core machine (2026-12-02 16:16-17:23 UTC, load < 1, 37 runs of 5f02a5a alternated with
+#: newer builds): 0.43 s for 5f02a5a against 0.33 s for a8e908e and 0.31 s for 91b7f10 (issue
+#: 20's next changes). This VM has slow phases lasting seconds (the same build
+#: reads 0.31 or 0.50 s), so a ratio read from three runs can be off by 1.6x either way. (The
+#: first machine's 0.265 s is not comparable: it ran this per-step path about twice as fast.)
+FIXED_STEP_BASELINE_CPU_S = 0.43
 
 
 def fixed_step_sweep_benchmark(points: int = 16, repeats: int = 3) -> dict[str, Any]:
