@@ -177,19 +177,21 @@ impl GapNewton {
         let mut iterations = 0;
         let mut increment_small = false;
         loop {
+            // the work vectors sliced to the constant count once, not checked per access
+            let (du, u, u_rate) = (&self.du[..ng], &mut self.u[..ng], &mut self.u_rate[..ng]);
             match p.rate {
                 RateMap::Diagonal(c) => {
                     for gi in 0..ng {
-                        self.u[gi] = u0[gi] + self.du[gi];
-                        self.u_rate[gi] = c * self.du[gi] + rate_lin[gi];
+                        u[gi] = u0[gi] + du[gi];
+                        u_rate[gi] = c * du[gi] + rate_lin[gi];
                     }
                 }
                 RateMap::Full(s) => {
                     for gi in 0..ng {
-                        self.u[gi] = u0[gi] + self.du[gi];
+                        u[gi] = u0[gi] + du[gi];
                         let srow = &s[gi * ng..(gi + 1) * ng];
-                        let sdu: f64 = srow.iter().zip(&self.du).map(|(a, b)| a * b).sum();
-                        self.u_rate[gi] = rate_lin[gi] + sdu;
+                        let sdu: f64 = srow.iter().zip(du).map(|(a, b)| a * b).sum();
+                        u_rate[gi] = rate_lin[gi] + sdu;
                     }
                 }
             }
@@ -204,22 +206,34 @@ impl GapNewton {
             );
             let mut residual_small = true;
             self.active.clear();
+            let (du, u, phi) = (&self.du[..ng], &self.u[..ng], &phi[..ng]);
+            let (residual, stiffness, coupling) = (
+                &mut self.residual[..ng],
+                &mut self.stiffness[..ng],
+                &mut self.coupling[..ng],
+            );
+            let t = &self.tangent;
+            let (d_u, d_rate, cross_u, cross_rate) = (
+                &t.d_u[..ng],
+                &t.d_rate[..ng],
+                &t.cross_u[..ng],
+                &t.cross_rate[..ng],
+            );
             for gi in 0..ng {
                 let wrow = &w[gi * ng..(gi + 1) * ng];
-                let wphi: f64 = wrow.iter().zip(phi.iter()).map(|(w, p)| w * p).sum();
-                let r = self.du[gi] - du_lin[gi] + wphi;
-                self.residual[gi] = r;
-                self.stiffness[gi] = self.tangent.d_u[gi] + c_v * self.tangent.d_rate[gi];
-                let tol = settings.rtol * self.u[gi].abs() + settings.atol;
+                let wphi: f64 = wrow.iter().zip(phi).map(|(w, p)| w * p).sum();
+                let r = du[gi] - du_lin[gi] + wphi;
+                residual[gi] = r;
+                stiffness[gi] = d_u[gi] + c_v * d_rate[gi];
+                let tol = settings.rtol * u[gi].abs() + settings.atol;
                 if r.abs() > tol {
                     residual_small = false;
                 }
                 let coupled = sys.has_radial && {
-                    self.coupling[gi] =
-                        self.tangent.cross_u[gi] + c_v * self.tangent.cross_rate[gi];
-                    self.coupling[gi] != 0.0
+                    coupling[gi] = cross_u[gi] + c_v * cross_rate[gi];
+                    coupling[gi] != 0.0
                 };
-                if r != 0.0 || self.stiffness[gi] != 0.0 || coupled {
+                if r != 0.0 || stiffness[gi] != 0.0 || coupled {
                     self.active.push(gi);
                 }
             }
