@@ -56,6 +56,13 @@ pub(crate) trait StepPolicy {
     fn sensitivity(&self) -> Option<&StateTransition> {
         None
     }
+
+    /// Whether each advance commits exactly one step and hands its commits no turning points
+    /// inside the step (the fixed grid until a step is cut): with a row every advance, every
+    /// committed state is then a row, and the peaks can come from the rows.
+    fn commits_once_per_advance(&self) -> bool {
+        false
+    }
 }
 
 /// The state of a run and everything accumulated from its accepted steps.
@@ -147,7 +154,7 @@ impl<'o> Run<'o> {
         }
         self.stats.wall_time_s = started.elapsed().as_secs_f64();
         let mut out = self.out;
-        out.complete_energies();
+        out.complete();
         RunOutput {
             rows: out.rows,
             record_dofs: out.dofs,
@@ -185,6 +192,8 @@ impl<'o> Run<'o> {
     /// Reports a step from `t` of length `dt` that Newton could not take and that is retried
     /// shorter (when the sink wants events).
     pub(crate) fn step_cut(&mut self, failure: &StepFailure, t: f64, dt: f64) {
+        // the cut's sub-steps are committed but not recorded: their peaks per commit from now
+        self.out.peaks_per_commit();
         if let (Some(sink), Some(_)) = (self.out.sink.as_deref_mut(), &self.contact) {
             sink.event(Event::StepCut {
                 t,
@@ -325,11 +334,13 @@ impl<'o> Run<'o> {
             Some(i) => self.account.add(i.work),
             None => self.account.commit(sys, &self.cur, trial, touching),
         }
-        for (m, &d) in self.out.max_abs.iter_mut().zip(&self.out.dofs) {
-            let inside = turns.and_then(|t| t[d]);
-            *m = m
-                .max(trial.x[d].abs())
-                .max(inside.map_or(0.0, |(_, x)| x.abs()));
+        if !self.out.peaks_from_rows {
+            for (m, &d) in self.out.max_abs.iter_mut().zip(&self.out.dofs) {
+                let inside = turns.and_then(|t| t[d]);
+                *m = m
+                    .max(trial.x[d].abs())
+                    .max(inside.map_or(0.0, |(_, x)| x.abs()));
+            }
         }
         if let (Some(log), true) = (self.log.as_mut(), touching) {
             let interior = integrals.map(|i| &i.walls);
@@ -393,6 +404,7 @@ impl<'o> Run<'o> {
     ) -> Option<SimError> {
         // advances left until the next row (a countdown: no division per step)
         let mut until_row = every;
+        self.out.peaks_from_rows = every == 1 && policy.commits_once_per_advance();
         loop {
             match policy.advance(self, sys) {
                 Ok(true) => {
@@ -564,10 +576,16 @@ pub(crate) struct Recorder<'o> {
     strain: EnergyForm,
     /// Both forms are diagonal and every DOF is recorded, in order: the rows' kinetic and
     /// strain energies are evaluated from their recorded velocities and displacements when
-    /// the rows are handed on ([`Self::complete_energies`]), not per row (the same values).
+    /// the rows are handed on ([`Self::complete`]), not per row (the same values).
     energies_from_rows: bool,
     rows: Rows,
     max_abs: Vec<f64>,
+    /// Every committed state is recorded (a row every advance of a policy that commits once
+    /// per advance, [`StepPolicy::commits_once_per_advance`]): the peaks `max_abs` are taken
+    /// from the rows when they are handed on ([`Self::complete`]), not per commit.
+    peaks_from_rows: bool,
+    /// Rows of `rows` already in `max_abs`.
+    peaks_taken: usize,
     /// Time of the last recorded row (NaN before the first), s.
     last_time: f64,
     chunk: Option<usize>,
@@ -603,6 +621,8 @@ impl Recorder<'_> {
             energies_from_rows,
             rows: Rows::with_capacity(n_rec, dofs.len(), sys.n_gaps),
             max_abs: vec![0.0; dofs.len()],
+            peaks_from_rows: false,
+            peaks_taken: 0,
             dofs,
             last_time: f64::NAN,
             chunk: None,
@@ -611,14 +631,30 @@ impl Recorder<'_> {
     }
 
     /// The kinetic and strain energies of the rows recorded without them
-    /// ([`Self::energies_from_rows`]).
-    fn complete_energies(&mut self) {
+    /// ([`Self::energies_from_rows`]), and the peaks of the rows not yet taken
+    /// ([`Self::peaks_from_rows`]).
+    fn complete(&mut self) {
+        let rows = &mut self.rows;
         if self.energies_from_rows {
-            let rows = &mut self.rows;
             self.kinetic.fill(&mut rows.energy.kinetic, &rows.velocity);
             self.strain
                 .fill(&mut rows.energy.strain, &rows.displacement);
         }
+        let n = self.dofs.len();
+        if self.peaks_from_rows && n > 0 {
+            for row in rows.displacement[self.peaks_taken * n..].chunks_exact(n) {
+                for (m, x) in self.max_abs.iter_mut().zip(row) {
+                    *m = m.max(x.abs());
+                }
+            }
+            self.peaks_taken = rows.time.len();
+        }
+    }
+
+    /// Takes the peaks of the rows so far and keeps them per commit from now on.
+    fn peaks_per_commit(&mut self) {
+        self.complete();
+        self.peaks_from_rows = false;
     }
 
     pub fn record(&mut self, sys: &System, s: &State, account: &Account) {
@@ -627,7 +663,8 @@ impl Recorder<'_> {
         if let (Some(n), true) = (self.chunk, self.sink.is_some()) {
             if self.rows.time.len() >= n {
                 let fresh = Rows::with_capacity(n, self.dofs.len(), sys.n_gaps);
-                self.complete_energies();
+                self.complete();
+                self.peaks_taken = 0;
                 let full = std::mem::replace(&mut self.rows, fresh);
                 if let Some(sink) = self.sink.as_deref_mut() {
                     sink.rows(full);
@@ -637,7 +674,8 @@ impl Recorder<'_> {
         let rows = &mut self.rows;
         rows.time.push(s.t);
         self.last_time = s.t;
-        // (the peaks are kept by the commits, Run::commit and Run::jumped)
+        // (the peaks are kept by the commits, Run::commit and Run::jumped, or taken from the
+        // rows, Self::complete)
         for &d in &self.dofs {
             rows.displacement.push(s.x[d]);
             rows.velocity.push(s.v[d]);

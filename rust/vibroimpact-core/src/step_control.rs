@@ -108,6 +108,11 @@ impl<S: Stepper + ?Sized, D: StepDerivative> StepPolicy for FixedSteps<'_, S, D>
         self.derivative.transition()
     }
 
+    /// Until a step is cut (`Run::step_cut` then keeps the peaks per commit).
+    fn commits_once_per_advance(&self) -> bool {
+        true
+    }
+
     fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError> {
         if self.step == self.n_steps {
             return Ok(false);

@@ -156,6 +156,10 @@ fn cut_steps_equal_a_run_at_the_cut_step_size() {
             assert!(close(x, y), "{a:?}\n{b:?}");
         }
     }
+    // the peaks: per commit from the first cut on, from the rows in the uncut reference
+    let out = run.finish(&sys, None, h0, std::time::Instant::now(), None);
+    assert_eq!(out.max_abs_displacement, reference.max_abs_displacement);
+    assert!(out.max_abs_displacement.iter().all(|&m| m > 0.0));
 }
 
 /// Finds the effective stiffness singular for every step from `t_fail` on, whatever its
