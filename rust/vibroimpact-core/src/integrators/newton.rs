@@ -305,6 +305,21 @@ impl GapNewton {
         w: &[f64],
         partner: &[Option<usize>],
     ) -> bool {
+        if ng == 1 && !RADIAL {
+            // one gap coordinate (a constant in `solve_sized::<1>`): the active set is it or
+            // nothing and the system the scalar `1 + W K`; the arithmetic of the general
+            // path below, without its index lists and `solve_small`'s call
+            self.increment[0] = if self.active.is_empty() {
+                0.0 // −(the empty sum)
+            } else {
+                let j = w[0] * self.stiffness[0] + 1.0;
+                if j == 0.0 {
+                    return false;
+                }
+                -self.residual[0] / j
+            };
+            return true;
+        }
         let m = self.active.len();
         let wk = |gi: usize, hi: usize, stiffness: &[f64], coupling: &[f64]| {
             let direct = w[gi * ng + hi] * stiffness[hi];
