@@ -358,8 +358,10 @@ pub fn contact_state(
     s
 }
 
-/// [`contact_state`] written into `s`.
-#[inline]
+/// [`contact_state`] written into `s`: an open wall's in line (no call: the far wall of a
+/// two-sided gap in contact is evaluated at each Newton iterate), a closed one's by
+/// [`write_closed_state`].
+#[inline(always)]
 fn write_contact_state(
     s: &mut WallState,
     law: &Law,
@@ -373,9 +375,21 @@ fn write_contact_state(
         rate,
         ..WallState::default()
     };
-    if penetration <= 0.0 {
-        return;
+    if penetration > 0.0 {
+        write_closed_state(s, law, start, penetration, rate, h);
     }
+}
+
+/// The rest of a closed wall's state, `s` holding its penetration and rate.
+#[inline(never)]
+fn write_closed_state(
+    s: &mut WallState,
+    law: &Law,
+    start: &WallState,
+    penetration: f64,
+    rate: f64,
+    h: f64,
+) {
     s.impact_speed = if start.closed() {
         start.impact_speed
     } else if law.uses_impact_speed() {

@@ -264,15 +264,14 @@ impl System {
         // start from 0.0 at a gap's first wall (the same values as zeroing them first, without
         // a fill per evaluation).
         let mut summed = usize::MAX;
-        for (j, wall) in self.walls.iter().enumerate() {
+        for ((wall, start), s) in self.walls.iter().zip(start).zip(walls.iter_mut()) {
             let g = wall.gap;
             let gap = &self.gaps[g];
             if let Side::Radial(r) = &gap.side {
-                walls[j] = self.radial_wall(r, g, wall, &start[j], u, u_rate, h, phi, tangent);
+                *s = self.radial_wall(r, g, wall, start, u, u_rate, h, phi, tangent);
                 continue;
             }
-            let s = &mut walls[j];
-            evaluate_wall(&gap.law, wall, &start[j], u[g], u_rate[g], h, s);
+            evaluate_wall(&gap.law, wall, start, u[g], u_rate[g], h, s);
             if !self.has_radial && summed != g {
                 summed = g;
                 phi[g] = 0.0;
