@@ -376,20 +376,14 @@ fn write_contact_state(
         ..WallState::default()
     };
     if penetration > 0.0 {
-        write_closed_state(s, law, start, penetration, rate, h);
+        write_closed_state(s, law, start, h);
     }
 }
 
 /// The rest of a closed wall's state, `s` holding its penetration and rate.
 #[inline(never)]
-fn write_closed_state(
-    s: &mut WallState,
-    law: &Law,
-    start: &WallState,
-    penetration: f64,
-    rate: f64,
-    h: f64,
-) {
+fn write_closed_state(s: &mut WallState, law: &Law, start: &WallState, h: f64) {
+    let (penetration, rate) = (s.penetration, s.rate);
     s.impact_speed = if start.closed() {
         start.impact_speed
     } else if law.uses_impact_speed() {
