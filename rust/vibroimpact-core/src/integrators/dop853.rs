@@ -229,14 +229,7 @@ impl<'s> Dynamics<'s> {
         let st = &sys.structure;
         let f = &mut self.rhs[..n];
         f.fill(0.0);
-        let mut external = 0.0;
-        self.loads.evaluate(&sys.loads, t);
-        for (load, &g) in sys.loads.iter().zip(&self.loads.values) {
-            for &d in &load.dofs {
-                f[d] += g;
-                external += g * v[d];
-            }
-        }
+        let external = self.loads.apply(&sys.loads, t, f, v);
         let mut contact = 0.0;
         let walls = sys.walls.iter().zip(contacts).zip(&mut self.forces);
         for (j, ((wall, c), wall_force)) in walls.enumerate() {
