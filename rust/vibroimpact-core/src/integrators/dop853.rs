@@ -1476,6 +1476,7 @@ impl StepPolicy for Dop853Steps<'_> {
                 &self.end,
                 duration,
                 &self.inside,
+                &mut self.dynamics.loads,
             )?;
             if self.dt_fixed.is_some() && !landed {
                 self.grid_step += 1;
@@ -1546,6 +1547,7 @@ fn commit(
     end: &StepEnd,
     h: f64,
     inside: &Inside,
+    loads: &mut LoadValues,
 ) -> Result<(), SimError> {
     let t = run.cur.t + h;
     for (j, c) in contacts.iter_mut().enumerate() {
@@ -1559,9 +1561,10 @@ fn commit(
     s.x.copy_from_slice(&end.x);
     s.v.copy_from_slice(&end.v);
     s.a.copy_from_slice(&end.a);
-    for (value, load) in s.load.iter_mut().zip(&sys.loads) {
-        *value = load.value(t);
-    }
+    // the right-hand side's evaluation (a `sin_cos` every few steps, not a `sin` per load):
+    // these values only describe the state, DOP853's work integrals being its own
+    loads.evaluate(&sys.loads, t);
+    s.load.copy_from_slice(&loads.values);
     sys.gap_coordinates(&end.x, &mut s.u);
     sys.gap_coordinates(&end.v, &mut s.u_rate);
     sys.gap_coordinates(&end.a, &mut s.u_accel);
