@@ -518,6 +518,8 @@ pub struct LoadValues {
     trig: Vec<(f64, f64)>,
     /// Each load's value `A g(t)` at the last time evaluated, N.
     pub values: Vec<f64>,
+    /// Each `(load, DOF)` it applies to, in order: one flat loop in [`Self::apply`].
+    targets: Vec<(usize, usize)>,
 }
 
 /// The spacing (rad) of [`LoadValues`]' anchors, a power of 2 so that they are exact.
@@ -551,7 +553,24 @@ impl LoadValues {
             trig: vec![(0.0, 1.0); groups.len()],
             groups,
             values: vec![0.0; loads.len()],
+            targets: (loads.iter().enumerate())
+                .flat_map(|(i, l)| l.dofs.iter().map(move |&d| (i, d)))
+                .collect(),
         }
+    }
+
+    /// Adds the loads' values at `t` to their DOFs' entries of `f` and returns their power
+    /// `Σ g v[d]` at the velocities `v`.
+    #[inline(always)]
+    pub fn apply(&mut self, loads: &[Load], t: f64, f: &mut [f64], v: &[f64]) -> f64 {
+        self.evaluate(loads, t);
+        let mut power = 0.0;
+        for &(i, d) in &self.targets {
+            let g = self.values[i];
+            f[d] += g;
+            power += g * v[d];
+        }
+        power
     }
 
     /// Evaluates `loads` (those this was built from) at `t` into [`Self::values`].
@@ -652,7 +671,7 @@ mod tests {
             history: LoadHistory::Constant,
         };
         let table = Load {
-            dofs: vec![1],
+            dofs: vec![1, 2],
             amplitude: 1.0,
             history: LoadHistory::Table {
                 time: vec![0.0, 1.0],
@@ -673,6 +692,17 @@ mod tests {
             }
         }
         assert!(worst < 4.0, "{worst} angle roundings");
+        // `apply`: each value added to each of its load's DOFs, and their power
+        let (mut f, v) = (vec![0.0; 3], [0.5, -2.0, 3.0]);
+        let power = values.apply(&loads, 1.3, &mut f, &v);
+        let (mut expected, mut expected_power) = (vec![0.0; 3], 0.0);
+        for (load, &g) in loads.iter().zip(&values.values) {
+            for &d in &load.dofs {
+                expected[d] += g;
+                expected_power += g * v[d];
+            }
+        }
+        assert_eq!((f, power), (expected, expected_power));
         // the anchors' rounding: `round` away from ties (ties to even), either side of 2⁵¹
         for i in 0..100_000 {
             let x = (i as f64 * 0.618_034 - 30_000.0) * 1.37;

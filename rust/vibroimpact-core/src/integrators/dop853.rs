@@ -229,14 +229,7 @@ impl<'s> Dynamics<'s> {
         let st = &sys.structure;
         let f = &mut self.rhs[..n];
         f.fill(0.0);
-        let mut external = 0.0;
-        self.loads.evaluate(&sys.loads, t);
-        for (load, &g) in sys.loads.iter().zip(&self.loads.values) {
-            for &d in &load.dofs {
-                f[d] += g;
-                external += g * v[d];
-            }
-        }
+        let external = self.loads.apply(&sys.loads, t, f, v);
         let mut contact = 0.0;
         let walls = sys.walls.iter().zip(contacts).zip(&mut self.forces);
         for (j, ((wall, c), wall_force)) in walls.enumerate() {
@@ -1483,6 +1476,7 @@ impl StepPolicy for Dop853Steps<'_> {
                 &self.end,
                 duration,
                 &self.inside,
+                &mut self.dynamics.loads,
             )?;
             if self.dt_fixed.is_some() && !landed {
                 self.grid_step += 1;
@@ -1553,6 +1547,7 @@ fn commit(
     end: &StepEnd,
     h: f64,
     inside: &Inside,
+    loads: &mut LoadValues,
 ) -> Result<(), SimError> {
     let t = run.cur.t + h;
     for (j, c) in contacts.iter_mut().enumerate() {
@@ -1566,9 +1561,10 @@ fn commit(
     s.x.copy_from_slice(&end.x);
     s.v.copy_from_slice(&end.v);
     s.a.copy_from_slice(&end.a);
-    for (value, load) in s.load.iter_mut().zip(&sys.loads) {
-        *value = load.value(t);
-    }
+    // the right-hand side's evaluation (a `sin_cos` every few steps, not a `sin` per load):
+    // these values only describe the state, DOP853's work integrals being its own
+    loads.evaluate(&sys.loads, t);
+    s.load.copy_from_slice(&loads.values);
     sys.gap_coordinates(&end.x, &mut s.u);
     sys.gap_coordinates(&end.v, &mut s.u_rate);
     sys.gap_coordinates(&end.a, &mut s.u_accel);
@@ -1814,8 +1810,9 @@ fn golden_max(f: impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
 
 /// Radial wall `j`'s kinematics and its normal force at the DOF state `x`, `v`, from the
 /// smallest positive penetration as a 1-D wall's (what [`Dynamics::accel`] applies and the
-/// variational equations differentiate).
-#[inline]
+/// variational equations differentiate). Inlined: the right-hand side uses two of the
+/// force's five values, so the others are not computed there.
+#[inline(always)]
 fn radial_normal_force(
     sys: &System,
     j: usize,
