@@ -169,6 +169,16 @@ impl<'o> Run<'o> {
         }
     }
 
+    /// Computes from now on only what the observer needs ([`crate::settings::Outputs::Observed`]): no impact
+    /// table, no peaks, no damping's work, no contacts' work but a radial gap's.
+    pub(crate) fn keep_only_observed(&mut self, sys: &System) {
+        self.log = None;
+        self.out.peaks = Peaks::Off;
+        self.out.max_abs.clear();
+        self.account.damping_work = false;
+        self.account.contact_work = sys.has_radial;
+    }
+
     /// Hands the rows recorded from now on, the progress and the events to `sink`.
     pub(crate) fn watch(&mut self, sink: &'o mut dyn Sink) {
         self.events = sink.wants_events();
@@ -323,18 +333,19 @@ impl<'o> Run<'o> {
             check_sliding(sys, &self.cur, trial)?;
         }
         // a wall closed at either end of the step: the only ones the contact accounts and
-        // the impact table look at
-        let touching = self
-            .cur
-            .walls
-            .iter()
-            .zip(&trial.walls)
-            .any(|(w0, w1)| w0.closed() || w1.closed());
+        // the impact table look at (when the run keeps them)
+        let touching = (self.log.is_some() || self.account.contact_work)
+            && self
+                .cur
+                .walls
+                .iter()
+                .zip(&trial.walls)
+                .any(|(w0, w1)| w0.closed() || w1.closed());
         match integrals {
             Some(i) => self.account.add(i.work),
             None => self.account.commit(sys, &self.cur, trial, touching),
         }
-        if !self.out.peaks_from_rows {
+        if self.out.peaks == Peaks::PerCommit {
             for (m, &d) in self.out.max_abs.iter_mut().zip(&self.out.dofs) {
                 let inside = turns.and_then(|t| t[d]);
                 *m = m
@@ -404,7 +415,13 @@ impl<'o> Run<'o> {
     ) -> Option<SimError> {
         // advances left until the next row (a countdown: no division per step)
         let mut until_row = every;
-        self.out.peaks_from_rows = every == 1 && policy.commits_once_per_advance();
+        if self.out.peaks != Peaks::Off {
+            self.out.peaks = if every == 1 && policy.commits_once_per_advance() {
+                Peaks::FromRows
+            } else {
+                Peaks::PerCommit
+            };
+        }
         loop {
             match policy.advance(self, sys) {
                 Ok(true) => {
@@ -476,6 +493,10 @@ pub(crate) struct Account {
     contact_dissipated: f64,
     /// The damping matrix's form `Δxᵀ C (v₀ + v₁)`.
     damping: EnergyForm,
+    /// The damping's and the contacts' work are accounted (the external work always is: the
+    /// energy check reads it; [`Run::keep_only_observed`] turns them off).
+    damping_work: bool,
+    contact_work: bool,
 }
 
 impl Account {
@@ -485,6 +506,8 @@ impl Account {
             damping_dissipated: 0.0,
             contact_dissipated: 0.0,
             damping: EnergyForm::new(&sys.structure.damping),
+            damping_work: sys.has_damping,
+            contact_work: true,
         }
     }
 
@@ -495,13 +518,14 @@ impl Account {
         self.contact_dissipated += work[2];
     }
 
-    /// `touching`: a wall is closed at `s0` or at `s1` (else the contact terms are zero).
+    /// `touching`: a wall is closed at `s0` or at `s1` (else the contact terms are zero), and
+    /// the contacts' work is accounted.
     fn commit(&mut self, sys: &System, s0: &State, s1: &State, touching: bool) {
         for (l, load) in sys.loads.iter().enumerate() {
             let moved: f64 = load.dofs.iter().map(|&d| s1.x[d] - s0.x[d]).sum();
             self.external_work += 0.5 * (s0.load[l] + s1.load[l]) * moved;
         }
-        if sys.has_damping {
+        if self.damping_work {
             // Δxᵀ C (v₀ + v₁)/2
             let st = &sys.structure;
             let mut d = self
@@ -566,6 +590,19 @@ fn busiest_gap(sys: &System, s: &State) -> Option<usize> {
         .map(|(wall, _)| wall.gap)
 }
 
+/// Where a run's peaks `max_abs` come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Peaks {
+    /// Each committed state ([`Run::commit`]) and each jump ([`Run::jumped`]).
+    PerCommit,
+    /// Every committed state is recorded (a row every advance of a policy that commits once
+    /// per advance, [`StepPolicy::commits_once_per_advance`]): from the rows when they are
+    /// handed on ([`Recorder::complete`]), not per commit.
+    FromRows,
+    /// Not kept ([`crate::settings::Outputs::Observed`]).
+    Off,
+}
+
 /// Decimated output buffers, handed to the sink (if any) every `chunk` rows.
 pub(crate) struct Recorder<'o> {
     dofs: Vec<usize>,
@@ -579,11 +616,9 @@ pub(crate) struct Recorder<'o> {
     /// the rows are handed on ([`Self::complete`]), not per row (the same values).
     energies_from_rows: bool,
     rows: Rows,
+    /// The peaks (empty without them, [`Peaks::Off`]).
     max_abs: Vec<f64>,
-    /// Every committed state is recorded (a row every advance of a policy that commits once
-    /// per advance, [`StepPolicy::commits_once_per_advance`]): the peaks `max_abs` are taken
-    /// from the rows when they are handed on ([`Self::complete`]), not per commit.
-    peaks_from_rows: bool,
+    peaks: Peaks,
     /// Rows of `rows` already in `max_abs`.
     peaks_taken: usize,
     /// Time of the last recorded row (NaN before the first), s.
@@ -621,7 +656,7 @@ impl Recorder<'_> {
             energies_from_rows,
             rows: Rows::with_capacity(n_rec, dofs.len(), sys.n_gaps),
             max_abs: vec![0.0; dofs.len()],
-            peaks_from_rows: false,
+            peaks: Peaks::PerCommit,
             peaks_taken: 0,
             dofs,
             last_time: f64::NAN,
@@ -632,7 +667,7 @@ impl Recorder<'_> {
 
     /// The kinetic and strain energies of the rows recorded without them
     /// ([`Self::energies_from_rows`]), and the peaks of the rows not yet taken
-    /// ([`Self::peaks_from_rows`]).
+    /// ([`Peaks::FromRows`]).
     fn complete(&mut self) {
         let rows = &mut self.rows;
         if self.energies_from_rows {
@@ -641,7 +676,7 @@ impl Recorder<'_> {
                 .fill(&mut rows.energy.strain, &rows.displacement);
         }
         let n = self.dofs.len();
-        if self.peaks_from_rows {
+        if self.peaks == Peaks::FromRows {
             // one DOF's column at a time: one tight loop per DOF, not one short loop per row
             let new_rows = &rows.displacement[self.peaks_taken * n..];
             for (i, m) in self.max_abs.iter_mut().enumerate() {
@@ -652,10 +687,12 @@ impl Recorder<'_> {
         }
     }
 
-    /// Takes the peaks of the rows so far and keeps them per commit from now on.
+    /// Takes the peaks of the rows so far and keeps them per commit from now on (if kept).
     fn peaks_per_commit(&mut self) {
         self.complete();
-        self.peaks_from_rows = false;
+        if self.peaks == Peaks::FromRows {
+            self.peaks = Peaks::PerCommit;
+        }
     }
 
     pub fn record(&mut self, sys: &System, s: &State, account: &Account) {

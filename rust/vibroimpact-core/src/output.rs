@@ -128,7 +128,8 @@ pub struct RunOutput {
     /// The recorded rows (those not already handed to a streaming sink).
     pub rows: Rows,
     pub record_dofs: Vec<usize>,
-    /// Largest |x| of each recorded DOF over every step (not only the recorded ones), m.
+    /// Largest |x| of each recorded DOF over every step (not only the recorded ones), m
+    /// (empty in a run that keeps only its observer's, `Outputs::Observed`).
     pub max_abs_displacement: Vec<f64>,
     pub impacts: Vec<ImpactRecord>,
     pub stats: Stats,

@@ -19,6 +19,18 @@ pub struct RunSettings {
     pub adaptive: Option<Adaptive>,
 }
 
+/// What a run computes beyond its steps, its statistics and its error.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Outputs {
+    /// Everything a run returns: rows, peaks, impact table and energy account.
+    All,
+    /// Only what its `StepObserver` takes of each step (a sweep point, which keeps only its
+    /// reduction): no peaks (`RunOutput::max_abs_displacement` empty), no impact table, and
+    /// of the energy account per step only what the energy check reads (the external work;
+    /// the contacts' work with a radial gap), so the rows' dissipation columns are incomplete.
+    Observed,
+}
+
 /// Tolerances and limits of adaptive stepping.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Adaptive {

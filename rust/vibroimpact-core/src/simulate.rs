@@ -24,7 +24,7 @@ use crate::system::System;
 pub use crate::method::Method;
 pub use crate::observe::{Event, Sink, StepObserver, Turn};
 pub use crate::output::{BalanceError, EnergyHistory, Rows, RunOutput, Stats};
-pub use crate::settings::{Adaptive, RunSettings};
+pub use crate::settings::{Adaptive, Outputs, RunSettings};
 
 /// The most rows an adaptive run reserves before its first step.
 const MAX_RESERVED_ROWS: usize = 1024;
@@ -38,11 +38,12 @@ pub fn simulate(
     x0: DVector<f64>,
     v0: DVector<f64>,
 ) -> Result<RunOutput, SimError> {
-    simulate_observed(sys, method, settings, x0, v0, None)
+    simulate_observed(sys, method, settings, x0, v0, None, Outputs::All)
 }
 
 /// [`simulate`], with `observer` called on every accepted step (and on every rigid impact of
-/// the impulsive methods).
+/// the impulsive methods); `outputs`: what the run computes besides (a sweep point needs only
+/// its observer's, [`Outputs::Observed`]).
 pub fn simulate_observed(
     sys: &System,
     method: Method,
@@ -50,8 +51,9 @@ pub fn simulate_observed(
     x0: DVector<f64>,
     v0: DVector<f64>,
     observer: Option<&mut dyn StepObserver>,
+    outputs: Outputs,
 ) -> Result<RunOutput, SimError> {
-    run_watched(sys, method, settings, x0, v0, observer, None, None)
+    run_watched(sys, method, settings, x0, v0, observer, None, None, outputs)
 }
 
 /// [`simulate_observed`], carrying the state-transition matrix `∂(x, v)(t_end)/∂(x₀, v₀)`
@@ -87,6 +89,7 @@ pub fn simulate_with_sensitivity(
         observer,
         None,
         Some(parameter),
+        Outputs::All,
     )
 }
 
@@ -103,7 +106,17 @@ pub fn simulate_streamed(
     v0: DVector<f64>,
     sink: &mut dyn Sink,
 ) -> Result<RunOutput, SimError> {
-    run_watched(sys, method, settings, x0, v0, None, Some(sink), None)
+    run_watched(
+        sys,
+        method,
+        settings,
+        x0,
+        v0,
+        None,
+        Some(sink),
+        None,
+        Outputs::All,
+    )
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -116,6 +129,7 @@ fn run_watched<'o>(
     observer: Option<&'o mut dyn StepObserver>,
     sink: Option<&'o mut dyn Sink>,
     sensitivity: Option<Option<Parameter>>,
+    outputs: Outputs,
 ) -> Result<RunOutput, SimError> {
     let started = Instant::now();
     let RunSettings {
@@ -209,6 +223,9 @@ fn run_watched<'o>(
     };
     let mut run = Run::new(sys, x0, v0, record_dofs.clone(), n_rec)?;
     run.observer = observer;
+    if outputs == Outputs::Observed {
+        run.keep_only_observed(sys);
+    }
     run.wants_sensitivity = sensitivity.is_some();
     run.sensitivity_parameter = sensitivity.flatten();
     if let Some(sink) = sink {

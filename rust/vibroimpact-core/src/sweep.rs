@@ -26,7 +26,7 @@ use crate::interpolation::HermiteSegment;
 use crate::method::Method;
 use crate::observe::{StepObserver, Turn};
 use crate::output::Stats;
-use crate::settings::RunSettings;
+use crate::settings::{Outputs, RunSettings};
 use crate::simulate::simulate_observed;
 use crate::system::{State, System};
 
@@ -393,6 +393,7 @@ pub fn run_point(job: &SweepJob, start: Option<(&[f64], &[f64])>) -> PointSummar
         x0,
         v0,
         Some(&mut reducer),
+        Outputs::Observed,
     ) {
         Ok(out) => {
             let stats = out.stats;
@@ -658,6 +659,49 @@ mod tests {
         }
         j.sampling.per_period = 3;
         assert!(run_point(&j, None).error.is_some());
+    }
+
+    /// A point's summary is the same, to the bit, whether its run computes every output or
+    /// only what the reducer takes (`Outputs::Observed`: no peaks, no impact table).
+    #[test]
+    fn observed_outputs_give_the_same_summary() {
+        for method in [
+            Method::Newmark(NewmarkFamily::average_acceleration()),
+            Method::Dop853,
+        ] {
+            let mut j = job(0.8, 0.02);
+            j.method = method;
+            let quick = run_point(&j, None);
+            assert!(quick.error.is_none() && quick.impact_count[0] > 0);
+            let sampling = &j.sampling;
+            let interval = sampling.period / sampling.per_period as f64;
+            let settings = RunSettings {
+                t_end: sampling.t_end(),
+                dt: interval / (interval / j.settings.dt - 1e-9).ceil(),
+                every: usize::MAX,
+                record_dofs: sampling.dofs.clone(),
+                ..j.settings.clone()
+            };
+            let run = |outputs: Outputs| {
+                let mut reducer = Reducer::new(sampling, 1, j.x0.as_slice(), j.v0.as_slice());
+                let (sys, x0, v0) = (&j.system, j.x0.clone(), j.v0.clone());
+                let out =
+                    simulate_observed(sys, method, &settings, x0, v0, Some(&mut reducer), outputs)
+                        .unwrap();
+                let mut summary = reducer.finish();
+                summary.stats = out.stats;
+                (summary, out)
+            };
+            let (all, full) = run(Outputs::All);
+            let (observed, reduced) = run(Outputs::Observed);
+            assert!(same(&all, &observed) && same(&quick, &observed));
+            assert!(!full.impacts.is_empty() && full.max_abs_displacement[0] > 0.0);
+            assert!(reduced.impacts.is_empty() && reduced.max_abs_displacement.is_empty());
+            assert_eq!(
+                full.rows.energy.external_work,
+                reduced.rows.energy.external_work
+            );
+        }
     }
 
     #[test]
