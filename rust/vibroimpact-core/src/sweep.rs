@@ -131,8 +131,10 @@ struct Reducer<'a> {
     sampling: &'a Sampling,
     n_gaps: usize,
     start: f64,
-    /// Index (1-based) of the next stroboscopic sample.
+    /// Index (1-based) of the next stroboscopic sample, and its time (s; infinite when
+    /// every sample is taken).
     next_sample: usize,
+    next_time: f64,
     /// Time between samples, `T / per_period`, s.
     interval: f64,
     /// `∫ x² dt` per sampled DOF and the time it covers.
@@ -146,12 +148,13 @@ impl<'a> Reducer<'a> {
         let nd = sampling.dofs.len();
         let ns = sampling.samples;
         let ni = sampling.max_impacts;
-        Self {
+        let mut reducer = Self {
             sampling,
             n_gaps,
             start: sampling.start(),
             interval: sampling.period / sampling.per_period as f64,
             next_sample: 1,
+            next_time: f64::INFINITY,
             square_integral: vec![0.0; nd],
             covered: 0.0,
             out: PointSummary {
@@ -170,6 +173,17 @@ impl<'a> Reducer<'a> {
                 stats: Stats::default(),
                 error: None,
             },
+        };
+        reducer.next_time = reducer.sample_time(1);
+        reducer
+    }
+
+    /// The time of sample `k` (1-based), s; infinite past the last.
+    fn sample_time(&self, k: usize) -> f64 {
+        if k <= self.sampling.samples {
+            self.start + k as f64 * self.interval
+        } else {
+            f64::INFINITY
         }
     }
 
@@ -192,6 +206,9 @@ impl<'a> Reducer<'a> {
         self.out
     }
 }
+
+/// Step ends closer than this fraction of the step to an instant are taken as landing on it.
+const STEP_END_TOLERANCE: f64 = 1e-6;
 
 /// `dst = src` for a state's per-DOF values: one value (a 1-DOF sweep, every step) without
 /// the call of a `memcpy`.
@@ -224,27 +241,49 @@ impl StepObserver for Reducer<'_> {
         h: f64,
         turns: Option<&[Option<Turn>]>,
     ) {
+        if s0.t + h <= self.start + STEP_END_TOLERANCE * h {
+            // nothing but the final state is kept of the transient
+            self.keep_final(s1);
+            return;
+        }
+        self.reduce(sys, s0, s1, h, turns);
+    }
+
+    fn impact(&mut self, sys: &System, wall: usize, t: f64, speed: f64) {
+        self.count_impact(sys.walls[wall].gap, t, speed);
+    }
+}
+
+impl Reducer<'_> {
+    /// The state at the end of the last accepted step, the run's final state.
+    #[inline(always)]
+    fn keep_final(&mut self, s1: &State) {
         copy_state(&mut self.out.final_displacement, &s1.x);
         copy_state(&mut self.out.final_velocity, &s1.v);
         self.out.final_time = s1.t;
+    }
+
+    /// [`StepObserver::accepted`] for a step that ends after the transient: its samples, its
+    /// part of the peaks and the RMS, its impacts. Out of line, so that a step of the
+    /// transient does not pay for its registers.
+    #[inline(never)]
+    fn reduce(
+        &mut self,
+        sys: &System,
+        s0: &State,
+        s1: &State,
+        h: f64,
+        turns: Option<&[Option<Turn>]>,
+    ) {
+        self.keep_final(s1);
         let (t0, t1) = (s0.t, s0.t + h);
-        // step ends closer than this to an instant are taken as landing on it
-        let tol = 1e-6 * h;
-        if t1 <= self.start + tol {
-            return;
-        }
-        let Sampling {
-            samples, ref dofs, ..
-        } = *self.sampling;
-        let interval = self.interval;
+        let tol = STEP_END_TOLERANCE * h;
+        let dofs = &self.sampling.dofs;
         let nd = dofs.len();
 
         // Stroboscopic samples inside (t0, t1].
-        while self.next_sample <= samples {
-            let ts = self.start + self.next_sample as f64 * interval;
-            if ts > t1 + tol {
-                break;
-            }
+        while self.next_time <= t1 + tol {
+            let ts = self.next_time;
             let row = (self.next_sample - 1) * nd;
             if (t1 - ts).abs() <= tol {
                 for (j, &d) in dofs.iter().enumerate() {
@@ -267,55 +306,15 @@ impl StepObserver for Reducer<'_> {
                 }
             }
             self.next_sample += 1;
+            self.next_time = self.sample_time(self.next_sample);
         }
 
-        // Peaks and RMS over the part of the step after the transient, [θa, 1].
-        let theta_a = if t0 >= self.start - tol {
-            0.0
+        // Peaks and RMS over the part of the step after the transient, [θa, 1]: all of it
+        // but in the step that ends the transient
+        if t0 >= self.start - tol {
+            self.peaks_and_rms(s0, s1, h, turns, 0.0);
         } else {
-            (self.start - t0) / h
-        };
-        let span = (1.0 - theta_a) * h;
-        self.covered += span;
-        for (j, &d) in dofs.iter().enumerate() {
-            let seg = displacement_segment(s0, s1, d, h);
-            let xa = if theta_a == 0.0 {
-                s0.x[d]
-            } else {
-                seg.value(theta_a)
-            };
-            let xb = s1.x[d];
-            let xm = seg.value(0.5 * (1.0 + theta_a));
-            self.square_integral[j] += span / 6.0 * (xa * xa + 4.0 * xm * xm + xb * xb);
-            let (mut hi, mut lo) = (xa.max(xb), xa.min(xb));
-            if let Some(turns) = turns {
-                // the integrator's own turning point (a peak or a trough)
-                if let Some((_, x)) = turns[d].filter(|&(s, _)| s >= theta_a) {
-                    (hi, lo) = (hi.max(x), lo.min(x));
-                }
-            } else {
-                if let Some((s, peak)) = seg.interior_peak() {
-                    if s >= theta_a {
-                        hi = hi.max(peak);
-                    }
-                }
-                let neg = HermiteSegment {
-                    y0: -seg.y0,
-                    dy0: -seg.dy0,
-                    y1: -seg.y1,
-                    dy1: -seg.dy1,
-                    h,
-                };
-                if let Some((s, peak)) = neg.interior_peak() {
-                    if s >= theta_a {
-                        lo = lo.min(-peak);
-                    }
-                }
-            }
-            let m = &mut self.out.displacement_max[j];
-            *m = m.max(hi);
-            let m = &mut self.out.displacement_min[j];
-            *m = m.min(lo);
+            self.peaks_and_rms(s0, s1, h, turns, (self.start - t0) / h);
         }
 
         // Impacts: a wall that closes inside the step, at the located crossing (a rigid
@@ -336,12 +335,65 @@ impl StepObserver for Reducer<'_> {
         }
     }
 
-    fn impact(&mut self, sys: &System, wall: usize, t: f64, speed: f64) {
-        self.count_impact(sys.walls[wall].gap, t, speed);
+    /// The peaks and the RMS over the fraction `[theta_a, 1]` of the step. Compiled in line
+    /// for each call: with `theta_a = 0`, the case of every step but one, its interpolant's
+    /// values at `theta_a` and at the middle are folded into constants.
+    #[inline(always)]
+    fn peaks_and_rms(
+        &mut self,
+        s0: &State,
+        s1: &State,
+        h: f64,
+        turns: Option<&[Option<Turn>]>,
+        theta_a: f64,
+    ) {
+        let span = (1.0 - theta_a) * h;
+        self.covered += span;
+        for (j, &d) in self.sampling.dofs.iter().enumerate() {
+            let seg = displacement_segment(s0, s1, d, h);
+            let xa = if theta_a == 0.0 {
+                s0.x[d]
+            } else {
+                seg.value(theta_a)
+            };
+            let xb = s1.x[d];
+            let xm = seg.value(0.5 * (1.0 + theta_a));
+            self.square_integral[j] += span / 6.0 * (xa * xa + 4.0 * xm * xm + xb * xb);
+            let (mut hi, mut lo) = (xa.max(xb), xa.min(xb));
+            if let Some(turns) = turns {
+                // the integrator's own turning point (a peak or a trough)
+                if let Some((_, x)) = turns[d].filter(|&(s, _)| s >= theta_a) {
+                    (hi, lo) = (hi.max(x), lo.min(x));
+                }
+            } else if seg.dy0 > 0.0 && seg.dy1 < 0.0 {
+                // an interior peak needs the rate to turn from + to − inside the step
+                if let Some((s, peak)) = seg.interior_peak() {
+                    if s >= theta_a {
+                        hi = hi.max(peak);
+                    }
+                }
+            } else if seg.dy0 < 0.0 && seg.dy1 > 0.0 {
+                // and a trough from − to +: the peak of −x
+                let neg = HermiteSegment {
+                    y0: -seg.y0,
+                    dy0: -seg.dy0,
+                    y1: -seg.y1,
+                    dy1: -seg.dy1,
+                    h,
+                };
+                if let Some((s, peak)) = neg.interior_peak() {
+                    if s >= theta_a {
+                        lo = lo.min(-peak);
+                    }
+                }
+            }
+            let m = &mut self.out.displacement_max[j];
+            *m = m.max(hi);
+            let m = &mut self.out.displacement_min[j];
+            *m = m.min(lo);
+        }
     }
-}
 
-impl Reducer<'_> {
     /// An impact on `gap` at `tc` with approach speed `speed`: counted after the transient.
     fn count_impact(&mut self, gap: usize, tc: f64, speed: f64) {
         if tc <= self.start {
