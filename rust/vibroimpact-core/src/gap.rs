@@ -318,6 +318,19 @@ impl WallState {
     pub fn closed(&self) -> bool {
         self.penetration > 0.0
     }
+
+    /// The cubic Hermite interpolant of the penetration over a step of length `h` from this
+    /// state to `end`.
+    #[inline]
+    pub(crate) fn penetration_segment(&self, end: &WallState, h: f64) -> HermiteSegment {
+        HermiteSegment {
+            y0: self.penetration,
+            dy0: self.rate,
+            y1: end.penetration,
+            dy1: end.rate,
+            h,
+        }
+    }
 }
 
 /// Evaluates a wall at the end of a step of length `h`, given its state at the start, into
@@ -520,13 +533,7 @@ impl ImpactLog {
             if !s0.closed() && !s1.closed() {
                 continue;
             }
-            let seg = HermiteSegment {
-                y0: s0.penetration,
-                dy0: s0.rate,
-                y1: s1.penetration,
-                dy1: s1.rate,
-                h,
-            };
+            let seg = s0.penetration_segment(s1, h);
             let known = interior.map(|i| Known {
                 impulse: i.impulse[j],
                 force_max: i.force_max[j],

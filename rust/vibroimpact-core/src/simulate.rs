@@ -43,7 +43,7 @@ pub fn simulate(
 
 /// [`simulate`], with `observer` called on every accepted step (and on every rigid impact of
 /// the impulsive methods); `outputs`: what the run computes besides (a sweep point needs only
-/// its observer's, [`Outputs::Observed`]).
+/// its observer's, [`Outputs::Observed`]; without an observer, everything).
 pub fn simulate_observed(
     sys: &System,
     method: Method,
@@ -53,7 +53,8 @@ pub fn simulate_observed(
     observer: Option<&mut dyn StepObserver>,
     outputs: Outputs,
 ) -> Result<RunOutput, SimError> {
-    run_watched(sys, method, settings, x0, v0, observer, None, None, outputs)
+    let observer = observer.map(|o| (o, outputs));
+    run_watched(sys, method, settings, x0, v0, observer, None, None)
 }
 
 /// [`simulate_observed`], carrying the state-transition matrix `∂(x, v)(t_end)/∂(x₀, v₀)`
@@ -86,10 +87,9 @@ pub fn simulate_with_sensitivity(
         settings,
         x0,
         v0,
-        observer,
+        observer.map(|o| (o, Outputs::All)),
         None,
         Some(parameter),
-        Outputs::All,
     )
 }
 
@@ -106,17 +106,7 @@ pub fn simulate_streamed(
     v0: DVector<f64>,
     sink: &mut dyn Sink,
 ) -> Result<RunOutput, SimError> {
-    run_watched(
-        sys,
-        method,
-        settings,
-        x0,
-        v0,
-        None,
-        Some(sink),
-        None,
-        Outputs::All,
-    )
+    run_watched(sys, method, settings, x0, v0, None, Some(sink), None)
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -126,10 +116,9 @@ fn run_watched<'o>(
     settings: &RunSettings,
     x0: DVector<f64>,
     v0: DVector<f64>,
-    observer: Option<&'o mut dyn StepObserver>,
+    observer: Option<(&'o mut dyn StepObserver, Outputs)>,
     sink: Option<&'o mut dyn Sink>,
     sensitivity: Option<Option<Parameter>>,
-    outputs: Outputs,
 ) -> Result<RunOutput, SimError> {
     let started = Instant::now();
     let RunSettings {
@@ -222,9 +211,11 @@ fn run_watched<'o>(
         n_steps / every + 2
     };
     let mut run = Run::new(sys, x0, v0, record_dofs.clone(), n_rec)?;
-    run.observer = observer;
-    if outputs == Outputs::Observed {
-        run.keep_only_observed(sys);
+    if let Some((observer, outputs)) = observer {
+        run.observer = Some(observer);
+        if outputs == Outputs::Observed {
+            run.keep_only_observed(sys);
+        }
     }
     run.wants_sensitivity = sensitivity.is_some();
     run.sensitivity_parameter = sensitivity.flatten();

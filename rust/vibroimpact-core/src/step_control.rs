@@ -20,7 +20,6 @@ use crate::error::{invalid, SimError};
 use crate::gap::{Wall, WallState};
 use crate::integrators::{NewmarkFamily, NewmarkTransition};
 use crate::integrators::{StepFailure, Stepper, ANY_LEVEL};
-use crate::interpolation::HermiteSegment;
 use crate::output::Stats;
 use crate::sensitivity::StateTransition;
 use crate::settings::Adaptive;
@@ -698,7 +697,7 @@ fn unresolved_contact(s0: &State, s1: &State, h: f64) -> bool {
             return false;
         }
         let ends = w0.penetration.max(w1.penetration).max(0.0);
-        matches!(segment(w0, w1, h).interior_peak(), Some((_, peak)) if peak > 2.0 * ends)
+        matches!(w0.penetration_segment(w1, h).interior_peak(), Some((_, peak)) if peak > 2.0 * ends)
     })
 }
 
@@ -709,7 +708,7 @@ fn unresolved_contact(s0: &State, s1: &State, h: f64) -> bool {
 fn next_crossing(walls: &[Wall], s0: &State, s1: &State, h: f64, short: f64) -> Option<f64> {
     let mut first: Option<f64> = None;
     for (wall, (w0, w1)) in walls.iter().zip(s0.walls.iter().zip(&s1.walls)) {
-        let seg = segment(w0, w1, h);
+        let seg = w0.penetration_segment(w1, h);
         let t = match (w0.closed(), w1.closed()) {
             (false, true) => {
                 // Up to the closing the motion is free of this wall: the start state's Taylor
@@ -744,19 +743,12 @@ fn next_peak(s0: &State, s1: &State, h: f64, pending: &[bool]) -> Option<f64> {
         .zip(&s1.walls)
         .zip(pending)
         .filter(|((w0, w1), &p)| p && w0.closed() && w1.closed())
-        .filter_map(|((w0, w1), _)| segment(w0, w1, h).interior_peak().map(|(s, _)| s))
+        .filter_map(|((w0, w1), _)| {
+            w0.penetration_segment(w1, h)
+                .interior_peak()
+                .map(|(s, _)| s)
+        })
         .min_by(f64::total_cmp)
-}
-
-/// A wall's penetration over a step of length `h`.
-fn segment(w0: &WallState, w1: &WallState, h: f64) -> HermiteSegment {
-    HermiteSegment {
-        y0: w0.penetration,
-        dy0: w0.rate,
-        y1: w1.penetration,
-        dy1: w1.rate,
-        h,
-    }
 }
 
 /// Smallest `τ ∈ (0, h]` with `c + b τ + a τ² = 0`, if any.

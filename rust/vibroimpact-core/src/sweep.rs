@@ -323,13 +323,7 @@ impl Reducer<'_> {
             if ws0.closed() || !ws1.closed() || sys.gaps[w.gap].law.is_rigid() {
                 continue;
             }
-            let seg = HermiteSegment {
-                y0: ws0.penetration,
-                dy0: ws0.rate,
-                y1: ws1.penetration,
-                dy1: ws1.rate,
-                h,
-            };
+            let seg = ws0.penetration_segment(ws1, h);
             let theta = seg.crossing();
             self.count_impact(w.gap, t0 + theta * h, seg.rate(theta));
         }
