@@ -343,7 +343,15 @@ impl Reducer<'_> {
     ) {
         let span = (1.0 - theta_a) * h;
         self.covered += span;
-        for (j, &d) in self.sampling.dofs.iter().enumerate() {
+        let out = &mut self.out;
+        let per_dof = (self.sampling.dofs.iter())
+            .zip(&mut self.square_integral)
+            .zip(
+                out.displacement_max
+                    .iter_mut()
+                    .zip(&mut out.displacement_min),
+            );
+        for ((&d, square_integral), (max, min)) in per_dof {
             let seg = displacement_segment(s0, s1, d, h);
             let xa = if theta_a == 0.0 {
                 s0.x[d]
@@ -352,7 +360,7 @@ impl Reducer<'_> {
             };
             let xb = s1.x[d];
             let xm = seg.value(0.5 * (1.0 + theta_a));
-            self.square_integral[j] += span / 6.0 * (xa * xa + 4.0 * xm * xm + xb * xb);
+            *square_integral += span / 6.0 * (xa * xa + 4.0 * xm * xm + xb * xb);
             let (mut hi, mut lo) = (xa.max(xb), xa.min(xb));
             if let Some(turns) = turns {
                 // the integrator's own turning point (a peak or a trough)
@@ -381,10 +389,8 @@ impl Reducer<'_> {
                     }
                 }
             }
-            let m = &mut self.out.displacement_max[j];
-            *m = m.max(hi);
-            let m = &mut self.out.displacement_min[j];
-            *m = m.min(lo);
+            *max = max.max(hi);
+            *min = min.min(lo);
         }
     }
 
