@@ -657,7 +657,8 @@ impl Stages {
     /// expansion in `h` holds) takes the larger of the two estimates instead: there the
     /// damped one can fall several times below the true error. A [`Clock::Root`] step's
     /// duration is checked too, scaled by the time in which the wall's gap coordinate moves
-    /// by its tolerance.
+    /// by its tolerance. Returns the norm and, for the next step's size, the same estimates
+    /// measured in the next step's scales ([`Self::motion_error`]).
     #[allow(clippy::too_many_arguments)]
     fn error(
         &self,
@@ -671,9 +672,10 @@ impl Stages {
         energy: f64,
         h: f64,
         rough: bool,
-    ) -> f64 {
-        let [mut e5, mut e3] = by_size!(start.x.len(), |n| self
-            .motion_error(n, tol, dt_max, start, end, v_max));
+    ) -> [f64; 2] {
+        let ahead = matches!(clock, Clock::Time).then_some(h);
+        let [mut e5, mut e3, mut e5_next, mut e3_next] = by_size!(start.x.len(), |n| self
+            .motion_error(n, tol, dt_max, start, end, v_max, ahead));
         let mut components = 2 * start.x.len();
         if let Clock::Root { wall, .. } = clock {
             let at = |y0: &[f64], y1: &[f64]| {
@@ -682,11 +684,17 @@ impl Stages {
                     .max(toward_wall(sys, wall, y1).abs())
             };
             let st = (tol.atol + tol.rtol * at(&start.x, &end.x)) / at(&start.v, &end.v);
-            e5 += (dot(&E5, &self.kt) / st).powi(2);
-            e3 += (dot(&E3, &self.kt) / st).powi(2);
+            let (d5, d3) = (
+                (dot(&E5, &self.kt) / st).powi(2),
+                (dot(&E3, &self.kt) / st).powi(2),
+            );
+            (e5, e3, e5_next, e3_next) = (e5 + d5, e3 + d3, e5_next + d5, e3_next + d3);
             components += 1;
         }
-        let motion = norm(e5, e3, components as f64, h, rough);
+        let motion = [
+            norm(e5, e3, components as f64, h, rough),
+            norm(e5_next, e3_next, components as f64, h, rough),
+        ];
         // the energy account's work integrals: their integrands may have kinks that the
         // motion hardly feels (a tabulated law's loading curve while it unloads)
         let se = tol.rtol * energy;
@@ -703,12 +711,19 @@ impl Stages {
             w5 += (dot(&E5, kp) / se).powi(2);
             w3 += (dot(&E3, kp) / se).powi(2);
         }
-        motion.max(norm(w5, w3, 3.0, h, rough))
+        let work = norm(w5, w3, 3.0, h, rough);
+        motion.map(|m| m.max(work))
     }
 
     /// The sums of the squared scaled fifth- and third-order error estimates of the `n` DOFs'
-    /// displacements and velocities ([`Self::error`]).
+    /// displacements and velocities ([`Self::error`]), then the same sums with each
+    /// displacement scaled as the next step of the same length `ahead` (s) will scale it, from
+    /// the step's end and its end extrapolated at constant acceleration: where a
+    /// displacement's scale `atol + rtol |x|` shrinks (a rotor's orbit passing near the
+    /// centre), the next step's error grows by as much, and a step sized on the last one's
+    /// scale is rejected (without `ahead`, a step in `ζ`: the same sums).
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn motion_error(
         &self,
         n: usize,
@@ -717,19 +732,29 @@ impl Stages {
         start: &StepEnd,
         end: &StepEnd,
         v_max: &[f64],
-    ) -> [f64; 2] {
+        ahead: Option<f64>,
+    ) -> [f64; 4] {
         let (mut e5, mut e3) = (0.0, 0.0);
+        let (mut e5_next, mut e3_next) = (0.0, 0.0);
         let ends = (start.x[..n].iter().zip(&end.x[..n]))
             .zip(&end.v[..n])
             .zip(&v_max[..n]);
         let stages = (self.kx[..n * K].chunks_exact(K)).zip(self.kv[..n * K].chunks_exact(K));
-        for ((((&x0, &x1), &v1), &speed), (kx, kv)) in ends.zip(stages) {
+        for (((((&x0, &x1), &v1), &speed), (kx, kv)), &a1) in ends.zip(stages).zip(&end.a[..n]) {
             let sx = tol.atol + tol.rtol * x0.abs().max(x1.abs());
             let sv = tol.atol / dt_max + tol.rtol * speed.max(v1.abs());
-            e5 += (dot(&E5, kx) / sx).powi(2) + (dot(&E5, kv) / sv).powi(2);
-            e3 += (dot(&E3, kx) / sx).powi(2) + (dot(&E3, kv) / sv).powi(2);
+            let (x5, x3) = (dot(&E5, kx), dot(&E3, kx));
+            let (v5, v3) = ((dot(&E5, kv) / sv).powi(2), (dot(&E3, kv) / sv).powi(2));
+            e5 += (x5 / sx).powi(2) + v5;
+            e3 += (x3 / sx).powi(2) + v3;
+            let sx_next = match ahead {
+                Some(h) => tol.atol + tol.rtol * x1.abs().max((x1 + h * (v1 + 0.5 * h * a1)).abs()),
+                None => sx,
+            };
+            e5_next += (x5 / sx_next).powi(2) + v5;
+            e3_next += (x3 / sx_next).powi(2) + v3;
         }
-        [e5, e3]
+        [e5, e3, e5_next, e3_next]
     }
 
     /// The state of a stage with coefficients `a` over the stages before it, into `xs`, `vs`.
@@ -1448,7 +1473,7 @@ impl StepPolicy for Dop853Steps<'_> {
                 self.root = None;
                 continue;
             }
-            let mut err = 0.0;
+            let (mut err, mut err_next) = (0.0, 0.0);
             if let Steps::Adaptive { tol, dt_max, .. } = self.steps {
                 // the first step of a contact and a step landed on an event (a contact's end)
                 // meet the force's δ^1.5 singularity, unless the step is in ζ or the force
@@ -1457,7 +1482,7 @@ impl StepPolicy for Dop853Steps<'_> {
                     && (self.contacts.iter().enumerate())
                         .any(|(j, c)| c.active && c.peak_pending && !smooth_switch(sys, j));
                 let rough = matches!(clock, Clock::Time) && (rough_start || singular_end);
-                err = duration.map_or(f64::INFINITY, |_| {
+                [err, err_next] = duration.map_or([f64::INFINITY; 2], |_| {
                     self.stages.error(
                         sys,
                         clock,
@@ -1602,8 +1627,8 @@ impl StepPolicy for Dop853Steps<'_> {
                 return Ok(true);
             };
             let max_growth = if self.rejected { 1.0 } else { 6.0 };
-            let grow = if err > 0.0 {
-                step_factor(err)
+            let grow = if err_next > 0.0 {
+                step_factor(err_next)
             } else {
                 max_growth
             };
