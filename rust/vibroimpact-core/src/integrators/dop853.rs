@@ -642,7 +642,9 @@ impl Stages {
         };
         let g = clock.dt_dvar(dynamics.sys, C[I], h, &self.vs)?;
         let wall = clock.penetration(C[I], h);
-        let power = dynamics.accel(contacts, wall, t, &self.xs, &self.vs, &mut self.acc);
+        // the right-hand side at the stage's size, inlined into the stage: no call and no
+        // dispatch on the size per evaluation
+        let power = dynamics.accel_sized(n, contacts, wall, t, &self.xs, &self.vs, &mut self.acc);
         self.kt[I] = g;
         self.keep(n, I, g, power, &dynamics.forces);
         Some(())
