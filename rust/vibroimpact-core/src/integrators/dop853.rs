@@ -466,6 +466,18 @@ fn dot(w: &[f64], k: &[f64]) -> f64 {
     w.iter().zip(k).map(|(w, k)| w * k).sum()
 }
 
+/// [`dot`] over a row `w` of the tableau, whose zero weights (a quarter of `A`'s and `B`'s)
+/// are left out: the rows are constants, so the terms go at compile time. The same sum where
+/// it is finite (a zero weight's term is a zero, which leaves a sum unchanged).
+#[inline(always)]
+fn combine(w: &[f64], k: &[f64]) -> f64 {
+    w.iter()
+        .zip(k)
+        .filter(|(w, _)| **w != 0.0)
+        .map(|(w, k)| w * k)
+        .sum()
+}
+
 /// Stores stage `i`'s values `values` (one per component), times `scale`, into `k`
 /// (stride [`K`]).
 #[inline]
@@ -587,8 +599,8 @@ impl Stages {
             .zip(self.kv[..n * K].chunks_exact(K))
             .zip(start.x[..n].iter().zip(&start.v[..n]))
         {
-            *x1 = x0 + h * dot(&B, kx);
-            *v1 = v0 + h * dot(&B, kv);
+            *x1 = x0 + h * combine(&B, kx);
+            *v1 = v0 + h * combine(&B, kv);
         }
         for ((w, kp), &used) in end
             .work
@@ -596,7 +608,7 @@ impl Stages {
             .zip(self.kp.chunks_exact(K))
             .zip(&self.powers)
         {
-            *w = if used { h * dot(&B, kp) } else { 0.0 };
+            *w = if used { h * combine(&B, kp) } else { 0.0 };
         }
         for ((impulse, kf), c) in end
             .impulse
@@ -604,9 +616,9 @@ impl Stages {
             .zip(self.kf.chunks_exact(K))
             .zip(contacts)
         {
-            *impulse = if c.active { h * dot(&B, kf) } else { 0.0 };
+            *impulse = if c.active { h * combine(&B, kf) } else { 0.0 };
         }
-        let duration = if root { h * dot(&B, &self.kt) } else { h };
+        let duration = if root { h * combine(&B, &self.kt) } else { h };
         dynamics.at(contacts, clock.penetration(1.0, h), t0 + duration, end);
         // the end's rate may be zero on a step to ζ = 0 only if the wall grazes (not
         // integrated in ζ), so its `dt/dζ` is finite; the first-same-as-last stage
@@ -636,7 +648,7 @@ impl Stages {
         let a = A[I];
         self.stage_state(n, a, start, h);
         let t = if root {
-            t0 + h * dot(a, &self.kt)
+            t0 + h * combine(a, &self.kt)
         } else {
             t0 + C[I] * h
         };
@@ -687,8 +699,8 @@ impl Stages {
             };
             let st = (tol.atol + tol.rtol * at(&start.x, &end.x)) / at(&start.v, &end.v);
             let (d5, d3) = (
-                (dot(&E5, &self.kt) / st).powi(2),
-                (dot(&E3, &self.kt) / st).powi(2),
+                (combine(&E5, &self.kt) / st).powi(2),
+                (combine(&E3, &self.kt) / st).powi(2),
             );
             (e5, e3, e5_next, e3_next) = (e5 + d5, e3 + d3, e5_next + d5, e3_next + d3);
             components += 1;
@@ -710,8 +722,8 @@ impl Stages {
             .zip(self.powers)
             .filter(|(_, used)| *used)
         {
-            w5 += (dot(&E5, kp) / se).powi(2);
-            w3 += (dot(&E3, kp) / se).powi(2);
+            w5 += (combine(&E5, kp) / se).powi(2);
+            w3 += (combine(&E3, kp) / se).powi(2);
         }
         let work = norm(w5, w3, 3.0, h, rough);
         motion.map(|m| m.max(work))
@@ -745,8 +757,11 @@ impl Stages {
         for (((((&x0, &x1), &v1), &speed), (kx, kv)), &a1) in ends.zip(stages).zip(&end.a[..n]) {
             let sx = tol.atol + tol.rtol * x0.abs().max(x1.abs());
             let sv = tol.atol / dt_max + tol.rtol * speed.max(v1.abs());
-            let (x5, x3) = (dot(&E5, kx), dot(&E3, kx));
-            let (v5, v3) = ((dot(&E5, kv) / sv).powi(2), (dot(&E3, kv) / sv).powi(2));
+            let (x5, x3) = (combine(&E5, kx), combine(&E3, kx));
+            let (v5, v3) = (
+                (combine(&E5, kv) / sv).powi(2),
+                (combine(&E3, kv) / sv).powi(2),
+            );
             e5 += (x5 / sx).powi(2) + v5;
             e3 += (x3 / sx).powi(2) + v3;
             let sx_next = match ahead {
@@ -769,8 +784,8 @@ impl Stages {
             .zip(self.kv[..n * K].chunks_exact(K))
             .zip(start.x[..n].iter().zip(&start.v[..n]))
         {
-            *xs = x0 + h * dot(a, kx);
-            *vs = v0 + h * dot(a, kv);
+            *xs = x0 + h * combine(a, kx);
+            *vs = v0 + h * combine(a, kv);
         }
     }
 
@@ -820,10 +835,10 @@ impl Stages {
                 dy,
                 h * f0 - dy,
                 2.0 * dy - h * (f1 + f0),
-                h * dot(&D[0], k),
-                h * dot(&D[1], k),
-                h * dot(&D[2], k),
-                h * dot(&D[3], k),
+                h * combine(&D[0], k),
+                h * combine(&D[1], k),
+                h * combine(&D[2], k),
+                h * combine(&D[3], k),
             ];
             let mut y = 0.0;
             for (i, fi) in f.iter().enumerate().rev() {
