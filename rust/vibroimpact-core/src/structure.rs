@@ -465,6 +465,32 @@ impl Load {
         }
     }
 
+    /// `A · g⁽ᵏ⁾(t)` into `out[k]` for `k = 0, 1, ...` (`out.len()` of them) of a load smooth
+    /// at every time: constant, or harmonic (`A ω^k sin(ω t + φ + k π/2)`; an unbalance at a
+    /// constant spin is a pair of them, [`Load::unbalance`]); `false` for the others (a
+    /// table's corners, a run-up's).
+    pub fn smooth_derivatives(&self, t: f64, out: &mut [f64]) -> bool {
+        match &self.history {
+            LoadHistory::Constant => {
+                out.fill(0.0);
+                if let Some(first) = out.first_mut() {
+                    *first = self.amplitude;
+                }
+            }
+            LoadHistory::Harmonic { frequency, phase } => {
+                let w = 2.0 * std::f64::consts::PI * frequency;
+                let (sin, cos) = (w * t + phase).sin_cos();
+                let mut scale = self.amplitude;
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = scale * [sin, cos, -sin, -cos][k % 4];
+                    scale *= w;
+                }
+            }
+            LoadHistory::Unbalance { .. } | LoadHistory::Table { .. } => return false,
+        }
+        true
+    }
+
     /// `A · g'(t)` (a table's: the slope of the segment holding `t`, zero outside it).
     pub fn rate(&self, t: f64) -> f64 {
         self.amplitude
@@ -648,6 +674,60 @@ fn interpolate(time: &[f64], value: &[f64], t: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A harmonic load's derivatives equal its value and rate and central differences of
+    /// them; a constant's are its value and zeros; a table's and a run-up's are refused.
+    #[test]
+    fn smooth_derivatives_are_the_loads() {
+        let harmonic = Load {
+            dofs: vec![0],
+            amplitude: 2.0,
+            history: LoadHistory::Harmonic {
+                frequency: 7.3,
+                phase: -1.1,
+            },
+        };
+        let (t, h) = (0.37, 1e-5);
+        let mut d = [0.0; 6];
+        let mut around = [[0.0; 6]; 2];
+        assert!(harmonic.smooth_derivatives(t, &mut d));
+        assert!(harmonic.smooth_derivatives(t - h, &mut around[0]));
+        assert!(harmonic.smooth_derivatives(t + h, &mut around[1]));
+        assert_eq!(d[0], harmonic.value(t));
+        assert!((d[1] / harmonic.rate(t) - 1.0).abs() < 1e-14);
+        for k in 1..6 {
+            let difference = (around[1][k - 1] - around[0][k - 1]) / (2.0 * h);
+            // a central difference's error, (ω h)²/6 = 3.5e-8
+            assert!(
+                (difference / d[k] - 1.0).abs() < 1e-7,
+                "{k}: {difference} {}",
+                d[k]
+            );
+        }
+        let constant = Load {
+            dofs: vec![0],
+            amplitude: 0.5,
+            history: LoadHistory::Constant,
+        };
+        assert!(constant.smooth_derivatives(t, &mut d));
+        assert_eq!(d, [0.5, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        let table = Load {
+            dofs: vec![0],
+            amplitude: 1.0,
+            history: LoadHistory::Table {
+                time: vec![0.0, 1.0],
+                value: vec![0.0, 3.0],
+            },
+        };
+        let run_up = SpinProfile {
+            start: 10.0,
+            end: 20.0,
+            duration: 1.0,
+        };
+        let [x, _] = Load::unbalance([0, 1], 1e-4, 0.3, run_up);
+        assert!(!table.smooth_derivatives(t, &mut d));
+        assert!(!x.smooth_derivatives(t, &mut d));
+    }
 
     /// [`LoadValues`] (an unbalance's pair sharing one angle, a lone harmonic load, a
     /// constant and a table) equals each load's own [`Load::value`] to the rounding of the

@@ -67,6 +67,13 @@ const LANDING_WINDOW: f64 = 1e-3;
 /// Models up to this many DOFs apply a dense `M⁻¹` instead of solving with `M`'s factor.
 const MAX_DENSE_INVERSE: usize = 32;
 
+/// The highest derivative of the free motion's Taylor series on which a predicted closing is
+/// refined ([`Dynamics::free_closing`]).
+const SERIES_ORDER: usize = 8;
+
+/// Newton iterations of a closing refined on the free motion's Taylor series.
+const CLOSING_ITERATIONS: usize = 8;
+
 /// How the steps are sized.
 #[derive(Debug, Clone, Copy)]
 pub(crate) enum Steps {
@@ -109,6 +116,12 @@ struct Dynamics<'s> {
     forces: Vec<f64>,
     /// `K` has a nonzero entry (a free body has none).
     has_stiffness: bool,
+    /// The free motion's Taylor coefficients `x⁽ᵏ⁾/k!` (row `k`, [`Self::free_closing`]) and the
+    /// loads' derivatives `F⁽ᵏ⁾` that make them.
+    series: Vec<f64>,
+    load_series: Vec<f64>,
+    /// A state on the series: displacement, velocity and acceleration.
+    series_state: [Vec<f64>; 3],
 }
 
 /// A small model's matrices, row-major.
@@ -192,7 +205,99 @@ impl<'s> Dynamics<'s> {
             loads: LoadValues::new(&sys.loads),
             forces: vec![0.0; sys.walls.len()],
             has_stiffness: sys.structure.stiffness.values().iter().any(|&k| k != 0.0),
+            series: vec![0.0; (SERIES_ORDER + 1) * n],
+            load_series: vec![0.0; (SERIES_ORDER - 1) * n],
+            series_state: [vec![0.0; n], vec![0.0; n], vec![0.0; n]],
         }
+    }
+
+    /// Where open wall `j` closes on the free motion (every wall open) from `state` at `t`,
+    /// `guess` (s) after it at constant acceleration ([`predicted_closing`]): refined by
+    /// Newton's method on the motion's Taylor series to [`SERIES_ORDER`], so that the step
+    /// landed on it ends within its switching window (a quadratic's root falls 1e-3 of the
+    /// way short or long, and a tiny step or a retake follows). `None` where the series is not
+    /// available (a large model, a run-up, a load that is not smooth), is truncated above the
+    /// landing's precision, or Newton does not settle near `guess`.
+    fn free_closing(
+        &mut self,
+        contacts: &[Contact],
+        t: f64,
+        state: &StepEnd,
+        j: usize,
+        guess: f64,
+    ) -> Option<f64> {
+        let sys = self.sys;
+        let st = &sys.structure;
+        let small = self.small.as_ref()?;
+        let n = state.x.len();
+        if contacts.iter().any(|c| c.active) || st.varying_gyroscopic().is_some() {
+            return None;
+        }
+        // the loads' derivatives F⁽ᵏ⁾, k ≤ SERIES_ORDER − 2
+        let orders = SERIES_ORDER - 1;
+        let forcing = &mut self.load_series;
+        forcing.fill(0.0);
+        let mut derivatives = [0.0; SERIES_ORDER - 1];
+        for load in &sys.loads {
+            if !load.smooth_derivatives(t, &mut derivatives) {
+                return None;
+            }
+            for (k, dk) in derivatives.iter().enumerate() {
+                for &d in &load.dofs {
+                    forcing[k * n + d] += dk;
+                }
+            }
+        }
+        // x⁽ᵏ⁺²⁾ = M⁻¹ (F⁽ᵏ⁾ − C x⁽ᵏ⁺¹⁾ − K x⁽ᵏ⁾)
+        let series = &mut self.series;
+        series[..n].copy_from_slice(&state.x);
+        series[n..2 * n].copy_from_slice(&state.v);
+        let rhs = &mut self.rhs;
+        for k in 0..orders {
+            let (known, next) = series.split_at_mut((k + 2) * n);
+            let (xk, xk1) = (&known[k * n..(k + 1) * n], &known[(k + 1) * n..(k + 2) * n]);
+            rhs.copy_from_slice(&forcing[k * n..(k + 1) * n]);
+            dense_mul_add(&small.damping, -1.0, xk1, rhs);
+            dense_mul_add(&small.stiffness, -1.0, xk, rhs);
+            for (xi, row) in next[..n].iter_mut().zip(small.mass_inverse.chunks_exact(n)) {
+                *xi = dot(row, rhs);
+            }
+        }
+        // k! divided out: row k holds x⁽ᵏ⁾/k!
+        let mut factorial = 1.0;
+        for (k, row) in series.chunks_exact_mut(n).enumerate().skip(2) {
+            factorial *= k as f64;
+            row.iter_mut().for_each(|x| *x /= factorial);
+        }
+        let mut tau = guess;
+        for _ in 0..CLOSING_ITERATIONS {
+            let [x, v, a] = &mut self.series_state;
+            for d in 0..n {
+                let (mut p, mut dp, mut ddp) = (0.0, 0.0, 0.0);
+                for k in (0..=SERIES_ORDER).rev() {
+                    let c = series[k * n + d];
+                    ddp = ddp * tau + 2.0 * dp;
+                    dp = dp * tau + p;
+                    p = p * tau + c;
+                }
+                (x[d], v[d], a[d]) = (p, dp, ddp);
+            }
+            let [delta, delta_rate, _] = wall_motion(sys, j, x, v, a);
+            let correction = delta / delta_rate;
+            tau -= correction;
+            if !(tau > 0.0 && (tau - guess).abs() < 0.5 * guess) {
+                return None;
+            }
+            if correction.abs() <= 0.01 * EVENT_NEAR * tau {
+                // the last term, the truncation's size, within the landing's precision
+                let last = series[SERIES_ORDER * n..]
+                    .iter()
+                    .fold(0.0, |m: f64, c| m.max(c.abs()));
+                let truncated = last * tau.powi(SERIES_ORDER as i32);
+                return (truncated <= 0.1 * EVENT_NEAR * delta_rate.abs() * tau).then_some(tau);
+            }
+        }
+        None
     }
 
     /// `a = M⁻¹ (F(t) − (C + Ω(t) G) v − K x − Σ φ_g b_gᵀ)` with the forces of the active walls; returns
@@ -361,6 +466,18 @@ fn dot(w: &[f64], k: &[f64]) -> f64 {
     w.iter().zip(k).map(|(w, k)| w * k).sum()
 }
 
+/// [`dot`] over a row `w` of the tableau, whose zero weights (a quarter of `A`'s and `B`'s)
+/// are left out: the rows are constants, so the terms go at compile time. The same sum where
+/// it is finite (a zero weight's term is a zero, which leaves a sum unchanged).
+#[inline(always)]
+fn combine(w: &[f64], k: &[f64]) -> f64 {
+    w.iter()
+        .zip(k)
+        .filter(|(w, _)| **w != 0.0)
+        .map(|(w, k)| w * k)
+        .sum()
+}
+
 /// Stores stage `i`'s values `values` (one per component), times `scale`, into `k`
 /// (stride [`K`]).
 #[inline]
@@ -482,8 +599,8 @@ impl Stages {
             .zip(self.kv[..n * K].chunks_exact(K))
             .zip(start.x[..n].iter().zip(&start.v[..n]))
         {
-            *x1 = x0 + h * dot(&B, kx);
-            *v1 = v0 + h * dot(&B, kv);
+            *x1 = x0 + h * combine(&B, kx);
+            *v1 = v0 + h * combine(&B, kv);
         }
         for ((w, kp), &used) in end
             .work
@@ -491,7 +608,7 @@ impl Stages {
             .zip(self.kp.chunks_exact(K))
             .zip(&self.powers)
         {
-            *w = if used { h * dot(&B, kp) } else { 0.0 };
+            *w = if used { h * combine(&B, kp) } else { 0.0 };
         }
         for ((impulse, kf), c) in end
             .impulse
@@ -499,9 +616,9 @@ impl Stages {
             .zip(self.kf.chunks_exact(K))
             .zip(contacts)
         {
-            *impulse = if c.active { h * dot(&B, kf) } else { 0.0 };
+            *impulse = if c.active { h * combine(&B, kf) } else { 0.0 };
         }
-        let duration = if root { h * dot(&B, &self.kt) } else { h };
+        let duration = if root { h * combine(&B, &self.kt) } else { h };
         dynamics.at(contacts, clock.penetration(1.0, h), t0 + duration, end);
         // the end's rate may be zero on a step to ζ = 0 only if the wall grazes (not
         // integrated in ζ), so its `dt/dζ` is finite; the first-same-as-last stage
@@ -531,13 +648,15 @@ impl Stages {
         let a = A[I];
         self.stage_state(n, a, start, h);
         let t = if root {
-            t0 + h * dot(a, &self.kt)
+            t0 + h * combine(a, &self.kt)
         } else {
             t0 + C[I] * h
         };
         let g = clock.dt_dvar(dynamics.sys, C[I], h, &self.vs)?;
         let wall = clock.penetration(C[I], h);
-        let power = dynamics.accel(contacts, wall, t, &self.xs, &self.vs, &mut self.acc);
+        // the right-hand side at the stage's size, inlined into the stage: no call and no
+        // dispatch on the size per evaluation
+        let power = dynamics.accel_sized(n, contacts, wall, t, &self.xs, &self.vs, &mut self.acc);
         self.kt[I] = g;
         self.keep(n, I, g, power, &dynamics.forces);
         Some(())
@@ -552,7 +671,8 @@ impl Stages {
     /// expansion in `h` holds) takes the larger of the two estimates instead: there the
     /// damped one can fall several times below the true error. A [`Clock::Root`] step's
     /// duration is checked too, scaled by the time in which the wall's gap coordinate moves
-    /// by its tolerance.
+    /// by its tolerance. Returns the norm and, for the next step's size, the same estimates
+    /// measured in the next step's scales ([`Self::motion_error`]).
     #[allow(clippy::too_many_arguments)]
     fn error(
         &self,
@@ -566,9 +686,10 @@ impl Stages {
         energy: f64,
         h: f64,
         rough: bool,
-    ) -> f64 {
-        let [mut e5, mut e3] = by_size!(start.x.len(), |n| self
-            .motion_error(n, tol, dt_max, start, end, v_max));
+    ) -> [f64; 2] {
+        let ahead = matches!(clock, Clock::Time).then_some(h);
+        let [mut e5, mut e3, mut e5_next, mut e3_next] = by_size!(start.x.len(), |n| self
+            .motion_error(n, tol, dt_max, start, end, v_max, ahead));
         let mut components = 2 * start.x.len();
         if let Clock::Root { wall, .. } = clock {
             let at = |y0: &[f64], y1: &[f64]| {
@@ -577,11 +698,17 @@ impl Stages {
                     .max(toward_wall(sys, wall, y1).abs())
             };
             let st = (tol.atol + tol.rtol * at(&start.x, &end.x)) / at(&start.v, &end.v);
-            e5 += (dot(&E5, &self.kt) / st).powi(2);
-            e3 += (dot(&E3, &self.kt) / st).powi(2);
+            let (d5, d3) = (
+                (combine(&E5, &self.kt) / st).powi(2),
+                (combine(&E3, &self.kt) / st).powi(2),
+            );
+            (e5, e3, e5_next, e3_next) = (e5 + d5, e3 + d3, e5_next + d5, e3_next + d3);
             components += 1;
         }
-        let motion = norm(e5, e3, components as f64, h, rough);
+        let motion = [
+            norm(e5, e3, components as f64, h, rough),
+            norm(e5_next, e3_next, components as f64, h, rough),
+        ];
         // the energy account's work integrals: their integrands may have kinks that the
         // motion hardly feels (a tabulated law's loading curve while it unloads)
         let se = tol.rtol * energy;
@@ -595,15 +722,22 @@ impl Stages {
             .zip(self.powers)
             .filter(|(_, used)| *used)
         {
-            w5 += (dot(&E5, kp) / se).powi(2);
-            w3 += (dot(&E3, kp) / se).powi(2);
+            w5 += (combine(&E5, kp) / se).powi(2);
+            w3 += (combine(&E3, kp) / se).powi(2);
         }
-        motion.max(norm(w5, w3, 3.0, h, rough))
+        let work = norm(w5, w3, 3.0, h, rough);
+        motion.map(|m| m.max(work))
     }
 
     /// The sums of the squared scaled fifth- and third-order error estimates of the `n` DOFs'
-    /// displacements and velocities ([`Self::error`]).
+    /// displacements and velocities ([`Self::error`]), then the same sums with each
+    /// displacement scaled as the next step of the same length `ahead` (s) will scale it, from
+    /// the step's end and its end extrapolated at constant acceleration: where a
+    /// displacement's scale `atol + rtol |x|` shrinks (a rotor's orbit passing near the
+    /// centre), the next step's error grows by as much, and a step sized on the last one's
+    /// scale is rejected (without `ahead`, a step in `ζ`: the same sums).
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn motion_error(
         &self,
         n: usize,
@@ -612,19 +746,32 @@ impl Stages {
         start: &StepEnd,
         end: &StepEnd,
         v_max: &[f64],
-    ) -> [f64; 2] {
+        ahead: Option<f64>,
+    ) -> [f64; 4] {
         let (mut e5, mut e3) = (0.0, 0.0);
+        let (mut e5_next, mut e3_next) = (0.0, 0.0);
         let ends = (start.x[..n].iter().zip(&end.x[..n]))
             .zip(&end.v[..n])
             .zip(&v_max[..n]);
         let stages = (self.kx[..n * K].chunks_exact(K)).zip(self.kv[..n * K].chunks_exact(K));
-        for ((((&x0, &x1), &v1), &speed), (kx, kv)) in ends.zip(stages) {
+        for (((((&x0, &x1), &v1), &speed), (kx, kv)), &a1) in ends.zip(stages).zip(&end.a[..n]) {
             let sx = tol.atol + tol.rtol * x0.abs().max(x1.abs());
             let sv = tol.atol / dt_max + tol.rtol * speed.max(v1.abs());
-            e5 += (dot(&E5, kx) / sx).powi(2) + (dot(&E5, kv) / sv).powi(2);
-            e3 += (dot(&E3, kx) / sx).powi(2) + (dot(&E3, kv) / sv).powi(2);
+            let (x5, x3) = (combine(&E5, kx), combine(&E3, kx));
+            let (v5, v3) = (
+                (combine(&E5, kv) / sv).powi(2),
+                (combine(&E3, kv) / sv).powi(2),
+            );
+            e5 += (x5 / sx).powi(2) + v5;
+            e3 += (x3 / sx).powi(2) + v3;
+            let sx_next = match ahead {
+                Some(h) => tol.atol + tol.rtol * x1.abs().max((x1 + h * (v1 + 0.5 * h * a1)).abs()),
+                None => sx,
+            };
+            e5_next += (x5 / sx_next).powi(2) + v5;
+            e3_next += (x3 / sx_next).powi(2) + v3;
         }
-        [e5, e3]
+        [e5, e3, e5_next, e3_next]
     }
 
     /// The state of a stage with coefficients `a` over the stages before it, into `xs`, `vs`.
@@ -637,8 +784,8 @@ impl Stages {
             .zip(self.kv[..n * K].chunks_exact(K))
             .zip(start.x[..n].iter().zip(&start.v[..n]))
         {
-            *xs = x0 + h * dot(a, kx);
-            *vs = v0 + h * dot(a, kv);
+            *xs = x0 + h * combine(a, kx);
+            *vs = v0 + h * combine(a, kv);
         }
     }
 
@@ -688,10 +835,10 @@ impl Stages {
                 dy,
                 h * f0 - dy,
                 2.0 * dy - h * (f1 + f0),
-                h * dot(&D[0], k),
-                h * dot(&D[1], k),
-                h * dot(&D[2], k),
-                h * dot(&D[3], k),
+                h * combine(&D[0], k),
+                h * combine(&D[1], k),
+                h * combine(&D[2], k),
+                h * combine(&D[3], k),
             ];
             let mut y = 0.0;
             for (i, fi) in f.iter().enumerate().rev() {
@@ -1273,11 +1420,19 @@ impl StepPolicy for Dop853Steps<'_> {
                 });
             }
             // a closing within the next step, predicted at constant acceleration (exact in free
-            // flight under constant forces): landed on at once instead of after a step that
-            // finds it; a step that falls short or overshoots is corrected as any landing
+            // flight under constant forces) and refined on the free motion's Taylor series:
+            // landed on at once instead of after a step that finds it; a step that falls short
+            // or overshoots is corrected as any landing
             if self.root.is_none() && self.landing.is_none() && self.dt_fixed.is_none() {
+                let limit = self.h.min(self.t_end - t0);
                 self.landing = predicted_closing(&self.contacts, &self.start)
-                    .filter(|&(tau, _)| tau > self.near_switch && tau < self.h.min(self.t_end - t0))
+                    .filter(|&(tau, _)| tau < limit)
+                    .map(|(tau, j)| {
+                        let refined =
+                            (self.dynamics).free_closing(&self.contacts, t0, &self.start, j, tau);
+                        (refined.unwrap_or(tau), j)
+                    })
+                    .filter(|&(tau, _)| tau > self.near_switch && tau < limit)
                     .map(|(tau, j)| (tau, !smooth_switch(sys, j)));
             }
             // the step: in ζ during a contact's start or end, else in time
@@ -1335,7 +1490,7 @@ impl StepPolicy for Dop853Steps<'_> {
                 self.root = None;
                 continue;
             }
-            let mut err = 0.0;
+            let (mut err, mut err_next) = (0.0, 0.0);
             if let Steps::Adaptive { tol, dt_max, .. } = self.steps {
                 // the first step of a contact and a step landed on an event (a contact's end)
                 // meet the force's δ^1.5 singularity, unless the step is in ζ or the force
@@ -1344,7 +1499,7 @@ impl StepPolicy for Dop853Steps<'_> {
                     && (self.contacts.iter().enumerate())
                         .any(|(j, c)| c.active && c.peak_pending && !smooth_switch(sys, j));
                 let rough = matches!(clock, Clock::Time) && (rough_start || singular_end);
-                err = duration.map_or(f64::INFINITY, |_| {
+                [err, err_next] = duration.map_or([f64::INFINITY; 2], |_| {
                     self.stages.error(
                         sys,
                         clock,
@@ -1489,8 +1644,8 @@ impl StepPolicy for Dop853Steps<'_> {
                 return Ok(true);
             };
             let max_growth = if self.rejected { 1.0 } else { 6.0 };
-            let grow = if err > 0.0 {
-                step_factor(err)
+            let grow = if err_next > 0.0 {
+                step_factor(err_next)
             } else {
                 max_growth
             };
@@ -1960,6 +2115,94 @@ mod tests {
             let ratio = c / f;
             assert!((200.0..1100.0).contains(&ratio), "{c:e} / {f:e} = {ratio}");
         }
+    }
+
+    /// A closing predicted at constant acceleration and refined on the free motion's Taylor
+    /// series equals the closed form of a damped oscillator under a constant and a harmonic
+    /// load (`x = x_p + e^{−ζωt}(…)`, its zero located by bisection) to 1e-8 of the time to
+    /// it (a landing needs `EVENT_NEAR`, 1e-5), where the constant-acceleration guess is off by
+    /// more than 1e-4.
+    #[test]
+    fn free_closing_equals_the_closed_form() {
+        use crate::structure::{Load, LoadHistory};
+        let (m, c, k, f0, fa, w) = (1.0, 4.0, 1e4, 1.0, 0.5, 150.0);
+        let s = LinearStructure::new(
+            DMatrix::from_element(1, 1, m),
+            DMatrix::from_element(1, 1, c),
+            DMatrix::from_element(1, 1, k),
+        )
+        .unwrap();
+        let gap = Gap {
+            dofs: vec![0],
+            coefficients: vec![1.0],
+            clearance: 2e-3,
+            side: Side::Positive,
+            law: Law::Hertz(Hertz::new(1e9, 1.5).unwrap()),
+        };
+        let loads = vec![
+            Load {
+                dofs: vec![0],
+                amplitude: f0,
+                history: LoadHistory::Constant,
+            },
+            Load {
+                dofs: vec![0],
+                amplitude: fa,
+                history: LoadHistory::Harmonic {
+                    frequency: w / (2.0 * std::f64::consts::PI),
+                    phase: 0.0,
+                },
+            },
+        ];
+        let sys = System::new(s, vec![gap], loads).unwrap();
+        // the exact motion from x0, v0 at t = 0: the particular solution of each load and
+        // the damped free motion that meets the initial state
+        let (x0, v0) = (0.0, 0.5);
+        let (wn, zeta) = ((k / m).sqrt(), c / (2.0 * (k * m).sqrt()));
+        let wd = wn * (1.0 - zeta * zeta).sqrt();
+        let z = nalgebra::Complex::new(k - m * w * w, c * w);
+        let amp = fa / z; // x_h = Im(amp e^{iwt})
+        let particular = |t: f64| {
+            let e = nalgebra::Complex::new(0.0, w * t).exp();
+            (
+                f0 / k + (amp * e).im,
+                (amp * e * nalgebra::Complex::new(0.0, w)).im,
+            )
+        };
+        let (p0, pv0) = particular(0.0);
+        let (a, b) = (x0 - p0, (v0 - pv0 + zeta * wn * (x0 - p0)) / wd);
+        let exact = |t: f64| {
+            particular(t).0 + (-zeta * wn * t).exp() * (a * (wd * t).cos() + b * (wd * t).sin())
+        };
+        let (mut lo, mut hi) = (0.0, 1e-2);
+        assert!(exact(hi) > 2e-3);
+        while hi - lo > 1e-16 {
+            let mid = 0.5 * (lo + hi);
+            if exact(mid) < 2e-3 {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        let mut dynamics = super::Dynamics::new(&sys);
+        let contacts = [Contact::default()];
+        let mut start = super::StepEnd {
+            x: vec![x0],
+            v: vec![v0],
+            a: vec![0.0],
+            power: [0.0; 3],
+            forces: vec![0.0],
+            work: [0.0; 3],
+            impulse: vec![0.0],
+            walls: vec![[0.0; 3]],
+        };
+        dynamics.at(&contacts, None, 0.0, &mut start);
+        let (guess, wall) = super::predicted_closing(&contacts, &start).unwrap();
+        assert!((guess / lo - 1.0).abs() > 1e-4, "{guess} {lo}");
+        let refined = dynamics
+            .free_closing(&contacts, 0.0, &start, wall, guess)
+            .unwrap();
+        assert!((refined / lo - 1.0).abs() < 1e-8, "{refined} {lo}");
     }
 
     /// A free mass onto a Hertz wall: the closing landed on (t = d/v, v_in = v), the peak
