@@ -679,9 +679,14 @@ impl Recorder<'_> {
         if self.peaks == Peaks::FromRows {
             // one DOF's column at a time: one tight loop per DOF, not one short loop per row
             let new_rows = &rows.displacement[self.peaks_taken * n..];
-            for (i, m) in self.max_abs.iter_mut().enumerate() {
-                let column = new_rows[i..].iter().step_by(n);
-                *m = column.fold(*m, |m, x| m.max(x.abs()));
+            let peak = |m: f64, x: &f64| m.max(x.abs());
+            if let [m] = self.max_abs.as_mut_slice() {
+                // one DOF: its column is the block, without a stride known only at run time
+                *m = new_rows.iter().fold(*m, peak);
+            } else {
+                for (i, m) in self.max_abs.iter_mut().enumerate() {
+                    *m = new_rows[i..].iter().step_by(n).fold(*m, peak);
+                }
             }
             self.peaks_taken = rows.time.len();
         }
@@ -722,13 +727,31 @@ impl Recorder<'_> {
         // Walls of one gap are adjacent: one column per gap (deepest wall, summed force).
         let mut potential = 0.0;
         for walls in self.gap_walls.iter().map(|r| &s.walls[r.clone()]) {
-            let (mut pen, mut force) = (walls[0].penetration, walls[0].force);
-            potential += walls[0].potential;
-            for other in &walls[1..] {
-                pen = pen.max(other.penetration);
-                force += other.force;
-                potential += other.potential;
-            }
+            // a one- or two-sided gap without the loop over its walls (the same sums)
+            let (pen, force) = match walls {
+                [one] => {
+                    potential += one.potential;
+                    (one.penetration, one.force)
+                }
+                [near, far] => {
+                    potential += near.potential;
+                    potential += far.potential;
+                    (
+                        near.penetration.max(far.penetration),
+                        near.force + far.force,
+                    )
+                }
+                _ => {
+                    let (mut pen, mut force) = (walls[0].penetration, walls[0].force);
+                    potential += walls[0].potential;
+                    for other in &walls[1..] {
+                        pen = pen.max(other.penetration);
+                        force += other.force;
+                        potential += other.potential;
+                    }
+                    (pen, force)
+                }
+            };
             rows.gap_penetration.push(pen);
             rows.gap_force.push(force);
         }
@@ -776,7 +799,18 @@ impl EnergyForm {
             unreachable!("the energies come from the rows only with diagonal forms")
         };
         let rows = &rows[column.len() * d.len()..];
-        column.extend(rows.chunks_exact(d.len()).map(|y| diagonal_form(d, y)));
+        // the common sizes compiled with their length known, so that a row's sum is unrolled
+        match d.len() {
+            1 => Self::fill_sized::<1>(d, column, rows),
+            2 => Self::fill_sized::<2>(d, column, rows),
+            n => column.extend(rows.chunks_exact(n).map(|y| diagonal_form(d, y))),
+        }
+    }
+
+    /// [`Self::fill`] for `N` DOFs: the same sums, over rows of a length known at compile time.
+    fn fill_sized<const N: usize>(d: &[f64], column: &mut Vec<f64>, rows: &[f64]) {
+        let d: &[f64; N] = d.try_into().expect("a diagonal of N entries");
+        column.extend(rows.chunks_exact(N).map(|y| diagonal_form(d, y)));
     }
 
     /// `(x₁ − x₀)ᵀ A (y₀ + y₁)` with [`Csr::increment_form`]'s sums.
