@@ -34,6 +34,11 @@ pub struct System {
     /// `|Ω|/2π`: [`crate::structure::Load::unbalance`]), which `structure.spin_speed` moves
     /// ([`System::with_unbalance`]; none by default).
     pub unbalance: Vec<usize>,
+    /// Per gap coordinate its one DOF, when every coordinate is one DOF with coefficient 1
+    /// (`u_g = x[d_g]`, the gaps of most small models and each coordinate of a radial gap):
+    /// the step then reads `u_g` without a row product (the same values: `-0.0 + 1·y = y`).
+    /// `None` when some coordinate is a combination.
+    pub unit_dofs: Option<Vec<usize>>,
 }
 
 /// The contact forces' derivatives per gap coordinate: the diagonal `∂φ_g/∂u_g`,
@@ -119,6 +124,10 @@ impl System {
             })
             .collect();
         let has_damping = structure.damping.values().iter().any(|&c| c != 0.0);
+        let unit_dofs = gaps
+            .iter()
+            .map(|g| (g.coefficients[..] == [1.0]).then_some(g.dofs[0]))
+            .collect();
         Ok(Self {
             structure,
             gaps,
@@ -129,6 +138,7 @@ impl System {
             partner,
             has_radial,
             unbalance: Vec::new(),
+            unit_dofs,
         })
     }
 
@@ -370,19 +380,26 @@ impl State {
             ..
         } = self;
         // (u copied in the same loop: no memcpy call for a few values)
-        let gaps = sys.gaps.iter().zip(u).zip(gap_u.iter_mut());
-        for ((((g, &u), u_g), rate), (accel, phi)) in gaps
-            .zip(u_rate.iter_mut())
-            .zip(u_accel.iter_mut().zip(phi.iter_mut()))
-        {
-            let (mut r, mut acc) = (-0.0, -0.0); // as `Iterator::sum`
-            for (&d, &c) in g.dofs.iter().zip(&g.coefficients) {
-                r += c * v[d];
-                acc += c * a[d];
+        let gaps = u.iter().zip(gap_u.iter_mut()).zip(u_rate.iter_mut());
+        let gaps = gaps.zip(u_accel.iter_mut().zip(phi.iter_mut()));
+        if let Some(dofs) = &sys.unit_dofs {
+            for ((((&u, u_g), rate), (accel, phi)), &d) in gaps.zip(dofs) {
+                (*u_g, *rate, *accel) = (u, v[d], a[d]);
+                if FREE {
+                    *phi = 0.0;
+                }
             }
-            (*u_g, *rate, *accel) = (u, r, acc);
-            if FREE {
-                *phi = 0.0;
+        } else {
+            for ((((&u, u_g), rate), (accel, phi)), g) in gaps.zip(&sys.gaps) {
+                let (mut r, mut acc) = (-0.0, -0.0); // as `Iterator::sum`
+                for (&d, &c) in g.dofs.iter().zip(&g.coefficients) {
+                    r += c * v[d];
+                    acc += c * a[d];
+                }
+                (*u_g, *rate, *accel) = (u, r, acc);
+                if FREE {
+                    *phi = 0.0;
+                }
             }
         }
         let (u, u_rate) = (&*gap_u, &*u_rate);
