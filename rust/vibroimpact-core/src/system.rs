@@ -263,18 +263,35 @@ impl System {
         phi: &mut [f64],
         tangent: &mut Tangent,
     ) {
-        if self.has_radial {
-            phi.fill(0.0);
-            tangent.d_u.fill(0.0);
-            tangent.d_rate.fill(0.0);
-            tangent.cross_u.fill(0.0);
-            tangent.cross_rate.fill(0.0);
+        let states = self.walls.iter().zip(start).zip(walls.iter_mut());
+        if !self.has_radial {
+            // Every gap has one or two walls, adjacent in `walls` and in the gaps' order: one
+            // pass over the gaps with their coordinates and sums (no index into them), the
+            // sums from 0.0 at a gap's first wall (the same values as zeroing them first)
+            let mut states = states.peekable();
+            let sums = phi
+                .iter_mut()
+                .zip(&mut tangent.d_u)
+                .zip(&mut tangent.d_rate);
+            let gaps = self.gaps.iter().zip(u).zip(u_rate).zip(sums);
+            for (g, (((gap, &u), &u_rate), ((phi, d_u), d_rate))) in gaps.enumerate() {
+                let (mut force, mut d_penetration, mut d_rate_sum) = (0.0, 0.0, 0.0);
+                while let Some(((wall, start), s)) = states.next_if(|((w, _), _)| w.gap == g) {
+                    evaluate_wall(&gap.law, wall, start, u, u_rate, h, s);
+                    force += wall.sign * s.force;
+                    d_penetration += s.d_penetration;
+                    d_rate_sum += s.d_rate;
+                }
+                (*phi, *d_u, *d_rate) = (force, d_penetration, d_rate_sum);
+            }
+            return;
         }
-        // Without radial gaps every gap has one or two walls, adjacent in `walls`: the sums
-        // start from 0.0 at a gap's first wall (the same values as zeroing them first, without
-        // a fill per evaluation).
-        let mut summed = usize::MAX;
-        for ((wall, start), s) in self.walls.iter().zip(start).zip(walls.iter_mut()) {
+        phi.fill(0.0);
+        tangent.d_u.fill(0.0);
+        tangent.d_rate.fill(0.0);
+        tangent.cross_u.fill(0.0);
+        tangent.cross_rate.fill(0.0);
+        for ((wall, start), s) in states {
             let g = wall.gap;
             let gap = &self.gaps[g];
             if let Side::Radial(r) = &gap.side {
@@ -282,12 +299,6 @@ impl System {
                 continue;
             }
             evaluate_wall(&gap.law, wall, start, u[g], u_rate[g], h, s);
-            if !self.has_radial && summed != g {
-                summed = g;
-                phi[g] = 0.0;
-                tangent.d_u[g] = 0.0;
-                tangent.d_rate[g] = 0.0;
-            }
             phi[g] += wall.sign * s.force;
             tangent.d_u[g] += s.d_penetration;
             tangent.d_rate[g] += s.d_rate;
