@@ -373,6 +373,7 @@ impl State {
     /// [`Self::finish_gaps`] after a step in free flight (no wall closed at either end, found
     /// without evaluating a wall: `GapNewton::free_flight`): also the zero contact forces and
     /// each wall's whole state, open, its penetration from `u`.
+    #[inline(always)]
     pub fn finish_free_flight(&mut self, sys: &System, u: &[f64]) {
         self.finish::<true>(sys, u);
     }
