@@ -376,9 +376,31 @@ fn mat_vec_sub_sized<const N: usize>(a: &[f64], x: &[f64], y: &mut [f64]) {
     }
 }
 
+/// The scheme's constants a step uses, computed once per run (the same expressions the step
+/// evaluated each time: the same values; `c_f` was a division per step).
+#[derive(Debug, Clone, Copy)]
+struct SchemeConstants {
+    /// `½ − β`, `1 − γ`.
+    half_minus_beta: f64,
+    one_minus_gamma: f64,
+    /// `c_f = α_f/(1−α_f)`, the weight of the start of the step's loads and contact forces.
+    c_f: f64,
+}
+
+impl SchemeConstants {
+    fn new(scheme: &NewmarkFamily) -> Self {
+        Self {
+            half_minus_beta: 0.5 - scheme.beta,
+            one_minus_gamma: 1.0 - scheme.gamma,
+            c_f: scheme.alpha_f / (1.0 - scheme.alpha_f),
+        }
+    }
+}
+
 /// Newmark-family stepper with its per-step-size operators and preallocated work space.
 pub struct NewmarkStepper {
     scheme: NewmarkFamily,
+    constants: SchemeConstants,
     newton: NewtonSettings,
     operators: OperatorCache<StepOperator>,
     dx: Vec<f64>,
@@ -413,6 +435,7 @@ impl NewmarkStepper {
         let ng = sys.gaps.len();
         Ok(Self {
             scheme,
+            constants: SchemeConstants::new(&scheme),
             newton,
             operators: OperatorCache::new(newton.max_step_cuts),
             dx: vec![0.0; n],
@@ -583,15 +606,14 @@ impl NewmarkStepper {
             .ensure(level, h, build)
             .map_err(|_| StepFailure::singular_tangent())?;
         let op = self.operators.get(level);
-        let NewmarkFamily {
-            beta,
-            gamma,
-            alpha_f,
-            ..
-        } = self.scheme;
+        let gamma = self.scheme.gamma;
+        let SchemeConstants {
+            half_minus_beta,
+            one_minus_gamma,
+            c_f,
+        } = self.constants;
         let [a0, a1, _, _, a4, a5] = op.a;
         let n = if N > 0 { N } else { s0.x.len() };
-        let c_f = alpha_f / (1.0 - alpha_f);
 
         // Linear predictor (see StepOperator).
         s1.t = s0.t + h;
@@ -601,7 +623,7 @@ impl NewmarkStepper {
         // d̃, and the vectors `R`'s operators multiply: x̃ + c_f x₀, ṽ + c_f v₀, a₀; the
         // correction e = Δx − d̃ accumulates in dx
         let (x_old, v_old, a_old) = (&s0.x[..n], &s0.v[..n], &s0.a[..n]);
-        let (d_a, v_a) = (h * h * (0.5 - beta), (1.0 - gamma) * h);
+        let (d_a, v_a) = (h * h * half_minus_beta, one_minus_gamma * h);
         let [xt, vt] = &mut self.tilde;
         let (d_tilde, d, xt, vt) = (
             &mut self.d_tilde[..n],
@@ -674,20 +696,22 @@ impl NewmarkStepper {
         // the linear predictor's gap coordinates u₀ + Δu_lin (Newton's first iterate).
         let (dx, d_tilde) = (&self.dx[..n], &self.d_tilde[..n]);
         let newton = &mut self.gap_newton;
-        for (((gap, du), u), &u0) in sys
-            .gaps
-            .iter()
-            .zip(&mut self.du_lin)
-            .zip(&mut newton.u)
-            .zip(&s0.u)
-        {
-            let (mut e, mut p) = (-0.0, -0.0); // as `Iterator::sum`
-            for (&d, &c) in gap.dofs.iter().zip(&gap.coefficients) {
-                e += c * dx[d];
-                p += c * d_tilde[d];
+        let gaps = self.du_lin.iter_mut().zip(&mut newton.u).zip(&s0.u);
+        if let Some(dofs) = &sys.unit_dofs {
+            for (((du, u), &u0), &d) in gaps.zip(dofs) {
+                *du = dx[d] + d_tilde[d];
+                *u = u0 + *du;
             }
-            *du = e + p;
-            *u = u0 + *du;
+        } else {
+            for (((du, u), &u0), gap) in gaps.zip(&sys.gaps) {
+                let (mut e, mut p) = (-0.0, -0.0); // as `Iterator::sum`
+                for (&d, &c) in gap.dofs.iter().zip(&gap.coefficients) {
+                    e += c * dx[d];
+                    p += c * d_tilde[d];
+                }
+                *du = e + p;
+                *u = u0 + *du;
+            }
         }
 
         // Free flight (no wall closed at either end: the linear step is the step, with no
@@ -736,7 +760,7 @@ impl NewmarkStepper {
             let e = dx[i];
             x1[i] = x0[i] + (d_tilde[i] + e);
             a1_new[i] = a0 * e;
-            v1[i] = v0[i] + h * ((1.0 - gamma) * a0_old[i] + gamma * a1_new[i]);
+            v1[i] = v0[i] + h * (one_minus_gamma * a0_old[i] + gamma * a1_new[i]);
         }
         if free {
             s1.finish_free_flight(sys, &self.gap_newton.u);
