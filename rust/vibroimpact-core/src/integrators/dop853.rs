@@ -427,17 +427,18 @@ impl<'s> Dynamics<'s> {
 const K: usize = DENSE_STAGES;
 
 /// Stage values of one step, stored per component so that each combination of stages is a
-/// contiguous dot product: `kx[d·K + i]` is DOF `d`'s velocity at stage `i`, `kv` its
-/// acceleration, `kp[p·K + i]` the power `p` of the energy account, `kf[w·K + i]` wall `w`'s
+/// dot product over one fixed-size row (its length a constant, not a stride kept by hand):
+/// `kx[d][i]` is DOF `d`'s velocity at stage `i`, `kv` its
+/// acceleration, `kp[p][i]` the power `p` of the energy account, `kf[w][i]` wall `w`'s
 /// force.
 struct Stages {
-    kx: Vec<f64>,
-    kv: Vec<f64>,
-    kp: [f64; 3 * K],
+    kx: Vec<[f64; K]>,
+    kv: Vec<[f64; K]>,
+    kp: [[f64; K]; 3],
     /// Which powers can be nonzero: the loads' (the model has loads), the damping's (it has
     /// damping), the contact forces'; the others' work stays 0 without being integrated.
     powers: [bool; 3],
-    kf: Vec<f64>,
+    kf: Vec<[f64; K]>,
     /// `dt/dζ` per stage of a [`Clock::Root`] step.
     kt: [f64; K],
     xs: Vec<f64>,
@@ -470,7 +471,7 @@ fn dot(w: &[f64], k: &[f64]) -> f64 {
 /// are left out: the rows are constants, so the terms go at compile time. The same sum where
 /// it is finite (a zero weight's term is a zero, which leaves a sum unchanged).
 #[inline(always)]
-fn combine(w: &[f64], k: &[f64]) -> f64 {
+fn combine(w: &[f64], k: &[f64; K]) -> f64 {
     w.iter()
         .zip(k)
         .filter(|(w, _)| **w != 0.0)
@@ -478,11 +479,10 @@ fn combine(w: &[f64], k: &[f64]) -> f64 {
         .sum()
 }
 
-/// Stores stage `i`'s values `values` (one per component), times `scale`, into `k`
-/// (stride [`K`]).
+/// Stores stage `i`'s values `values` (one per component), times `scale`, into `k`.
 #[inline]
-fn store(k: &mut [f64], i: usize, values: &[f64], scale: f64) {
-    for (row, &v) in k.chunks_exact_mut(K).zip(values) {
+fn store(k: &mut [[f64; K]], i: usize, values: &[f64], scale: f64) {
+    for (row, &v) in k.iter_mut().zip(values) {
         row[i] = scale * v;
     }
 }
@@ -530,11 +530,11 @@ impl Stages {
     fn new(sys: &System) -> Self {
         let n = sys.n_dof();
         Self {
-            kx: vec![0.0; n * K],
-            kv: vec![0.0; n * K],
-            kp: [0.0; 3 * K],
+            kx: vec![[0.0; K]; n],
+            kv: vec![[0.0; K]; n],
+            kp: [[0.0; K]; 3],
             powers: [!sys.loads.is_empty(), sys.has_damping, true],
-            kf: vec![0.0; sys.walls.len() * K],
+            kf: vec![[0.0; K]; sys.walls.len()],
             kt: [0.0; K],
             xs: vec![0.0; n],
             vs: vec![0.0; n],
@@ -576,8 +576,8 @@ impl Stages {
     ) -> Option<f64> {
         let g = clock.dt_dvar(dynamics.sys, 0.0, h, &start.v)?;
         self.kt[0] = g;
-        store(&mut self.kx[..n * K], 0, &start.v[..n], g);
-        store(&mut self.kv[..n * K], 0, &start.a[..n], g);
+        store(&mut self.kx[..n], 0, &start.v[..n], g);
+        store(&mut self.kv[..n], 0, &start.a[..n], g);
         store(&mut self.kp, 0, &start.power, g);
         store(&mut self.kf, 0, &start.forces, g);
         let root = matches!(clock, Clock::Root { .. });
@@ -595,27 +595,17 @@ impl Stages {
         for ((((x1, v1), kx), kv), (x0, v0)) in end.x[..n]
             .iter_mut()
             .zip(end.v[..n].iter_mut())
-            .zip(self.kx[..n * K].chunks_exact(K))
-            .zip(self.kv[..n * K].chunks_exact(K))
+            .zip(self.kx[..n].iter())
+            .zip(self.kv[..n].iter())
             .zip(start.x[..n].iter().zip(&start.v[..n]))
         {
             *x1 = x0 + h * combine(&B, kx);
             *v1 = v0 + h * combine(&B, kv);
         }
-        for ((w, kp), &used) in end
-            .work
-            .iter_mut()
-            .zip(self.kp.chunks_exact(K))
-            .zip(&self.powers)
-        {
+        for ((w, kp), &used) in end.work.iter_mut().zip(self.kp.iter()).zip(&self.powers) {
             *w = if used { h * combine(&B, kp) } else { 0.0 };
         }
-        for ((impulse, kf), c) in end
-            .impulse
-            .iter_mut()
-            .zip(self.kf.chunks_exact(K))
-            .zip(contacts)
-        {
+        for ((impulse, kf), c) in end.impulse.iter_mut().zip(self.kf.iter()).zip(contacts) {
             *impulse = if c.active { h * combine(&B, kf) } else { 0.0 };
         }
         let duration = if root { h * combine(&B, &self.kt) } else { h };
@@ -624,8 +614,8 @@ impl Stages {
         // integrated in ζ), so its `dt/dζ` is finite; the first-same-as-last stage
         let g = clock.dt_dvar(dynamics.sys, 1.0, h, &end.v)?;
         self.kt[STAGES] = g;
-        store(&mut self.kx[..n * K], STAGES, &end.v[..n], g);
-        store(&mut self.kv[..n * K], STAGES, &end.a[..n], g);
+        store(&mut self.kx[..n], STAGES, &end.v[..n], g);
+        store(&mut self.kv[..n], STAGES, &end.a[..n], g);
         store(&mut self.kp, STAGES, &end.power, g);
         Some(duration)
     }
@@ -716,12 +706,7 @@ impl Stages {
             return motion;
         }
         let (mut w5, mut w3) = (0.0, 0.0);
-        for (kp, _) in self
-            .kp
-            .chunks_exact(K)
-            .zip(self.powers)
-            .filter(|(_, used)| *used)
-        {
+        for (kp, _) in self.kp.iter().zip(self.powers).filter(|(_, used)| *used) {
             w5 += (combine(&E5, kp) / se).powi(2);
             w3 += (combine(&E3, kp) / se).powi(2);
         }
@@ -753,7 +738,7 @@ impl Stages {
         let ends = (start.x[..n].iter().zip(&end.x[..n]))
             .zip(&end.v[..n])
             .zip(&v_max[..n]);
-        let stages = (self.kx[..n * K].chunks_exact(K)).zip(self.kv[..n * K].chunks_exact(K));
+        let stages = (self.kx[..n].iter()).zip(self.kv[..n].iter());
         for (((((&x0, &x1), &v1), &speed), (kx, kv)), &a1) in ends.zip(stages).zip(&end.a[..n]) {
             let sx = tol.atol + tol.rtol * x0.abs().max(x1.abs());
             let sv = tol.atol / dt_max + tol.rtol * speed.max(v1.abs());
@@ -780,8 +765,8 @@ impl Stages {
         for ((((xs, vs), kx), kv), (x0, v0)) in self.xs[..n]
             .iter_mut()
             .zip(self.vs[..n].iter_mut())
-            .zip(self.kx[..n * K].chunks_exact(K))
-            .zip(self.kv[..n * K].chunks_exact(K))
+            .zip(self.kx[..n].iter())
+            .zip(self.kv[..n].iter())
             .zip(start.x[..n].iter().zip(&start.v[..n]))
         {
             *xs = x0 + h * combine(a, kx);
@@ -793,8 +778,8 @@ impl Stages {
     /// the wall forces) times `dt/dvar`.
     #[inline(always)]
     fn keep(&mut self, n: usize, i: usize, dt_dvar: f64, power: [f64; 3], forces: &[f64]) {
-        store(&mut self.kx[..n * K], i, &self.vs[..n], dt_dvar);
-        store(&mut self.kv[..n * K], i, &self.acc[..n], dt_dvar);
+        store(&mut self.kx[..n], i, &self.vs[..n], dt_dvar);
+        store(&mut self.kv[..n], i, &self.acc[..n], dt_dvar);
         store(&mut self.kp, i, &power, dt_dvar);
         store(&mut self.kf, i, forces, dt_dvar);
     }
@@ -828,8 +813,8 @@ impl Stages {
     /// its dense output ([`Self::extend`] first): with `y` either,
     /// `y₀ + s(F₀ + (1−s)(F₁ + s(F₂ + (1−s)(F₃ + s(F₄ + (1−s)(F₅ + s F₆))))))`.
     fn dense(&self, d: usize, start: &StepEnd, end: &StepEnd, h: f64, s: f64) -> [f64; 2] {
-        let column = |k: &[f64], y0: f64, y1: f64, f0: f64, f1: f64| {
-            let k = &k[d * K..(d + 1) * K];
+        let column = |k: &[[f64; K]], y0: f64, y1: f64, f0: f64, f1: f64| {
+            let k = &k[d];
             let dy = y1 - y0;
             let f = [
                 dy,

@@ -35,7 +35,7 @@
 use nalgebra::{DMatrix, DVector, RowDVector};
 
 use super::super::dop853_tableau::{A, B, C, STAGES};
-use super::{dot, radial_normal_force, smooth_switch, Contact, Stages, StepEnd, K};
+use super::{dot, radial_normal_force, smooth_switch, Contact, Stages, StepEnd};
 use crate::contact::{ContactLaw, MIN_IMPACT_SPEED};
 use crate::gap::{radial_contact, Side, WallState};
 use crate::sensitivity::{Parameter, StateTransition};
@@ -161,8 +161,8 @@ impl Variational {
         let stage = |i: usize| {
             let mut k = DVector::zeros(2 * n);
             for d in 0..n {
-                k[d] = stages.kx[d * K + i];
-                k[n + d] = stages.kv[d * K + i];
+                k[d] = stages.kx[d][i];
+                k[n + d] = stages.kv[d][i];
             }
             k
         };
@@ -177,8 +177,8 @@ impl Variational {
                 }
             }
             for d in 0..n {
-                xs[d] = start.x[d] + h * dot(a_i, &stages.kx[d * K..(d + 1) * K]);
-                vs[d] = start.v[d] + h * dot(a_i, &stages.kv[d * K..(d + 1) * K]);
+                xs[d] = start.x[d] + h * dot(a_i, &stages.kx[d]);
+                vs[d] = start.v[d] + h * dot(a_i, &stages.kv[d]);
             }
             let tangents: Vec<Option<WallTangent>> = sys
                 .walls
