@@ -274,9 +274,12 @@ def test_a_streamed_file_equals_the_in_memory_results_file(tmp_path: Path, case:
                                   every=every, dofs=dofs, window_steps=50 * every,
                                   progress=fractions.append)
     n = len(whole.time)
-    # blocks of 50 rows (those ready at a poll are written together), then the rest with the
-    # impact table and the attributes
-    assert 3 <= summary["windows"] <= n // 50 + 1 and n >= 150
+    # blocks of 50 rows, then the rest with the impact table and the attributes; the blocks
+    # ready at a poll are written together, at most three (two in the core's bounded channel
+    # and the one being waited for), so how many writes there are depends on the core's speed
+    # only between these bounds
+    blocks = n // 50
+    assert -(-blocks // 3) + 1 <= summary["windows"] <= blocks + 1 and blocks >= 3
     assert fractions == sorted(fractions) and fractions[-1] == 1.0
     streamed = rf.load(tmp_path / "streamed.nc")
     _assert_same_file(streamed, rf.load(tmp_path / "whole.nc"))
