@@ -275,9 +275,9 @@ def test_a_streamed_file_equals_the_in_memory_results_file(tmp_path: Path, case:
                                   progress=fractions.append)
     n = len(whole.time)
     # blocks of 50 rows, then the rest with the impact table and the attributes; the blocks
-    # ready at a poll are written together, at most three (two in the core's bounded channel
-    # and the one being waited for), so how many writes there are depends on the core's speed
-    # only between these bounds
+    # ready at a poll are written together, at most three (the one waited for and the two the
+    # core's bounded channel held), so the number of writes depends on the core's speed only
+    # between these bounds
     blocks = n // 50
     assert -(-blocks // 3) + 1 <= summary["windows"] <= blocks + 1 and blocks >= 3
     assert fractions == sorted(fractions) and fractions[-1] == 1.0

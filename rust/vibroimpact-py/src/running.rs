@@ -226,10 +226,12 @@ impl Running {
     }
 
     /// The rows received since the last call, as one dict of arrays (`time`,
-    /// `displacement`, ..., `energy`), or None.
+    /// `displacement`, ..., `energy`), or None: the block `wait` received and those the
+    /// channel held, at most [`BLOCKS_IN_FLIGHT`] (not those the core sends meanwhile, which
+    /// the next poll takes), so a poll never holds more than `BLOCKS_IN_FLIGHT + 1` blocks.
     fn take_rows<'py>(&mut self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         let rx = self.rx.get_mut().unwrap_or_else(|e| e.into_inner());
-        self.pending.extend(rx.try_iter());
+        self.pending.extend(rx.try_iter().take(BLOCKS_IN_FLIGHT));
         if self.pending.is_empty() {
             return Ok(None);
         }
