@@ -8,6 +8,7 @@ import importlib
 import io
 import itertools
 import json
+import logging
 import re
 from pathlib import Path
 from typing import Any
@@ -95,7 +96,12 @@ def _step_cut_model(tmp_path: Path) -> Path:
 def test_verbose_logs_step_cuts_and_contacts_with_time_and_gap(
         tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     model = _step_cut_model(tmp_path)
+    package_logger = logging.getLogger("vibroimpact")
+    before = (package_logger.level, package_logger.propagate, list(package_logger.handlers))
     assert cli_main(["run", str(model), "--verbose", "--json"]) == 0
+    # the command gives the caller's logging back as it found it (not at INFO, not captured)
+    assert (package_logger.level, package_logger.propagate,
+            list(package_logger.handlers)) == before
     captured = capsys.readouterr()
     summary = json.loads(captured.out)
     log = captured.err.splitlines()

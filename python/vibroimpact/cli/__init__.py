@@ -26,6 +26,7 @@ import warnings
 from collections.abc import Sequence
 from typing import Any, TextIO
 
+from vibroimpact.cli.verbosity import command_logging
 from vibroimpact.errors import Interrupted, ModelError, SolverError
 
 __all__ = ["main"]
@@ -99,7 +100,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     handler = _LibraryLogHandler(logging.WARNING)
     root.addHandler(handler)
     try:
-        with warnings.catch_warnings():
+        with warnings.catch_warnings(), command_logging():
             warnings.showwarning = _show_warning
             return _dispatch(args)
     finally:

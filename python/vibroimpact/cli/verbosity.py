@@ -7,10 +7,12 @@ import argparse
 import logging
 import math
 import sys
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from typing import Any
 
-__all__ = ["LOGGED_CONTACTS", "add_verbosity_options", "configure_logging", "log_run"]
+__all__ = ["LOGGED_CONTACTS", "add_verbosity_options", "command_logging", "configure_logging",
+           "log_run"]
 
 
 def add_verbosity_options(parser: argparse.ArgumentParser) -> None:
@@ -24,6 +26,23 @@ def add_verbosity_options(parser: argparse.ArgumentParser) -> None:
 
 
 _HANDLER: logging.Handler | None = None
+
+
+@contextmanager
+def command_logging() -> Iterator[None]:
+    """Gives back the ``vibroimpact`` loggers' level, propagation and handlers after a command:
+    a command run in-process (``vibroimpact.cli.main`` from a script, a notebook or a test)
+    leaves the caller's logging as it found it, not at ``--verbose``'s INFO."""
+    logger = logging.getLogger("vibroimpact")
+    level, propagate, handlers = logger.level, logger.propagate, list(logger.handlers)
+    try:
+        yield
+    finally:
+        for handler in list(logger.handlers):
+            if handler not in handlers:
+                logger.removeHandler(handler)
+        logger.setLevel(level)
+        logger.propagate = propagate
 
 
 def configure_logging(args: argparse.Namespace) -> None:
