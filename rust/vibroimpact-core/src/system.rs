@@ -435,11 +435,10 @@ impl State {
                 state.slide = k.slide;
                 state.slip = r.radius * sys.structure.spin.start + k.slide;
             } else if FREE {
-                *state = WallState {
-                    penetration: wall.sign * u[wall.gap] - wall.clearance,
-                    rate: wall.sign * u_rate[wall.gap],
-                    ..WallState::default()
-                };
+                state.set_open(
+                    wall.sign * u[wall.gap] - wall.clearance,
+                    wall.sign * u_rate[wall.gap],
+                );
             } else {
                 state.rate = wall.sign * u_rate[wall.gap];
             }
