@@ -319,6 +319,19 @@ impl WallState {
         self.penetration > 0.0
     }
 
+    /// Makes this an open 1-D wall's state at `penetration` (≤ 0) and `rate`: every other
+    /// field zero. An open 1-D wall's state written here or by [`evaluate_wall`] already has
+    /// them zero, so a slot that holds one gets its 16 bytes of motion only, and a slot that
+    /// holds a closed state is reset whole (the same values as writing the whole state).
+    #[inline(always)]
+    pub(crate) fn set_open(&mut self, penetration: f64, rate: f64) {
+        if self.closed() {
+            *self = WallState::default();
+        }
+        self.penetration = penetration;
+        self.rate = rate;
+    }
+
     /// The cubic Hermite interpolant of the penetration over a step of length `h` from this
     /// state to `end`.
     #[inline]
@@ -383,13 +396,15 @@ fn write_contact_state(
     rate: f64,
     h: f64,
 ) {
-    *s = WallState {
-        penetration,
-        rate,
-        ..WallState::default()
-    };
     if penetration > 0.0 {
+        *s = WallState {
+            penetration,
+            rate,
+            ..WallState::default()
+        };
         write_closed_state(s, law, start, h);
+    } else {
+        s.set_open(penetration, rate);
     }
 }
 
@@ -769,6 +784,51 @@ mod tests {
                 let want = wall.force * dir[a] + f_t * t_a;
                 assert!((phi[a] - want).abs() < 1e-9 * wall.force, "phi[{a}]");
             }
+        }
+    }
+
+    /// An open wall's state written over a closed one's ([`WallState::set_open`], which
+    /// writes only the motion over an open one) is the whole open state: no field of the
+    /// contact is left behind.
+    #[test]
+    fn open_state_over_a_closed_one_is_whole() {
+        // a law that latches the impact speed: every field of a closed state set
+        let law = Law::Hysteretic(
+            crate::contact::Hysteretic::new("lankarani-nikravesh", 1e9, 1.5, 0.8).unwrap(),
+        );
+        let wall = Wall {
+            gap: 0,
+            sign: -1.0,
+            clearance: 1e-3,
+        };
+        let open = |u: f64, rate: f64| WallState {
+            penetration: wall.sign * u - wall.clearance,
+            rate: wall.sign * rate,
+            ..WallState::default()
+        };
+        let mut slot = WallState::default();
+        evaluate_wall(
+            &law,
+            &wall,
+            &open(-0.9e-3, -0.5),
+            -1.01e-3,
+            -0.5,
+            1e-6,
+            &mut slot,
+        );
+        assert!(slot.closed() && slot.force > 0.0);
+        assert!(slot.impact_speed > 0.0 && slot.max_penetration > 0.0 && slot.potential > 0.0);
+        let closed = slot;
+        evaluate_wall(&law, &wall, &closed, -0.99e-3, 0.4, 1e-6, &mut slot);
+        assert_eq!(slot, open(-0.99e-3, 0.4));
+        let moved = WallState {
+            penetration: -2e-4,
+            rate: 0.1,
+            ..WallState::default()
+        };
+        for mut slot in [slot, closed] {
+            slot.set_open(-2e-4, 0.1);
+            assert_eq!(slot, moved);
         }
     }
 

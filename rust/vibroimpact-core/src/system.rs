@@ -3,7 +3,7 @@
 
 use nalgebra::DVector;
 
-use crate::contact::MIN_IMPACT_SPEED;
+use crate::contact::{Law, MIN_IMPACT_SPEED};
 use crate::error::{invalid, SimError};
 use crate::gap::{
     contact_state, evaluate_wall, radial_contact, Gap, Radial, RadialKinematics, Side, Wall,
@@ -267,9 +267,21 @@ impl System {
     ) {
         let states = self.walls.iter().zip(start).zip(walls.iter_mut());
         if !self.has_radial {
+            if let ([gap], [u], [u_rate], [phi], [d_u], [d_rate]) = (
+                self.gaps.as_slice(),
+                u,
+                u_rate,
+                &mut *phi,
+                tangent.d_u.as_mut_slice(),
+                tangent.d_rate.as_mut_slice(),
+            ) {
+                // one gap (the common small model): every wall is its, without the pass
+                // over the gaps and the test of each wall's gap
+                [*phi, *d_u, *d_rate] = gap_walls(&gap.law, states, *u, *u_rate, h);
+                return;
+            }
             // Every gap has one or two walls, adjacent in `walls` and in the gaps' order: one
-            // pass over the gaps with their coordinates and sums (no index into them), the
-            // sums from 0.0 at a gap's first wall (the same values as zeroing them first)
+            // pass over the gaps with their coordinates and sums (no index into them)
             let mut states = states.peekable();
             let sums = phi
                 .iter_mut()
@@ -277,14 +289,8 @@ impl System {
                 .zip(&mut tangent.d_rate);
             let gaps = self.gaps.iter().zip(u).zip(u_rate).zip(sums);
             for (g, (((gap, &u), &u_rate), ((phi, d_u), d_rate))) in gaps.enumerate() {
-                let (mut force, mut d_penetration, mut d_rate_sum) = (0.0, 0.0, 0.0);
-                while let Some(((wall, start), s)) = states.next_if(|((w, _), _)| w.gap == g) {
-                    evaluate_wall(&gap.law, wall, start, u, u_rate, h, s);
-                    force += wall.sign * s.force;
-                    d_penetration += s.d_penetration;
-                    d_rate_sum += s.d_rate;
-                }
-                (*phi, *d_u, *d_rate) = (force, d_penetration, d_rate_sum);
+                let walls = std::iter::from_fn(|| states.next_if(|((w, _), _)| w.gap == g));
+                [*phi, *d_u, *d_rate] = gap_walls(&gap.law, walls, u, u_rate, h);
             }
             return;
         }
@@ -344,6 +350,27 @@ impl System {
         tangent.cross_rate[p] += f.d_rate[0][1];
         s
     }
+}
+
+/// One gap's walls evaluated in turn at its coordinate `u` and rate `u_rate` into their
+/// states, and the gap's generalized force `φ = Σ s F` with its derivatives `Σ ∂F/∂δ`,
+/// `Σ ∂F/∂δ̇`, the sums from 0.0 at its first wall (the same values as zeroing them first).
+#[inline(always)]
+fn gap_walls<'s>(
+    law: &Law,
+    walls: impl Iterator<Item = ((&'s Wall, &'s WallState), &'s mut WallState)>,
+    u: f64,
+    u_rate: f64,
+    h: f64,
+) -> [f64; 3] {
+    let (mut force, mut d_penetration, mut d_rate) = (0.0, 0.0, 0.0);
+    for ((wall, start), s) in walls {
+        evaluate_wall(law, wall, start, u, u_rate, h, s);
+        force += wall.sign * s.force;
+        d_penetration += s.d_penetration;
+        d_rate += s.d_rate;
+    }
+    [force, d_penetration, d_rate]
 }
 
 /// Everything the integrators carry from one step to the next.
@@ -435,11 +462,10 @@ impl State {
                 state.slide = k.slide;
                 state.slip = r.radius * sys.structure.spin.start + k.slide;
             } else if FREE {
-                *state = WallState {
-                    penetration: wall.sign * u[wall.gap] - wall.clearance,
-                    rate: wall.sign * u_rate[wall.gap],
-                    ..WallState::default()
-                };
+                state.set_open(
+                    wall.sign * u[wall.gap] - wall.clearance,
+                    wall.sign * u_rate[wall.gap],
+                );
             } else {
                 state.rate = wall.sign * u_rate[wall.gap];
             }
@@ -519,4 +545,69 @@ pub(crate) fn check_initial_state(
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::DMatrix;
+
+    use super::*;
+    use crate::contact::Hysteretic;
+
+    /// A model's one gap (its walls evaluated without the pass over the gaps) gives the same
+    /// wall states, force and tangent to the bit as the same gap first among others (the pass).
+    #[test]
+    fn one_gap_equals_the_same_gap_among_others() {
+        let law = Law::Hysteretic(Hysteretic::new("lankarani-nikravesh", 1e9, 1.5, 0.8).unwrap());
+        let gap = |dof: usize, clearance: f64| Gap {
+            dofs: vec![dof],
+            coefficients: vec![1.0],
+            clearance,
+            side: Side::Both,
+            law: law.clone(),
+        };
+        let structure = |n: usize| {
+            let i = DMatrix::identity(n, n);
+            LinearStructure::new(i.clone(), DMatrix::zeros(n, n), i).unwrap()
+        };
+        let one = System::new(structure(1), vec![gap(0, 1e-3)], vec![]).unwrap();
+        let two = System::new(structure(2), vec![gap(0, 1e-3), gap(1, 1.0)], vec![]).unwrap();
+        let wall = |penetration: f64, rate: f64| WallState {
+            penetration,
+            rate,
+            impact_speed: rate.abs(),
+            max_penetration: penetration.max(0.0),
+            ..WallState::default()
+        };
+        // closing on the positive wall, in contact with the negative one, open between them
+        for (u, rate, start) in [
+            (1.2e-3, 0.3, [wall(-1e-5, 0.3), wall(-2e-3, -0.3)]),
+            (-1.1e-3, -0.2, [wall(-2e-3, 0.2), wall(2e-5, 0.2)]),
+            (0.5e-3, 0.1, [wall(-1e-4, 0.1), wall(-1.9e-3, -0.1)]),
+        ] {
+            let (mut walls, mut phi, mut t) = ([WallState::default(); 2], [0.0], Tangent::new(1));
+            one.evaluate_contacts(&start, &[u], &[rate], 1e-6, &mut walls, &mut phi, &mut t);
+            let start_two = [start[0], start[1], wall(-1.0, 0.0), wall(-1.0, 0.0)];
+            let (mut walls_two, mut phi_two, mut t_two) =
+                ([WallState::default(); 4], [0.0; 2], Tangent::new(2));
+            two.evaluate_contacts(
+                &start_two,
+                &[u, 0.0],
+                &[rate, 0.0],
+                1e-6,
+                &mut walls_two,
+                &mut phi_two,
+                &mut t_two,
+            );
+            assert_eq!(walls, walls_two[..2]);
+            for (a, b) in [
+                (phi[0], phi_two[0]),
+                (t.d_u[0], t_two.d_u[0]),
+                (t.d_rate[0], t_two.d_rate[0]),
+            ] {
+                assert_eq!(a.to_bits(), b.to_bits());
+            }
+            assert!(walls.iter().any(|w| w.closed()) == (u.abs() > 1e-3));
+        }
+    }
 }
