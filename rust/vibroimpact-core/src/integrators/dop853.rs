@@ -131,31 +131,74 @@ struct Small {
     stiffness: Vec<f64>,
 }
 
-/// `$body` with `$n` bound to the model's DOF count `$size`, a constant for the small models
-/// (1 to 4 DOFs), whose loops over the DOFs then unroll (`$body` calls an `#[inline(always)]`
-/// function of `$n`): a 2-DOF rotor's evaluations cost a quarter less.
+/// `$body` with the constant `$n` the model's DOF count `$size` for the small models (1 to
+/// 4 DOFs) and 0 for the others (`$body` calls an `#[inline(always)]` function generic over
+/// `$n`, [`dofs`]): the small models' loops over the DOFs unroll and their working vectors
+/// are arrays of their size ([`Vector`]): a 2-DOF rotor's evaluations cost a quarter less.
 macro_rules! by_size {
     ($size:expr, |$n:ident| $body:expr) => {
         match $size {
             1 => {
-                let $n = 1;
+                const $n: usize = 1;
                 $body
             }
             2 => {
-                let $n = 2;
+                const $n: usize = 2;
                 $body
             }
             3 => {
-                let $n = 3;
+                const $n: usize = 3;
                 $body
             }
             4 => {
-                let $n = 4;
+                const $n: usize = 4;
                 $body
             }
-            $n => $body,
+            _ => {
+                const $n: usize = 0;
+                $body
+            }
         }
     };
+}
+
+/// The DOF count of code compiled for `N` DOFs ([`by_size`]; `N = 0`: any, `len`).
+#[inline(always)]
+fn dofs<const N: usize>(len: usize) -> usize {
+    if N > 0 {
+        N
+    } else {
+        len
+    }
+}
+
+/// A working vector of `n` zeros: for code compiled for `N > 0` DOFs an array on the stack (its
+/// length a constant, no pointer or length reloaded around the right-hand side's writes), else
+/// the general size's buffer `general`, which it borrows.
+enum Vector<'b, const N: usize> {
+    Sized([f64; N]),
+    General(&'b mut [f64]),
+}
+
+impl<'b, const N: usize> Vector<'b, N> {
+    #[inline(always)]
+    fn new(general: &'b mut [f64], n: usize) -> Self {
+        if N > 0 {
+            Self::Sized([0.0; N])
+        } else {
+            let general = &mut general[..n];
+            general.fill(0.0);
+            Self::General(general)
+        }
+    }
+
+    #[inline(always)]
+    fn get(&mut self) -> &mut [f64] {
+        match self {
+            Self::Sized(a) => a,
+            Self::General(v) => v,
+        }
+    }
 }
 
 /// `y += alpha A x` for a row-major `A`.
@@ -313,15 +356,14 @@ impl<'s> Dynamics<'s> {
         v: &[f64],
         a: &mut [f64],
     ) -> [f64; 3] {
-        by_size!(x.len(), |n| self.accel_sized(n, contacts, root, t, x, v, a))
+        by_size!(x.len(), |N| self
+            .accel_sized::<N>(contacts, root, t, x, v, a))
     }
 
-    /// [`Self::accel`] for `n` DOFs.
+    /// [`Self::accel`] compiled for `N` DOFs ([`by_size`]).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn accel_sized(
+    fn accel_sized<const N: usize>(
         &mut self,
-        n: usize,
         contacts: &[Contact],
         root: Option<(usize, f64)>,
         t: f64,
@@ -329,11 +371,12 @@ impl<'s> Dynamics<'s> {
         v: &[f64],
         a: &mut [f64],
     ) -> [f64; 3] {
+        let n = dofs::<N>(x.len());
         let (x, v, a) = (&x[..n], &v[..n], &mut a[..n]);
         let sys = self.sys;
         let st = &sys.structure;
-        let f = &mut self.rhs[..n];
-        f.fill(0.0);
+        let mut rhs = Vector::<N>::new(&mut self.rhs, n);
+        let f = rhs.get();
         let external = self.loads.apply(&sys.loads, t, f, v);
         let mut contact = 0.0;
         let walls = sys.walls.iter().zip(contacts).zip(&mut self.forces);
@@ -372,8 +415,8 @@ impl<'s> Dynamics<'s> {
         }
         let mut damping = 0.0;
         if sys.has_damping {
-            let cv = &mut self.cv[..n];
-            cv.fill(0.0);
+            let mut cv = Vector::<N>::new(&mut self.cv, n);
+            let cv = cv.get();
             match &self.small {
                 Some(small) => dense_mul_add(&small.damping[..n * n], 1.0, v, cv),
                 None => st.damping.mul_add(1.0, v, cv),
@@ -432,8 +475,8 @@ const K: usize = DENSE_STAGES;
 /// acceleration, `kp[p][i]` the power `p` of the energy account, `kf[w][i]` wall `w`'s
 /// force.
 struct Stages {
-    kx: Vec<[f64; K]>,
-    kv: Vec<[f64; K]>,
+    kx: Rows,
+    kv: Rows,
     kp: [[f64; K]; 3],
     /// Which powers can be nonzero: the loads' (the model has loads), the damping's (it has
     /// damping), the contact forces'; the others' work stays 0 without being integrated.
@@ -444,6 +487,65 @@ struct Stages {
     xs: Vec<f64>,
     vs: Vec<f64>,
     acc: Vec<f64>,
+}
+
+/// The largest model whose stage values are kept inline ([`Rows`]): the sizes [`by_size`]
+/// compiles for.
+const MAX_SIZED: usize = 4;
+
+/// One row of stage values per component: inline (at a constant place in [`Stages`]) for up to
+/// [`MAX_SIZED`] components, where the code compiled for `N` of them takes the first `N` rows
+/// at a constant count ([`Self::sized`]), else on the heap.
+struct Rows {
+    inline: [[f64; K]; MAX_SIZED],
+    heap: Vec<[f64; K]>,
+    len: usize,
+}
+
+impl Rows {
+    fn new(len: usize) -> Self {
+        Self {
+            inline: [[0.0; K]; MAX_SIZED],
+            heap: if len > MAX_SIZED {
+                vec![[0.0; K]; len]
+            } else {
+                Vec::new()
+            },
+            len,
+        }
+    }
+
+    /// The rows, for code compiled for `N` components ([`by_size`]).
+    #[inline(always)]
+    fn sized<const N: usize>(&self) -> &[[f64; K]] {
+        if N > 0 {
+            &self.inline[..N]
+        } else {
+            &self.heap
+        }
+    }
+
+    #[inline(always)]
+    fn sized_mut<const N: usize>(&mut self) -> &mut [[f64; K]] {
+        if N > 0 {
+            &mut self.inline[..N]
+        } else {
+            &mut self.heap
+        }
+    }
+}
+
+impl std::ops::Deref for Rows {
+    type Target = [[f64; K]];
+
+    #[inline]
+    fn deref(&self) -> &[[f64; K]] {
+        if self.len <= MAX_SIZED {
+            &self.inline[..self.len]
+        } else {
+            &self.heap
+        }
+    }
 }
 
 /// The end of a step.
@@ -530,8 +632,8 @@ impl Stages {
     fn new(sys: &System) -> Self {
         let n = sys.n_dof();
         Self {
-            kx: vec![[0.0; K]; n],
-            kv: vec![[0.0; K]; n],
+            kx: Rows::new(n),
+            kv: Rows::new(n),
             kp: [[0.0; K]; 3],
             powers: [!sys.loads.is_empty(), sys.has_damping, true],
             kf: vec![[0.0; K]; sys.walls.len()],
@@ -556,16 +658,15 @@ impl Stages {
         h: f64,
         end: &mut StepEnd,
     ) -> Option<f64> {
-        by_size!(start.x.len(), |n| self
-            .step_sized(n, dynamics, contacts, clock, t0, start, h, end))
+        by_size!(start.x.len(), |N| self
+            .step_sized::<N>(dynamics, contacts, clock, t0, start, h, end))
     }
 
-    /// [`Self::step`] for `n` DOFs.
+    /// [`Self::step`] compiled for `N` DOFs ([`by_size`]).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn step_sized(
+    fn step_sized<const N: usize>(
         &mut self,
-        n: usize,
         dynamics: &mut Dynamics,
         contacts: &[Contact],
         clock: Clock,
@@ -574,20 +675,24 @@ impl Stages {
         h: f64,
         end: &mut StepEnd,
     ) -> Option<f64> {
+        let n = dofs::<N>(start.x.len());
         let g = clock.dt_dvar(dynamics.sys, 0.0, h, &start.v)?;
         self.kt[0] = g;
-        store(&mut self.kx[..n], 0, &start.v[..n], g);
-        store(&mut self.kv[..n], 0, &start.a[..n], g);
+        store(self.kx.sized_mut::<N>(), 0, &start.v[..n], g);
+        store(self.kv.sized_mut::<N>(), 0, &start.a[..n], g);
         store(&mut self.kp, 0, &start.power, g);
         store(&mut self.kf, 0, &start.forces, g);
         let root = matches!(clock, Clock::Root { .. });
         // each stage its own code: its row of `A` a constant, its combination unrolls
         macro_rules! stages {
-            ($this:expr; $($i:literal)*) => {
-                $($this.stage::<$i>(n, dynamics, contacts, clock, t0, start, h, root)?;)*
+            ($this:expr, $state:expr; $($i:literal)*) => {
+                $($this.stage::<N, $i>(n, $state, dynamics, contacts, clock, t0, start, h, root)?;)*
             };
         }
-        stages!(self; 1 2 3 4 5 6 7 8 9 10 11);
+        self.with_state::<N, _>(n, |this, mut state| {
+            stages!(this, &mut state; 1 2 3 4 5 6 7 8 9 10 11);
+            Some(())
+        })?;
         const _: () = assert!(
             STAGES == 12,
             "one `stages!` entry per stage after the first"
@@ -595,8 +700,8 @@ impl Stages {
         for ((((x1, v1), kx), kv), (x0, v0)) in end.x[..n]
             .iter_mut()
             .zip(end.v[..n].iter_mut())
-            .zip(self.kx[..n].iter())
-            .zip(self.kv[..n].iter())
+            .zip(self.kx.sized::<N>().iter())
+            .zip(self.kv.sized::<N>().iter())
             .zip(start.x[..n].iter().zip(&start.v[..n]))
         {
             *x1 = x0 + h * combine(&B, kx);
@@ -614,19 +719,42 @@ impl Stages {
         // integrated in ζ), so its `dt/dζ` is finite; the first-same-as-last stage
         let g = clock.dt_dvar(dynamics.sys, 1.0, h, &end.v)?;
         self.kt[STAGES] = g;
-        store(&mut self.kx[..n], STAGES, &end.v[..n], g);
-        store(&mut self.kv[..n], STAGES, &end.a[..n], g);
+        store(self.kx.sized_mut::<N>(), STAGES, &end.v[..n], g);
+        store(self.kv.sized_mut::<N>(), STAGES, &end.a[..n], g);
         store(&mut self.kp, STAGES, &end.power, g);
         Some(duration)
     }
 
-    /// Stage `I` of a step: its state from the stages before it, the right-hand side there,
-    /// kept; `None` as [`Self::step`].
+    /// Runs `body` with the stage's state and acceleration (`xs`, `vs`, `acc`) as working
+    /// vectors compiled for `N` DOFs ([`Vector`]).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn stage<const I: usize>(
+    fn with_state<const N: usize, R>(
         &mut self,
         n: usize,
+        body: impl FnOnce(&mut Self, [&mut [f64]; 3]) -> R,
+    ) -> R {
+        let mut general: [Vec<f64>; 3] = if N == 0 {
+            [&mut self.xs, &mut self.vs, &mut self.acc].map(std::mem::take)
+        } else {
+            Default::default()
+        };
+        let [xs, vs, acc] = &mut general;
+        let [mut xs, mut vs, mut acc] = [xs, vs, acc].map(|b| Vector::<N>::new(b, n));
+        let result = body(self, [xs.get(), vs.get(), acc.get()]);
+        if N == 0 {
+            [self.xs, self.vs, self.acc] = general;
+        }
+        result
+    }
+
+    /// Stage `I` of a step: its state (into `state`: `xs`, `vs`, `acc`) from the stages
+    /// before it, the right-hand side there, kept; `None` as [`Self::step`].
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn stage<const N: usize, const I: usize>(
+        &mut self,
+        n: usize,
+        state: &mut [&mut [f64]; 3],
         dynamics: &mut Dynamics,
         contacts: &[Contact],
         clock: Clock,
@@ -635,20 +763,21 @@ impl Stages {
         h: f64,
         root: bool,
     ) -> Option<()> {
+        let [xs, vs, acc] = state;
         let a = A[I];
-        self.stage_state(n, a, start, h);
+        self.stage_state::<N>(n, a, start, h, xs, vs);
         let t = if root {
             t0 + h * combine(a, &self.kt)
         } else {
             t0 + C[I] * h
         };
-        let g = clock.dt_dvar(dynamics.sys, C[I], h, &self.vs)?;
+        let g = clock.dt_dvar(dynamics.sys, C[I], h, vs)?;
         let wall = clock.penetration(C[I], h);
         // the right-hand side at the stage's size, inlined into the stage: no call and no
         // dispatch on the size per evaluation
-        let power = dynamics.accel_sized(n, contacts, wall, t, &self.xs, &self.vs, &mut self.acc);
+        let power = dynamics.accel_sized::<N>(contacts, wall, t, xs, vs, acc);
         self.kt[I] = g;
-        self.keep(n, I, g, power, &dynamics.forces);
+        self.keep::<N>(n, I, g, power, &dynamics.forces, vs, acc);
         Some(())
     }
 
@@ -678,8 +807,16 @@ impl Stages {
         rough: bool,
     ) -> [f64; 2] {
         let ahead = matches!(clock, Clock::Time).then_some(h);
-        let [mut e5, mut e3, mut e5_next, mut e3_next] = by_size!(start.x.len(), |n| self
-            .motion_error(n, tol, dt_max, start, end, v_max, ahead));
+        let [mut e5, mut e3, mut e5_next, mut e3_next] = by_size!(start.x.len(), |N| self
+            .motion_error(
+                dofs::<N>(start.x.len()),
+                tol,
+                dt_max,
+                start,
+                end,
+                v_max,
+                ahead
+            ));
         let mut components = 2 * start.x.len();
         if let Clock::Root { wall, .. } = clock {
             let at = |y0: &[f64], y1: &[f64]| {
@@ -761,12 +898,21 @@ impl Stages {
 
     /// The state of a stage with coefficients `a` over the stages before it, into `xs`, `vs`.
     #[inline(always)]
-    fn stage_state(&mut self, n: usize, a: &[f64], start: &StepEnd, h: f64) {
-        for ((((xs, vs), kx), kv), (x0, v0)) in self.xs[..n]
+    #[allow(clippy::too_many_arguments)]
+    fn stage_state<const N: usize>(
+        &self,
+        n: usize,
+        a: &[f64],
+        start: &StepEnd,
+        h: f64,
+        xs: &mut [f64],
+        vs: &mut [f64],
+    ) {
+        for ((((xs, vs), kx), kv), (x0, v0)) in xs[..n]
             .iter_mut()
-            .zip(self.vs[..n].iter_mut())
-            .zip(self.kx[..n].iter())
-            .zip(self.kv[..n].iter())
+            .zip(vs[..n].iter_mut())
+            .zip(self.kx.sized::<N>().iter())
+            .zip(self.kv.sized::<N>().iter())
             .zip(start.x[..n].iter().zip(&start.v[..n]))
         {
             *xs = x0 + h * combine(a, kx);
@@ -777,16 +923,27 @@ impl Stages {
     /// Keeps stage `i`'s rates (the velocities `vs`, the accelerations `acc`, the powers and
     /// the wall forces) times `dt/dvar`.
     #[inline(always)]
-    fn keep(&mut self, n: usize, i: usize, dt_dvar: f64, power: [f64; 3], forces: &[f64]) {
-        store(&mut self.kx[..n], i, &self.vs[..n], dt_dvar);
-        store(&mut self.kv[..n], i, &self.acc[..n], dt_dvar);
+    #[allow(clippy::too_many_arguments)]
+    fn keep<const N: usize>(
+        &mut self,
+        n: usize,
+        i: usize,
+        dt_dvar: f64,
+        power: [f64; 3],
+        forces: &[f64],
+        vs: &[f64],
+        acc: &[f64],
+    ) {
+        store(self.kx.sized_mut::<N>(), i, &vs[..n], dt_dvar);
+        store(self.kv.sized_mut::<N>(), i, &acc[..n], dt_dvar);
         store(&mut self.kp, i, &power, dt_dvar);
         store(&mut self.kf, i, forces, dt_dvar);
     }
 
     /// The three extra stages of the dense output of the last step in time (Hairer's
-    /// continuous extension of order 7).
-    fn extend(
+    /// continuous extension of order 7), compiled for `N` DOFs ([`by_size`]).
+    #[inline(always)]
+    fn extend<const N: usize>(
         &mut self,
         dynamics: &mut Dynamics,
         contacts: &[Contact],
@@ -794,19 +951,14 @@ impl Stages {
         start: &StepEnd,
         h: f64,
     ) {
-        let n = self.xs.len();
-        for (m, (a, c)) in A_DENSE.iter().zip(C_DENSE).enumerate() {
-            self.stage_state(n, a, start, h);
-            let power = dynamics.accel(
-                contacts,
-                None,
-                t0 + c * h,
-                &self.xs,
-                &self.vs,
-                &mut self.acc,
-            );
-            self.keep(n, STAGES + 1 + m, 1.0, power, &dynamics.forces);
-        }
+        let n = dofs::<N>(start.x.len());
+        self.with_state::<N, _>(n, |this, [xs, vs, acc]| {
+            for (m, (a, c)) in A_DENSE.iter().zip(C_DENSE).enumerate() {
+                this.stage_state::<N>(n, a, start, h, xs, vs);
+                let power = dynamics.accel_sized::<N>(contacts, None, t0 + c * h, xs, vs, acc);
+                this.keep::<N>(n, STAGES + 1 + m, 1.0, power, &dynamics.forces, vs, acc);
+            }
+        })
     }
 
     /// DOF `d`'s displacement and velocity at the fraction `s` of the last step in time, on
@@ -1810,7 +1962,9 @@ impl Dense<'_, '_, '_> {
     fn dof(&mut self, d: usize, s: f64) -> [f64; 2] {
         if !self.extended {
             let (stages, dynamics) = (&mut *self.stages, &mut *self.dynamics);
-            stages.extend(dynamics, self.contacts, self.t0, self.start, self.h);
+            let (contacts, t0, start, h) = (self.contacts, self.t0, self.start, self.h);
+            by_size!(start.x.len(), |N| stages
+                .extend::<N>(dynamics, contacts, t0, start, h));
             self.extended = true;
         }
         self.stages.dense(d, self.start, self.end, self.h, s)
@@ -2089,7 +2243,7 @@ mod tests {
             stages
                 .step(dynamics, &[], super::Clock::Time, 0.0, &start, h, &mut end)
                 .unwrap();
-            stages.extend(dynamics, &[], 0.0, &start, h);
+            stages.extend::<1>(dynamics, &[], 0.0, &start, h);
             let s = 0.37;
             let [x, v] = stages.dense(0, &start, &end, h, s);
             [(x - (s * h).sin()).abs(), (v - (s * h).cos()).abs()]
