@@ -493,21 +493,25 @@ struct Stages {
 /// compiles for.
 const MAX_SIZED: usize = 4;
 
-/// One row of stage values per component: inline (at a constant place in [`Stages`]) for up to
-/// [`MAX_SIZED`] components, where the code compiled for `N` of them takes the first `N` rows
-/// at a constant count ([`Self::sized`]), else on the heap.
-struct Rows {
-    inline: [[f64; K]; MAX_SIZED],
-    heap: Vec<[f64; K]>,
+/// `len` values (one per component: a DOF's, or its row of stage values): inline (at a
+/// constant place in their owner) for up to [`MAX_SIZED`], where the code compiled for `N` of
+/// them takes the first `N` at a constant count ([`Self::sized`]), else on the heap.
+#[derive(Clone)]
+struct Inline<T> {
+    inline: [T; MAX_SIZED],
+    heap: Vec<T>,
     len: usize,
 }
 
-impl Rows {
-    fn new(len: usize) -> Self {
+/// One row of stage values per component.
+type Rows = Inline<[f64; K]>;
+
+impl<T: Copy> Inline<T> {
+    fn new(len: usize, zero: T) -> Self {
         Self {
-            inline: [[0.0; K]; MAX_SIZED],
+            inline: [zero; MAX_SIZED],
             heap: if len > MAX_SIZED {
-                vec![[0.0; K]; len]
+                vec![zero; len]
             } else {
                 Vec::new()
             },
@@ -515,9 +519,9 @@ impl Rows {
         }
     }
 
-    /// The rows, for code compiled for `N` components ([`by_size`]).
+    /// The values, for code compiled for `N` components ([`by_size`]).
     #[inline(always)]
-    fn sized<const N: usize>(&self) -> &[[f64; K]] {
+    fn sized<const N: usize>(&self) -> &[T] {
         if N > 0 {
             &self.inline[..N]
         } else {
@@ -526,7 +530,7 @@ impl Rows {
     }
 
     #[inline(always)]
-    fn sized_mut<const N: usize>(&mut self) -> &mut [[f64; K]] {
+    fn sized_mut<const N: usize>(&mut self) -> &mut [T] {
         if N > 0 {
             &mut self.inline[..N]
         } else {
@@ -535,11 +539,11 @@ impl Rows {
     }
 }
 
-impl std::ops::Deref for Rows {
-    type Target = [[f64; K]];
+impl<T> std::ops::Deref for Inline<T> {
+    type Target = [T];
 
     #[inline]
-    fn deref(&self) -> &[[f64; K]] {
+    fn deref(&self) -> &[T] {
         if self.len <= MAX_SIZED {
             &self.inline[..self.len]
         } else {
@@ -548,11 +552,31 @@ impl std::ops::Deref for Rows {
     }
 }
 
+impl<T> std::ops::DerefMut for Inline<T> {
+    #[inline]
+    fn deref_mut(&mut self) -> &mut [T] {
+        if self.len <= MAX_SIZED {
+            &mut self.inline[..self.len]
+        } else {
+            &mut self.heap
+        }
+    }
+}
+
+impl<'a, T> IntoIterator for &'a Inline<T> {
+    type Item = &'a T;
+    type IntoIter = std::slice::Iter<'a, T>;
+
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter()
+    }
+}
+
 /// The end of a step.
 struct StepEnd {
-    x: Vec<f64>,
-    v: Vec<f64>,
-    a: Vec<f64>,
+    x: Inline<f64>,
+    v: Inline<f64>,
+    a: Inline<f64>,
     power: [f64; 3],
     /// Each wall's force, N.
     forces: Vec<f64>,
@@ -632,8 +656,8 @@ impl Stages {
     fn new(sys: &System) -> Self {
         let n = sys.n_dof();
         Self {
-            kx: Rows::new(n),
-            kv: Rows::new(n),
+            kx: Rows::new(n, [0.0; K]),
+            kv: Rows::new(n, [0.0; K]),
             kp: [[0.0; K]; 3],
             powers: [!sys.loads.is_empty(), sys.has_damping, true],
             kf: vec![[0.0; K]; sys.walls.len()],
@@ -678,15 +702,15 @@ impl Stages {
         let n = dofs::<N>(start.x.len());
         let g = clock.dt_dvar(dynamics.sys, 0.0, h, &start.v)?;
         self.kt[0] = g;
-        store(self.kx.sized_mut::<N>(), 0, &start.v[..n], g);
-        store(self.kv.sized_mut::<N>(), 0, &start.a[..n], g);
+        store(self.kx.sized_mut::<N>(), 0, start.v.sized::<N>(), g);
+        store(self.kv.sized_mut::<N>(), 0, start.a.sized::<N>(), g);
         store(&mut self.kp, 0, &start.power, g);
         store(&mut self.kf, 0, &start.forces, g);
         let root = matches!(clock, Clock::Root { .. });
         // each stage its own code: its row of `A` a constant, its combination unrolls
         macro_rules! stages {
             ($this:expr, $state:expr; $($i:literal)*) => {
-                $($this.stage::<N, $i>(n, $state, dynamics, contacts, clock, t0, start, h, root)?;)*
+                $($this.stage::<N, $i>($state, dynamics, contacts, clock, t0, start, h, root)?;)*
             };
         }
         self.with_state::<N, _>(n, |this, mut state| {
@@ -697,12 +721,14 @@ impl Stages {
             STAGES == 12,
             "one `stages!` entry per stage after the first"
         );
-        for ((((x1, v1), kx), kv), (x0, v0)) in end.x[..n]
+        for ((((x1, v1), kx), kv), (x0, v0)) in end
+            .x
+            .sized_mut::<N>()
             .iter_mut()
-            .zip(end.v[..n].iter_mut())
+            .zip(end.v.sized_mut::<N>().iter_mut())
             .zip(self.kx.sized::<N>().iter())
             .zip(self.kv.sized::<N>().iter())
-            .zip(start.x[..n].iter().zip(&start.v[..n]))
+            .zip(start.x.sized::<N>().iter().zip(start.v.sized::<N>()))
         {
             *x1 = x0 + h * combine(&B, kx);
             *v1 = v0 + h * combine(&B, kv);
@@ -719,8 +745,8 @@ impl Stages {
         // integrated in ζ), so its `dt/dζ` is finite; the first-same-as-last stage
         let g = clock.dt_dvar(dynamics.sys, 1.0, h, &end.v)?;
         self.kt[STAGES] = g;
-        store(self.kx.sized_mut::<N>(), STAGES, &end.v[..n], g);
-        store(self.kv.sized_mut::<N>(), STAGES, &end.a[..n], g);
+        store(self.kx.sized_mut::<N>(), STAGES, end.v.sized::<N>(), g);
+        store(self.kv.sized_mut::<N>(), STAGES, end.a.sized::<N>(), g);
         store(&mut self.kp, STAGES, &end.power, g);
         Some(duration)
     }
@@ -753,7 +779,6 @@ impl Stages {
     #[allow(clippy::too_many_arguments)]
     fn stage<const N: usize, const I: usize>(
         &mut self,
-        n: usize,
         state: &mut [&mut [f64]; 3],
         dynamics: &mut Dynamics,
         contacts: &[Contact],
@@ -765,7 +790,7 @@ impl Stages {
     ) -> Option<()> {
         let [xs, vs, acc] = state;
         let a = A[I];
-        self.stage_state::<N>(n, a, start, h, xs, vs);
+        self.stage_state::<N>(a, start, h, xs, vs);
         let t = if root {
             t0 + h * combine(a, &self.kt)
         } else {
@@ -777,7 +802,7 @@ impl Stages {
         // dispatch on the size per evaluation
         let power = dynamics.accel_sized::<N>(contacts, wall, t, xs, vs, acc);
         self.kt[I] = g;
-        self.keep::<N>(n, I, g, power, &dynamics.forces, vs, acc);
+        self.keep::<N>(I, g, power, &dynamics.forces, vs, acc);
         Some(())
     }
 
@@ -901,19 +926,21 @@ impl Stages {
     #[allow(clippy::too_many_arguments)]
     fn stage_state<const N: usize>(
         &self,
-        n: usize,
         a: &[f64],
         start: &StepEnd,
         h: f64,
         xs: &mut [f64],
         vs: &mut [f64],
     ) {
+        // the size a constant here too (inside a closure that is not inlined, a captured
+        // count would be read at run time)
+        let n = dofs::<N>(start.x.len());
         for ((((xs, vs), kx), kv), (x0, v0)) in xs[..n]
             .iter_mut()
             .zip(vs[..n].iter_mut())
             .zip(self.kx.sized::<N>().iter())
             .zip(self.kv.sized::<N>().iter())
-            .zip(start.x[..n].iter().zip(&start.v[..n]))
+            .zip(start.x.sized::<N>().iter().zip(start.v.sized::<N>()))
         {
             *xs = x0 + h * combine(a, kx);
             *vs = v0 + h * combine(a, kv);
@@ -926,7 +953,6 @@ impl Stages {
     #[allow(clippy::too_many_arguments)]
     fn keep<const N: usize>(
         &mut self,
-        n: usize,
         i: usize,
         dt_dvar: f64,
         power: [f64; 3],
@@ -934,6 +960,7 @@ impl Stages {
         vs: &[f64],
         acc: &[f64],
     ) {
+        let n = dofs::<N>(vs.len());
         store(self.kx.sized_mut::<N>(), i, &vs[..n], dt_dvar);
         store(self.kv.sized_mut::<N>(), i, &acc[..n], dt_dvar);
         store(&mut self.kp, i, &power, dt_dvar);
@@ -954,9 +981,9 @@ impl Stages {
         let n = dofs::<N>(start.x.len());
         self.with_state::<N, _>(n, |this, [xs, vs, acc]| {
             for (m, (a, c)) in A_DENSE.iter().zip(C_DENSE).enumerate() {
-                this.stage_state::<N>(n, a, start, h, xs, vs);
+                this.stage_state::<N>(a, start, h, xs, vs);
                 let power = dynamics.accel_sized::<N>(contacts, None, t0 + c * h, xs, vs, acc);
-                this.keep::<N>(n, STAGES + 1 + m, 1.0, power, &dynamics.forces, vs, acc);
+                this.keep::<N>(STAGES + 1 + m, 1.0, power, &dynamics.forces, vs, acc);
             }
         })
     }
@@ -1321,8 +1348,10 @@ pub(crate) struct Dop853Steps<'s> {
     dynamics: Dynamics<'s>,
     stages: Stages,
     contacts: Vec<Contact>,
-    start: StepEnd,
-    end: StepEnd,
+    /// The step's ends, boxed: their DOF vectors are inline ([`Inline`]), and a step's end
+    /// becomes the next one's start by swapping two pointers.
+    start: Box<StepEnd>,
+    end: Box<StepEnd>,
     /// The DOFs whose turning points the peaks and the sweeps' observers need.
     recorded: Vec<usize>,
     inside: Inside,
@@ -1387,16 +1416,16 @@ impl<'s> Dop853Steps<'s> {
             in_time_only(&mut contacts);
         }
         let fresh = || StepEnd {
-            x: vec![0.0; n],
-            v: vec![0.0; n],
-            a: vec![0.0; n],
+            x: Inline::new(n, 0.0),
+            v: Inline::new(n, 0.0),
+            a: Inline::new(n, 0.0),
             power: [0.0; 3],
             forces: vec![0.0; sys.walls.len()],
             work: [0.0; 3],
             impulse: vec![0.0; sys.walls.len()],
             walls: vec![[0.0; 3]; sys.walls.len()],
         };
-        let mut start = fresh();
+        let mut start = Box::new(fresh());
         start.x.copy_from_slice(&run.cur.x);
         start.v.copy_from_slice(&run.cur.v);
         dynamics.at(&contacts, None, run.cur.t, &mut start);
@@ -1405,7 +1434,7 @@ impl<'s> Dop853Steps<'s> {
         if exact_switches {
             release_walls(sys, &mut contacts, &start, 0.0);
         }
-        let end = fresh();
+        let end = Box::new(fresh());
         // the DOFs whose turning points the peaks and the sweeps' observers need
         let recorded = run.out.dofs().to_vec();
         let inside = Inside {
@@ -2230,9 +2259,9 @@ mod tests {
         let mut stages = super::Stages::new(&sys);
         let error = |h: f64, dynamics: &mut super::Dynamics, stages: &mut super::Stages| {
             let state = || super::StepEnd {
-                x: vec![0.0],
-                v: vec![1.0],
-                a: vec![0.0],
+                x: super::Inline::new(1, 0.0),
+                v: super::Inline::new(1, 1.0),
+                a: super::Inline::new(1, 0.0),
                 power: [0.0; 3],
                 forces: vec![],
                 work: [0.0; 3],
@@ -2326,9 +2355,9 @@ mod tests {
         let mut dynamics = super::Dynamics::new(&sys);
         let contacts = [Contact::default()];
         let mut start = super::StepEnd {
-            x: vec![x0],
-            v: vec![v0],
-            a: vec![0.0],
+            x: super::Inline::new(1, x0),
+            v: super::Inline::new(1, v0),
+            a: super::Inline::new(1, 0.0),
             power: [0.0; 3],
             forces: vec![0.0],
             work: [0.0; 3],
