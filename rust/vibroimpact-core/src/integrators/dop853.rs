@@ -30,7 +30,7 @@ use crate::contact::{power_law, ContactForce, ContactLaw, Law, MIN_IMPACT_SPEED}
 use crate::driver::{Run, StepIntegrals, StepPolicy};
 use crate::error::SimError;
 use crate::gap::{
-    radial_contact, radial_force, Radial, RadialKinematics, Side, WallInterior, WallState,
+    radial_contact, radial_force, Gap, Radial, RadialKinematics, Side, WallInterior, WallState,
 };
 use crate::interpolation::QuinticSegment;
 use crate::observe::Turn;
@@ -112,6 +112,8 @@ struct Dynamics<'s> {
     small: Option<Small>,
     rhs: Vec<f64>,
     loads: LoadValues,
+    /// Each wall as the right-hand side applies it.
+    walls: Vec<WallTerm<'s>>,
     /// Each wall's force at the last evaluation, N.
     forces: Vec<f64>,
     /// `K` has a nonzero entry (a free body has none).
@@ -122,6 +124,45 @@ struct Dynamics<'s> {
     load_series: Vec<f64>,
     /// A state on the series: displacement, velocity and acceleration.
     series_state: [Vec<f64>; 3],
+}
+
+/// A wall as the right-hand side applies it, its gap, law and DOFs looked up once per run
+/// instead of at every evaluation.
+#[derive(Clone, Copy)]
+enum WallTerm<'s> {
+    /// A radial wall: its gap's friction and centre, the DOFs of its `x` and `y`.
+    Radial {
+        radial: &'s Radial,
+        dofs: [usize; 2],
+        law: &'s Law,
+        clearance: f64,
+    },
+    /// A wall of a 1-D gap.
+    Line {
+        gap: &'s Gap,
+        sign: f64,
+        clearance: f64,
+    },
+}
+
+impl<'s> WallTerm<'s> {
+    fn new(sys: &'s System, j: usize) -> Self {
+        let wall = &sys.walls[j];
+        let gap = &sys.gaps[wall.gap];
+        match &gap.side {
+            Side::Radial(r) => Self::Radial {
+                radial: r,
+                dofs: [gap.dofs[0], sys.gaps[r.partner].dofs[0]],
+                law: &gap.law,
+                clearance: wall.clearance,
+            },
+            _ => Self::Line {
+                gap,
+                sign: wall.sign,
+                clearance: wall.clearance,
+            },
+        }
+    }
 }
 
 /// A small model's matrices, row-major.
@@ -246,6 +287,9 @@ impl<'s> Dynamics<'s> {
             small,
             rhs: vec![0.0; n],
             loads: LoadValues::new(&sys.loads),
+            walls: (0..sys.walls.len())
+                .map(|j| WallTerm::new(sys, j))
+                .collect(),
             forces: vec![0.0; sys.walls.len()],
             has_stiffness: sys.structure.stiffness.values().iter().any(|&k| k != 0.0),
             series: vec![0.0; (SERIES_ORDER + 1) * n],
@@ -379,23 +423,34 @@ impl<'s> Dynamics<'s> {
         let f = rhs.get();
         let external = self.loads.apply(&sys.loads, t, f, v);
         let mut contact = 0.0;
-        let walls = sys.walls.iter().zip(contacts).zip(&mut self.forces);
+        let walls = self.walls.iter().zip(contacts).zip(&mut self.forces);
         for (j, ((wall, c), wall_force)) in walls.enumerate() {
             if !c.active {
                 *wall_force = 0.0;
                 continue;
             }
-            let gap = &sys.gaps[wall.gap];
-            if let Side::Radial(r) = &gap.side {
-                let (k, force) = radial_normal_force(sys, j, r, c, x, v);
-                let (phi, friction) = radial_force(r, &k, force.force, r.radius * st.spin.start);
-                let (ix, iy) = (gap.dofs[0], sys.gaps[r.partner].dofs[0]);
-                f[ix] -= phi[0];
-                f[iy] -= phi[1];
-                *wall_force = force.force;
-                contact += (force.force - force.elastic) * k.rate + friction * k.slide;
-                continue;
-            }
+            let (gap, sign, clearance) = match *wall {
+                WallTerm::Radial {
+                    radial: r,
+                    dofs: [ix, iy],
+                    law,
+                    clearance,
+                } => {
+                    let (k, force) = radial_wall_force(r, [ix, iy], law, clearance, c, x, v);
+                    let spin = r.radius * st.spin.start;
+                    let (phi, friction) = radial_force(r, &k, force.force, spin);
+                    f[ix] -= phi[0];
+                    f[iy] -= phi[1];
+                    *wall_force = force.force;
+                    contact += (force.force - force.elastic) * k.rate + friction * k.slide;
+                    continue;
+                }
+                WallTerm::Line {
+                    gap,
+                    sign,
+                    clearance,
+                } => (gap, sign, clearance),
+            };
             let (mut u, mut u_rate) = (0.0, 0.0);
             for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
                 u += coef * x[d];
@@ -403,12 +458,12 @@ impl<'s> Dynamics<'s> {
             }
             let penetration = match root {
                 Some((w, p)) if w == j => p,
-                _ => wall.sign * u - wall.clearance,
+                _ => sign * u - clearance,
             };
-            let rate = wall.sign * u_rate;
+            let rate = sign * u_rate;
             let force = force_in_contact(&gap.law, c, penetration, rate);
             for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
-                f[d] -= wall.sign * coef * force.force;
+                f[d] -= sign * coef * force.force;
             }
             *wall_force = force.force;
             contact += (force.force - force.elastic) * rate;
@@ -2133,20 +2188,41 @@ fn golden_max(f: impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
 
 /// Radial wall `j`'s kinematics and its normal force at the DOF state `x`, `v`, from the
 /// smallest positive penetration as a 1-D wall's (what [`Dynamics::accel`] applies and the
-/// variational equations differentiate). Inlined: the right-hand side uses two of the
-/// force's five values, so the others are not computed there.
-#[inline(always)]
+/// variational equations differentiate).
 fn radial_normal_force(
     sys: &System,
     j: usize,
-    r: &Radial,
     c: &Contact,
     x: &[f64],
     v: &[f64],
 ) -> (RadialKinematics, ContactForce) {
-    let wall = &sys.walls[j];
-    let k = sys.radial_at_dofs(r, wall.gap, x, v);
-    let force = force_in_contact(&sys.gaps[wall.gap].law, c, k.rho - wall.clearance, k.rate);
+    let WallTerm::Radial {
+        radial,
+        dofs,
+        law,
+        clearance,
+    } = WallTerm::new(sys, j)
+    else {
+        unreachable!("wall {j} is radial")
+    };
+    radial_wall_force(radial, dofs, law, clearance, c, x, v)
+}
+
+/// [`radial_normal_force`] of the radial wall `r` on the DOFs `[ix, iy]` (its `x` and `y`,
+/// `System::radial_at_dofs`'s), its `law` and `clearance`. Inlined: the right-hand side uses
+/// two of the force's five values, so the others are not computed there.
+#[inline(always)]
+fn radial_wall_force(
+    r: &Radial,
+    [ix, iy]: [usize; 2],
+    law: &Law,
+    clearance: f64,
+    c: &Contact,
+    x: &[f64],
+    v: &[f64],
+) -> (RadialKinematics, ContactForce) {
+    let k = RadialKinematics::new([x[ix] - r.center[0], x[iy] - r.center[1]], [v[ix], v[iy]]);
+    let force = force_in_contact(law, c, k.rho - clearance, k.rate);
     (k, force)
 }
 
