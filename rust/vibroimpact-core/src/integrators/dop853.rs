@@ -1034,13 +1034,32 @@ impl Stages {
         h: f64,
     ) {
         let n = dofs::<N>(start.x.len());
-        self.with_state::<N, _>(n, |this, [xs, vs, acc]| {
-            for (m, (a, c)) in A_DENSE.iter().zip(C_DENSE).enumerate() {
-                this.stage_state::<N>(a, start, h, xs, vs);
-                let power = dynamics.accel_sized::<N>(contacts, None, t0 + c * h, xs, vs, acc);
-                this.keep::<N>(STAGES + 1 + m, 1.0, power, &dynamics.forces, vs, acc);
-            }
-        })
+        self.with_state::<N, _>(n, |this, mut state| {
+            // each stage its own code, as the step's: its row of `A_DENSE` a constant (in a
+            // loop over the rows, each zero weight was tested at run time)
+            this.dense_stage::<N, 0>(&mut state, dynamics, contacts, t0, start, h);
+            this.dense_stage::<N, 1>(&mut state, dynamics, contacts, t0, start, h);
+            this.dense_stage::<N, 2>(&mut state, dynamics, contacts, t0, start, h);
+        });
+        const _: () = assert!(A_DENSE.len() == 3, "one `dense_stage` per extra stage");
+    }
+
+    /// Extra stage `M` of the dense output ([`Self::extend`]).
+    #[inline(always)]
+    fn dense_stage<const N: usize, const M: usize>(
+        &mut self,
+        state: &mut [&mut [f64]; 3],
+        dynamics: &mut Dynamics,
+        contacts: &[Contact],
+        t0: f64,
+        start: &StepEnd,
+        h: f64,
+    ) {
+        let [xs, vs, acc] = state;
+        self.stage_state::<N>(A_DENSE[M], start, h, xs, vs);
+        let t = t0 + C_DENSE[M] * h;
+        let power = dynamics.accel_sized::<N>(contacts, None, t, xs, vs, acc);
+        self.keep::<N>(STAGES + 1 + M, 1.0, power, &dynamics.forces, vs, acc);
     }
 
     /// DOF `d`'s displacement and velocity at the fraction `s` of the last step in time, on
