@@ -30,7 +30,7 @@ use crate::contact::{power_law, ContactForce, ContactLaw, Law, MIN_IMPACT_SPEED}
 use crate::driver::{Run, StepIntegrals, StepPolicy};
 use crate::error::SimError;
 use crate::gap::{
-    radial_contact, radial_force, Radial, RadialKinematics, Side, WallInterior, WallState,
+    radial_contact, radial_force, Gap, Radial, RadialKinematics, Side, WallInterior, WallState,
 };
 use crate::interpolation::QuinticSegment;
 use crate::observe::Turn;
@@ -112,6 +112,8 @@ struct Dynamics<'s> {
     small: Option<Small>,
     rhs: Vec<f64>,
     loads: LoadValues,
+    /// Each wall as the right-hand side applies it.
+    walls: Vec<WallTerm<'s>>,
     /// Each wall's force at the last evaluation, N.
     forces: Vec<f64>,
     /// `K` has a nonzero entry (a free body has none).
@@ -124,6 +126,45 @@ struct Dynamics<'s> {
     series_state: [Vec<f64>; 3],
 }
 
+/// A wall as the right-hand side applies it, its gap, law and DOFs looked up once per run
+/// instead of at every evaluation.
+#[derive(Clone, Copy)]
+enum WallTerm<'s> {
+    /// A radial wall: its gap's friction and centre, the DOFs of its `x` and `y`.
+    Radial {
+        radial: &'s Radial,
+        dofs: [usize; 2],
+        law: &'s Law,
+        clearance: f64,
+    },
+    /// A wall of a 1-D gap.
+    Line {
+        gap: &'s Gap,
+        sign: f64,
+        clearance: f64,
+    },
+}
+
+impl<'s> WallTerm<'s> {
+    fn new(sys: &'s System, j: usize) -> Self {
+        let wall = &sys.walls[j];
+        let gap = &sys.gaps[wall.gap];
+        match &gap.side {
+            Side::Radial(r) => Self::Radial {
+                radial: r,
+                dofs: [gap.dofs[0], sys.gaps[r.partner].dofs[0]],
+                law: &gap.law,
+                clearance: wall.clearance,
+            },
+            _ => Self::Line {
+                gap,
+                sign: wall.sign,
+                clearance: wall.clearance,
+            },
+        }
+    }
+}
+
 /// A small model's matrices, row-major.
 struct Small {
     mass_inverse: Vec<f64>,
@@ -131,31 +172,74 @@ struct Small {
     stiffness: Vec<f64>,
 }
 
-/// `$body` with `$n` bound to the model's DOF count `$size`, a constant for the small models
-/// (1 to 4 DOFs), whose loops over the DOFs then unroll (`$body` calls an `#[inline(always)]`
-/// function of `$n`): a 2-DOF rotor's evaluations cost a quarter less.
+/// `$body` with the constant `$n` the model's DOF count `$size` for the small models (1 to
+/// 4 DOFs) and 0 for the others (`$body` calls an `#[inline(always)]` function generic over
+/// `$n`, [`dofs`]): the small models' loops over the DOFs unroll and their working vectors
+/// are arrays of their size ([`Vector`]): a 2-DOF rotor's evaluations cost a quarter less.
 macro_rules! by_size {
     ($size:expr, |$n:ident| $body:expr) => {
         match $size {
             1 => {
-                let $n = 1;
+                const $n: usize = 1;
                 $body
             }
             2 => {
-                let $n = 2;
+                const $n: usize = 2;
                 $body
             }
             3 => {
-                let $n = 3;
+                const $n: usize = 3;
                 $body
             }
             4 => {
-                let $n = 4;
+                const $n: usize = 4;
                 $body
             }
-            $n => $body,
+            _ => {
+                const $n: usize = 0;
+                $body
+            }
         }
     };
+}
+
+/// The DOF count of code compiled for `N` DOFs ([`by_size`]; `N = 0`: any, `len`).
+#[inline(always)]
+fn dofs<const N: usize>(len: usize) -> usize {
+    if N > 0 {
+        N
+    } else {
+        len
+    }
+}
+
+/// A working vector of `n` zeros: for code compiled for `N > 0` DOFs an array on the stack (its
+/// length a constant, no pointer or length reloaded around the right-hand side's writes), else
+/// the general size's buffer `general`, which it borrows.
+enum Vector<'b, const N: usize> {
+    Sized([f64; N]),
+    General(&'b mut [f64]),
+}
+
+impl<'b, const N: usize> Vector<'b, N> {
+    #[inline(always)]
+    fn new(general: &'b mut [f64], n: usize) -> Self {
+        if N > 0 {
+            Self::Sized([0.0; N])
+        } else {
+            let general = &mut general[..n];
+            general.fill(0.0);
+            Self::General(general)
+        }
+    }
+
+    #[inline(always)]
+    fn get(&mut self) -> &mut [f64] {
+        match self {
+            Self::Sized(a) => a,
+            Self::General(v) => v,
+        }
+    }
 }
 
 /// `y += alpha A x` for a row-major `A`.
@@ -203,6 +287,9 @@ impl<'s> Dynamics<'s> {
             small,
             rhs: vec![0.0; n],
             loads: LoadValues::new(&sys.loads),
+            walls: (0..sys.walls.len())
+                .map(|j| WallTerm::new(sys, j))
+                .collect(),
             forces: vec![0.0; sys.walls.len()],
             has_stiffness: sys.structure.stiffness.values().iter().any(|&k| k != 0.0),
             series: vec![0.0; (SERIES_ORDER + 1) * n],
@@ -313,15 +400,14 @@ impl<'s> Dynamics<'s> {
         v: &[f64],
         a: &mut [f64],
     ) -> [f64; 3] {
-        by_size!(x.len(), |n| self.accel_sized(n, contacts, root, t, x, v, a))
+        by_size!(x.len(), |N| self
+            .accel_sized::<N>(contacts, root, t, x, v, a))
     }
 
-    /// [`Self::accel`] for `n` DOFs.
+    /// [`Self::accel`] compiled for `N` DOFs ([`by_size`]).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn accel_sized(
+    fn accel_sized<const N: usize>(
         &mut self,
-        n: usize,
         contacts: &[Contact],
         root: Option<(usize, f64)>,
         t: f64,
@@ -329,30 +415,42 @@ impl<'s> Dynamics<'s> {
         v: &[f64],
         a: &mut [f64],
     ) -> [f64; 3] {
+        let n = dofs::<N>(x.len());
         let (x, v, a) = (&x[..n], &v[..n], &mut a[..n]);
         let sys = self.sys;
         let st = &sys.structure;
-        let f = &mut self.rhs[..n];
-        f.fill(0.0);
+        let mut rhs = Vector::<N>::new(&mut self.rhs, n);
+        let f = rhs.get();
         let external = self.loads.apply(&sys.loads, t, f, v);
         let mut contact = 0.0;
-        let walls = sys.walls.iter().zip(contacts).zip(&mut self.forces);
+        let walls = self.walls.iter().zip(contacts).zip(&mut self.forces);
         for (j, ((wall, c), wall_force)) in walls.enumerate() {
             if !c.active {
                 *wall_force = 0.0;
                 continue;
             }
-            let gap = &sys.gaps[wall.gap];
-            if let Side::Radial(r) = &gap.side {
-                let (k, force) = radial_normal_force(sys, j, r, c, x, v);
-                let (phi, friction) = radial_force(r, &k, force.force, r.radius * st.spin.start);
-                let (ix, iy) = (gap.dofs[0], sys.gaps[r.partner].dofs[0]);
-                f[ix] -= phi[0];
-                f[iy] -= phi[1];
-                *wall_force = force.force;
-                contact += (force.force - force.elastic) * k.rate + friction * k.slide;
-                continue;
-            }
+            let (gap, sign, clearance) = match *wall {
+                WallTerm::Radial {
+                    radial: r,
+                    dofs: [ix, iy],
+                    law,
+                    clearance,
+                } => {
+                    let (k, force) = radial_wall_force(r, [ix, iy], law, clearance, c, x, v);
+                    let spin = r.radius * st.spin.start;
+                    let (phi, friction) = radial_force(r, &k, force.force, spin);
+                    f[ix] -= phi[0];
+                    f[iy] -= phi[1];
+                    *wall_force = force.force;
+                    contact += (force.force - force.elastic) * k.rate + friction * k.slide;
+                    continue;
+                }
+                WallTerm::Line {
+                    gap,
+                    sign,
+                    clearance,
+                } => (gap, sign, clearance),
+            };
             let (mut u, mut u_rate) = (0.0, 0.0);
             for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
                 u += coef * x[d];
@@ -360,20 +458,20 @@ impl<'s> Dynamics<'s> {
             }
             let penetration = match root {
                 Some((w, p)) if w == j => p,
-                _ => wall.sign * u - wall.clearance,
+                _ => sign * u - clearance,
             };
-            let rate = wall.sign * u_rate;
+            let rate = sign * u_rate;
             let force = force_in_contact(&gap.law, c, penetration, rate);
             for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
-                f[d] -= wall.sign * coef * force.force;
+                f[d] -= sign * coef * force.force;
             }
             *wall_force = force.force;
             contact += (force.force - force.elastic) * rate;
         }
         let mut damping = 0.0;
         if sys.has_damping {
-            let cv = &mut self.cv[..n];
-            cv.fill(0.0);
+            let mut cv = Vector::<N>::new(&mut self.cv, n);
+            let cv = cv.get();
             match &self.small {
                 Some(small) => dense_mul_add(&small.damping[..n * n], 1.0, v, cv),
                 None => st.damping.mul_add(1.0, v, cv),
@@ -432,8 +530,8 @@ const K: usize = DENSE_STAGES;
 /// acceleration, `kp[p][i]` the power `p` of the energy account, `kf[w][i]` wall `w`'s
 /// force.
 struct Stages {
-    kx: Vec<[f64; K]>,
-    kv: Vec<[f64; K]>,
+    kx: Rows,
+    kv: Rows,
     kp: [[f64; K]; 3],
     /// Which powers can be nonzero: the loads' (the model has loads), the damping's (it has
     /// damping), the contact forces'; the others' work stays 0 without being integrated.
@@ -446,11 +544,94 @@ struct Stages {
     acc: Vec<f64>,
 }
 
+/// The largest model whose stage values are kept inline ([`Rows`]): the sizes [`by_size`]
+/// compiles for.
+const MAX_SIZED: usize = 4;
+
+/// `len` values (one per component: a DOF's, or its row of stage values): inline (at a
+/// constant place in their owner) for up to [`MAX_SIZED`], where the code compiled for `N` of
+/// them takes the first `N` at a constant count ([`Self::sized`]), else on the heap.
+#[derive(Clone)]
+struct Inline<T> {
+    inline: [T; MAX_SIZED],
+    heap: Vec<T>,
+    len: usize,
+}
+
+/// One row of stage values per component.
+type Rows = Inline<[f64; K]>;
+
+impl<T: Copy> Inline<T> {
+    fn new(len: usize, zero: T) -> Self {
+        Self {
+            inline: [zero; MAX_SIZED],
+            heap: if len > MAX_SIZED {
+                vec![zero; len]
+            } else {
+                Vec::new()
+            },
+            len,
+        }
+    }
+
+    /// The values, for code compiled for `N` components ([`by_size`]).
+    #[inline(always)]
+    fn sized<const N: usize>(&self) -> &[T] {
+        if N > 0 {
+            &self.inline[..N]
+        } else {
+            &self.heap
+        }
+    }
+
+    #[inline(always)]
+    fn sized_mut<const N: usize>(&mut self) -> &mut [T] {
+        if N > 0 {
+            &mut self.inline[..N]
+        } else {
+            &mut self.heap
+        }
+    }
+}
+
+impl<T> std::ops::Deref for Inline<T> {
+    type Target = [T];
+
+    #[inline]
+    fn deref(&self) -> &[T] {
+        if self.len <= MAX_SIZED {
+            &self.inline[..self.len]
+        } else {
+            &self.heap
+        }
+    }
+}
+
+impl<T> std::ops::DerefMut for Inline<T> {
+    #[inline]
+    fn deref_mut(&mut self) -> &mut [T] {
+        if self.len <= MAX_SIZED {
+            &mut self.inline[..self.len]
+        } else {
+            &mut self.heap
+        }
+    }
+}
+
+impl<'a, T> IntoIterator for &'a Inline<T> {
+    type Item = &'a T;
+    type IntoIter = std::slice::Iter<'a, T>;
+
+    fn into_iter(self) -> Self::IntoIter {
+        self.iter()
+    }
+}
+
 /// The end of a step.
 struct StepEnd {
-    x: Vec<f64>,
-    v: Vec<f64>,
-    a: Vec<f64>,
+    x: Inline<f64>,
+    v: Inline<f64>,
+    a: Inline<f64>,
     power: [f64; 3],
     /// Each wall's force, N.
     forces: Vec<f64>,
@@ -530,8 +711,8 @@ impl Stages {
     fn new(sys: &System) -> Self {
         let n = sys.n_dof();
         Self {
-            kx: vec![[0.0; K]; n],
-            kv: vec![[0.0; K]; n],
+            kx: Rows::new(n, [0.0; K]),
+            kv: Rows::new(n, [0.0; K]),
             kp: [[0.0; K]; 3],
             powers: [!sys.loads.is_empty(), sys.has_damping, true],
             kf: vec![[0.0; K]; sys.walls.len()],
@@ -556,16 +737,15 @@ impl Stages {
         h: f64,
         end: &mut StepEnd,
     ) -> Option<f64> {
-        by_size!(start.x.len(), |n| self
-            .step_sized(n, dynamics, contacts, clock, t0, start, h, end))
+        by_size!(start.x.len(), |N| self
+            .step_sized::<N>(dynamics, contacts, clock, t0, start, h, end))
     }
 
-    /// [`Self::step`] for `n` DOFs.
+    /// [`Self::step`] compiled for `N` DOFs ([`by_size`]).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn step_sized(
+    fn step_sized<const N: usize>(
         &mut self,
-        n: usize,
         dynamics: &mut Dynamics,
         contacts: &[Contact],
         clock: Clock,
@@ -574,30 +754,36 @@ impl Stages {
         h: f64,
         end: &mut StepEnd,
     ) -> Option<f64> {
+        let n = dofs::<N>(start.x.len());
         let g = clock.dt_dvar(dynamics.sys, 0.0, h, &start.v)?;
         self.kt[0] = g;
-        store(&mut self.kx[..n], 0, &start.v[..n], g);
-        store(&mut self.kv[..n], 0, &start.a[..n], g);
+        store(self.kx.sized_mut::<N>(), 0, start.v.sized::<N>(), g);
+        store(self.kv.sized_mut::<N>(), 0, start.a.sized::<N>(), g);
         store(&mut self.kp, 0, &start.power, g);
         store(&mut self.kf, 0, &start.forces, g);
         let root = matches!(clock, Clock::Root { .. });
         // each stage its own code: its row of `A` a constant, its combination unrolls
         macro_rules! stages {
-            ($this:expr; $($i:literal)*) => {
-                $($this.stage::<$i>(n, dynamics, contacts, clock, t0, start, h, root)?;)*
+            ($this:expr, $state:expr; $($i:literal)*) => {
+                $($this.stage::<N, $i>($state, dynamics, contacts, clock, t0, start, h, root)?;)*
             };
         }
-        stages!(self; 1 2 3 4 5 6 7 8 9 10 11);
+        self.with_state::<N, _>(n, |this, mut state| {
+            stages!(this, &mut state; 1 2 3 4 5 6 7 8 9 10 11);
+            Some(())
+        })?;
         const _: () = assert!(
             STAGES == 12,
             "one `stages!` entry per stage after the first"
         );
-        for ((((x1, v1), kx), kv), (x0, v0)) in end.x[..n]
+        for ((((x1, v1), kx), kv), (x0, v0)) in end
+            .x
+            .sized_mut::<N>()
             .iter_mut()
-            .zip(end.v[..n].iter_mut())
-            .zip(self.kx[..n].iter())
-            .zip(self.kv[..n].iter())
-            .zip(start.x[..n].iter().zip(&start.v[..n]))
+            .zip(end.v.sized_mut::<N>().iter_mut())
+            .zip(self.kx.sized::<N>().iter())
+            .zip(self.kv.sized::<N>().iter())
+            .zip(start.x.sized::<N>().iter().zip(start.v.sized::<N>()))
         {
             *x1 = x0 + h * combine(&B, kx);
             *v1 = v0 + h * combine(&B, kv);
@@ -614,19 +800,41 @@ impl Stages {
         // integrated in ζ), so its `dt/dζ` is finite; the first-same-as-last stage
         let g = clock.dt_dvar(dynamics.sys, 1.0, h, &end.v)?;
         self.kt[STAGES] = g;
-        store(&mut self.kx[..n], STAGES, &end.v[..n], g);
-        store(&mut self.kv[..n], STAGES, &end.a[..n], g);
+        store(self.kx.sized_mut::<N>(), STAGES, end.v.sized::<N>(), g);
+        store(self.kv.sized_mut::<N>(), STAGES, end.a.sized::<N>(), g);
         store(&mut self.kp, STAGES, &end.power, g);
         Some(duration)
     }
 
-    /// Stage `I` of a step: its state from the stages before it, the right-hand side there,
-    /// kept; `None` as [`Self::step`].
+    /// Runs `body` with the stage's state and acceleration (`xs`, `vs`, `acc`) as working
+    /// vectors compiled for `N` DOFs ([`Vector`]).
     #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn stage<const I: usize>(
+    fn with_state<const N: usize, R>(
         &mut self,
         n: usize,
+        body: impl FnOnce(&mut Self, [&mut [f64]; 3]) -> R,
+    ) -> R {
+        let mut general: [Vec<f64>; 3] = if N == 0 {
+            [&mut self.xs, &mut self.vs, &mut self.acc].map(std::mem::take)
+        } else {
+            Default::default()
+        };
+        let [xs, vs, acc] = &mut general;
+        let [mut xs, mut vs, mut acc] = [xs, vs, acc].map(|b| Vector::<N>::new(b, n));
+        let result = body(self, [xs.get(), vs.get(), acc.get()]);
+        if N == 0 {
+            [self.xs, self.vs, self.acc] = general;
+        }
+        result
+    }
+
+    /// Stage `I` of a step: its state (into `state`: `xs`, `vs`, `acc`) from the stages
+    /// before it, the right-hand side there, kept; `None` as [`Self::step`].
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    fn stage<const N: usize, const I: usize>(
+        &mut self,
+        state: &mut [&mut [f64]; 3],
         dynamics: &mut Dynamics,
         contacts: &[Contact],
         clock: Clock,
@@ -635,20 +843,21 @@ impl Stages {
         h: f64,
         root: bool,
     ) -> Option<()> {
+        let [xs, vs, acc] = state;
         let a = A[I];
-        self.stage_state(n, a, start, h);
+        self.stage_state::<N>(a, start, h, xs, vs);
         let t = if root {
             t0 + h * combine(a, &self.kt)
         } else {
             t0 + C[I] * h
         };
-        let g = clock.dt_dvar(dynamics.sys, C[I], h, &self.vs)?;
+        let g = clock.dt_dvar(dynamics.sys, C[I], h, vs)?;
         let wall = clock.penetration(C[I], h);
         // the right-hand side at the stage's size, inlined into the stage: no call and no
         // dispatch on the size per evaluation
-        let power = dynamics.accel_sized(n, contacts, wall, t, &self.xs, &self.vs, &mut self.acc);
+        let power = dynamics.accel_sized::<N>(contacts, wall, t, xs, vs, acc);
         self.kt[I] = g;
-        self.keep(n, I, g, power, &dynamics.forces);
+        self.keep::<N>(I, g, power, &dynamics.forces, vs, acc);
         Some(())
     }
 
@@ -678,8 +887,16 @@ impl Stages {
         rough: bool,
     ) -> [f64; 2] {
         let ahead = matches!(clock, Clock::Time).then_some(h);
-        let [mut e5, mut e3, mut e5_next, mut e3_next] = by_size!(start.x.len(), |n| self
-            .motion_error(n, tol, dt_max, start, end, v_max, ahead));
+        let [mut e5, mut e3, mut e5_next, mut e3_next] = by_size!(start.x.len(), |N| self
+            .motion_error(
+                dofs::<N>(start.x.len()),
+                tol,
+                dt_max,
+                start,
+                end,
+                v_max,
+                ahead
+            ));
         let mut components = 2 * start.x.len();
         if let Clock::Root { wall, .. } = clock {
             let at = |y0: &[f64], y1: &[f64]| {
@@ -761,13 +978,24 @@ impl Stages {
 
     /// The state of a stage with coefficients `a` over the stages before it, into `xs`, `vs`.
     #[inline(always)]
-    fn stage_state(&mut self, n: usize, a: &[f64], start: &StepEnd, h: f64) {
-        for ((((xs, vs), kx), kv), (x0, v0)) in self.xs[..n]
+    #[allow(clippy::too_many_arguments)]
+    fn stage_state<const N: usize>(
+        &self,
+        a: &[f64],
+        start: &StepEnd,
+        h: f64,
+        xs: &mut [f64],
+        vs: &mut [f64],
+    ) {
+        // the size a constant here too (inside a closure that is not inlined, a captured
+        // count would be read at run time)
+        let n = dofs::<N>(start.x.len());
+        for ((((xs, vs), kx), kv), (x0, v0)) in xs[..n]
             .iter_mut()
-            .zip(self.vs[..n].iter_mut())
-            .zip(self.kx[..n].iter())
-            .zip(self.kv[..n].iter())
-            .zip(start.x[..n].iter().zip(&start.v[..n]))
+            .zip(vs[..n].iter_mut())
+            .zip(self.kx.sized::<N>().iter())
+            .zip(self.kv.sized::<N>().iter())
+            .zip(start.x.sized::<N>().iter().zip(start.v.sized::<N>()))
         {
             *xs = x0 + h * combine(a, kx);
             *vs = v0 + h * combine(a, kv);
@@ -777,16 +1005,27 @@ impl Stages {
     /// Keeps stage `i`'s rates (the velocities `vs`, the accelerations `acc`, the powers and
     /// the wall forces) times `dt/dvar`.
     #[inline(always)]
-    fn keep(&mut self, n: usize, i: usize, dt_dvar: f64, power: [f64; 3], forces: &[f64]) {
-        store(&mut self.kx[..n], i, &self.vs[..n], dt_dvar);
-        store(&mut self.kv[..n], i, &self.acc[..n], dt_dvar);
+    #[allow(clippy::too_many_arguments)]
+    fn keep<const N: usize>(
+        &mut self,
+        i: usize,
+        dt_dvar: f64,
+        power: [f64; 3],
+        forces: &[f64],
+        vs: &[f64],
+        acc: &[f64],
+    ) {
+        let n = dofs::<N>(vs.len());
+        store(self.kx.sized_mut::<N>(), i, &vs[..n], dt_dvar);
+        store(self.kv.sized_mut::<N>(), i, &acc[..n], dt_dvar);
         store(&mut self.kp, i, &power, dt_dvar);
         store(&mut self.kf, i, forces, dt_dvar);
     }
 
     /// The three extra stages of the dense output of the last step in time (Hairer's
-    /// continuous extension of order 7).
-    fn extend(
+    /// continuous extension of order 7), compiled for `N` DOFs ([`by_size`]).
+    #[inline(always)]
+    fn extend<const N: usize>(
         &mut self,
         dynamics: &mut Dynamics,
         contacts: &[Contact],
@@ -794,19 +1033,33 @@ impl Stages {
         start: &StepEnd,
         h: f64,
     ) {
-        let n = self.xs.len();
-        for (m, (a, c)) in A_DENSE.iter().zip(C_DENSE).enumerate() {
-            self.stage_state(n, a, start, h);
-            let power = dynamics.accel(
-                contacts,
-                None,
-                t0 + c * h,
-                &self.xs,
-                &self.vs,
-                &mut self.acc,
-            );
-            self.keep(n, STAGES + 1 + m, 1.0, power, &dynamics.forces);
-        }
+        let n = dofs::<N>(start.x.len());
+        self.with_state::<N, _>(n, |this, mut state| {
+            // each stage its own code, as the step's: its row of `A_DENSE` a constant (in a
+            // loop over the rows, each zero weight was tested at run time)
+            this.dense_stage::<N, 0>(&mut state, dynamics, contacts, t0, start, h);
+            this.dense_stage::<N, 1>(&mut state, dynamics, contacts, t0, start, h);
+            this.dense_stage::<N, 2>(&mut state, dynamics, contacts, t0, start, h);
+        });
+        const _: () = assert!(A_DENSE.len() == 3, "one `dense_stage` per extra stage");
+    }
+
+    /// Extra stage `M` of the dense output ([`Self::extend`]).
+    #[inline(always)]
+    fn dense_stage<const N: usize, const M: usize>(
+        &mut self,
+        state: &mut [&mut [f64]; 3],
+        dynamics: &mut Dynamics,
+        contacts: &[Contact],
+        t0: f64,
+        start: &StepEnd,
+        h: f64,
+    ) {
+        let [xs, vs, acc] = state;
+        self.stage_state::<N>(A_DENSE[M], start, h, xs, vs);
+        let t = t0 + C_DENSE[M] * h;
+        let power = dynamics.accel_sized::<N>(contacts, None, t, xs, vs, acc);
+        self.keep::<N>(STAGES + 1 + M, 1.0, power, &dynamics.forces, vs, acc);
     }
 
     /// DOF `d`'s displacement and velocity at the fraction `s` of the last step in time, on
@@ -1169,8 +1422,10 @@ pub(crate) struct Dop853Steps<'s> {
     dynamics: Dynamics<'s>,
     stages: Stages,
     contacts: Vec<Contact>,
-    start: StepEnd,
-    end: StepEnd,
+    /// The step's ends, boxed: their DOF vectors are inline ([`Inline`]), and a step's end
+    /// becomes the next one's start by swapping two pointers.
+    start: Box<StepEnd>,
+    end: Box<StepEnd>,
     /// The DOFs whose turning points the peaks and the sweeps' observers need.
     recorded: Vec<usize>,
     inside: Inside,
@@ -1235,16 +1490,16 @@ impl<'s> Dop853Steps<'s> {
             in_time_only(&mut contacts);
         }
         let fresh = || StepEnd {
-            x: vec![0.0; n],
-            v: vec![0.0; n],
-            a: vec![0.0; n],
+            x: Inline::new(n, 0.0),
+            v: Inline::new(n, 0.0),
+            a: Inline::new(n, 0.0),
             power: [0.0; 3],
             forces: vec![0.0; sys.walls.len()],
             work: [0.0; 3],
             impulse: vec![0.0; sys.walls.len()],
             walls: vec![[0.0; 3]; sys.walls.len()],
         };
-        let mut start = fresh();
+        let mut start = Box::new(fresh());
         start.x.copy_from_slice(&run.cur.x);
         start.v.copy_from_slice(&run.cur.v);
         dynamics.at(&contacts, None, run.cur.t, &mut start);
@@ -1253,7 +1508,7 @@ impl<'s> Dop853Steps<'s> {
         if exact_switches {
             release_walls(sys, &mut contacts, &start, 0.0);
         }
-        let end = fresh();
+        let end = Box::new(fresh());
         // the DOFs whose turning points the peaks and the sweeps' observers need
         let recorded = run.out.dofs().to_vec();
         let inside = Inside {
@@ -1810,7 +2065,9 @@ impl Dense<'_, '_, '_> {
     fn dof(&mut self, d: usize, s: f64) -> [f64; 2] {
         if !self.extended {
             let (stages, dynamics) = (&mut *self.stages, &mut *self.dynamics);
-            stages.extend(dynamics, self.contacts, self.t0, self.start, self.h);
+            let (contacts, t0, start, h) = (self.contacts, self.t0, self.start, self.h);
+            by_size!(start.x.len(), |N| stages
+                .extend::<N>(dynamics, contacts, t0, start, h));
             self.extended = true;
         }
         self.stages.dense(d, self.start, self.end, self.h, s)
@@ -1950,20 +2207,41 @@ fn golden_max(f: impl Fn(f64) -> f64, a: f64, b: f64) -> f64 {
 
 /// Radial wall `j`'s kinematics and its normal force at the DOF state `x`, `v`, from the
 /// smallest positive penetration as a 1-D wall's (what [`Dynamics::accel`] applies and the
-/// variational equations differentiate). Inlined: the right-hand side uses two of the
-/// force's five values, so the others are not computed there.
-#[inline(always)]
+/// variational equations differentiate).
 fn radial_normal_force(
     sys: &System,
     j: usize,
-    r: &Radial,
     c: &Contact,
     x: &[f64],
     v: &[f64],
 ) -> (RadialKinematics, ContactForce) {
-    let wall = &sys.walls[j];
-    let k = sys.radial_at_dofs(r, wall.gap, x, v);
-    let force = force_in_contact(&sys.gaps[wall.gap].law, c, k.rho - wall.clearance, k.rate);
+    let WallTerm::Radial {
+        radial,
+        dofs,
+        law,
+        clearance,
+    } = WallTerm::new(sys, j)
+    else {
+        unreachable!("wall {j} is radial")
+    };
+    radial_wall_force(radial, dofs, law, clearance, c, x, v)
+}
+
+/// [`radial_normal_force`] of the radial wall `r` on the DOFs `[ix, iy]` (its `x` and `y`,
+/// `System::radial_at_dofs`'s), its `law` and `clearance`. Inlined: the right-hand side uses
+/// two of the force's five values, so the others are not computed there.
+#[inline(always)]
+fn radial_wall_force(
+    r: &Radial,
+    [ix, iy]: [usize; 2],
+    law: &Law,
+    clearance: f64,
+    c: &Contact,
+    x: &[f64],
+    v: &[f64],
+) -> (RadialKinematics, ContactForce) {
+    let k = RadialKinematics::new([x[ix] - r.center[0], x[iy] - r.center[1]], [v[ix], v[iy]]);
+    let force = force_in_contact(law, c, k.rho - clearance, k.rate);
     (k, force)
 }
 
@@ -2076,9 +2354,9 @@ mod tests {
         let mut stages = super::Stages::new(&sys);
         let error = |h: f64, dynamics: &mut super::Dynamics, stages: &mut super::Stages| {
             let state = || super::StepEnd {
-                x: vec![0.0],
-                v: vec![1.0],
-                a: vec![0.0],
+                x: super::Inline::new(1, 0.0),
+                v: super::Inline::new(1, 1.0),
+                a: super::Inline::new(1, 0.0),
                 power: [0.0; 3],
                 forces: vec![],
                 work: [0.0; 3],
@@ -2089,7 +2367,7 @@ mod tests {
             stages
                 .step(dynamics, &[], super::Clock::Time, 0.0, &start, h, &mut end)
                 .unwrap();
-            stages.extend(dynamics, &[], 0.0, &start, h);
+            stages.extend::<1>(dynamics, &[], 0.0, &start, h);
             let s = 0.37;
             let [x, v] = stages.dense(0, &start, &end, h, s);
             [(x - (s * h).sin()).abs(), (v - (s * h).cos()).abs()]
@@ -2172,9 +2450,9 @@ mod tests {
         let mut dynamics = super::Dynamics::new(&sys);
         let contacts = [Contact::default()];
         let mut start = super::StepEnd {
-            x: vec![x0],
-            v: vec![v0],
-            a: vec![0.0],
+            x: super::Inline::new(1, x0),
+            v: super::Inline::new(1, v0),
+            a: super::Inline::new(1, 0.0),
             power: [0.0; 3],
             forces: vec![0.0],
             work: [0.0; 3],

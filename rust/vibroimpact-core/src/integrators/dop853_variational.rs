@@ -491,7 +491,7 @@ fn radial_tangent(sys: &System, j: usize, c: &Contact, x: &[f64], v: &[f64]) -> 
     let Side::Radial(r) = &gap.side else {
         unreachable!("a radial wall's gap is radial")
     };
-    let (k, force) = radial_normal_force(sys, j, r, c, x, v);
+    let (k, force) = radial_normal_force(sys, j, c, x, v);
     let (f_delta, f_rate, f_speed) = tangent(sys, j, c, k.rho - wall.clearance, k.rate);
     let state = WallState {
         force: force.force,
