@@ -186,3 +186,25 @@ def test_large_damped_banded_model_matches_modal_solution(method: vi.Integrator)
             t_end=0.05, dt=2e-6, every=50, method=method)
         assert len(gapped.impacts) > 2
         assert gapped.energy.balance_error < 1e-4
+
+
+def test_generalized_alpha_free_flight_acceleration_decays_to_zero_not_through_subnormals(
+) -> None:
+    """On a free mass generalized-α's acceleration obeys ``(1−α_m) a₁ + α_m a₀ = 0``: it halves
+    and changes sign each step for ρ∞ = 0.8 (α_m = 1/3). It must follow that closed form and
+    then be exactly 0, never a subnormal number (each of which costs up to a hundred cycles;
+    the step sets accelerations below 1e-280 to 0)."""
+    rho_inf = 0.8
+    alpha_m = (2 * rho_inf - 1) / (rho_inf + 1)
+    result = vi.simulate(cases.sdof_model("lankarani-nikravesh", 0.9), t_end=0.02, dt=1e-6,
+                         method=vi.GeneralizedAlpha(rho_inf=rho_inf))
+    a = result.acceleration[:, 0]
+    force = result.gap_force[:, 0]
+    free = (force[2:] == 0) & (force[1:-1] == 0) & (force[:-2] == 0)
+    decaying = free & (a[1:-1] != 0) & (a[2:] != 0)
+    assert decaying.sum() > 5000
+    np.testing.assert_allclose(a[2:][decaying] / a[1:-1][decaying], -alpha_m / (1 - alpha_m),
+                               rtol=1e-12)
+    nonzero = np.abs(a[a != 0])
+    assert nonzero.min() >= 1e-280
+    assert np.count_nonzero(free & (a[2:] == 0)) > 5000

@@ -202,7 +202,10 @@ class GeneralizedAlpha(Integrator):
     Newton on the gap forces, parameterised by the spectral radius at infinity
     ``rho_inf`` ∈ [0, 1]: ``α_m = (2ρ∞ − 1)/(ρ∞ + 1)``, ``α_f = ρ∞/(ρ∞ + 1)``,
     ``γ = 1/2 − α_m + α_f``, ``β = (1 − α_m + α_f)²/4``. Second order; ``rho_inf = 1`` is the
-    average-acceleration rule, smaller values damp the high frequencies (the contact's)."""
+    average-acceleration rule, smaller values damp the high frequencies (the contact's). On a
+    DOF without a spring the free-flight acceleration decays geometrically
+    (``a₁ = −α_m/(1−α_m) a₀``); below 1e-280 it is set to 0 rather than carried through the
+    slow subnormal numbers (``benchmarks/per-step.md``)."""
 
     name: str = field(default="generalized-alpha", init=False)
     rho_inf: float = catalog_default("generalized-alpha", "rho_inf")
