@@ -60,22 +60,22 @@ def test_missing_peer_gives_a_not_available_row() -> None:
 
 def test_median_counts_a_long_first_run_and_skips_a_short_warm_up(monkeypatch) -> None:
     """Medians of ``repeats`` runs: a warm-up shorter than LONG_RUN_S is not counted, a
-    longer one is the first of the runs (no extra run); our Newmark (``base``) is timed once
-    beside each counted run."""
+    longer one is the first of the runs (no extra run); ours (``base``) is timed once beside
+    each counted run, after an untimed call of its own (warm)."""
     calls: list[str] = []
     f, b = (lambda: calls.append("f")), (lambda: calls.append("b"))
     # warm-up 0.1 s; then base 0.05, run 0.2, base 0.07, run 0.3
     clock = iter([0.0, 0.1, 1.0, 1.05, 2.0, 2.2, 3.0, 3.07, 4.0, 4.3])
     monkeypatch.setattr(table.time, "perf_counter", lambda: next(clock))
     secs, _, base = table._timed(f, 2, b)
-    assert calls == ["f", "b", "f", "b", "f"]
+    assert calls == ["f", "b", "b", "f", "b", "b", "f"]
     assert math.isclose(secs, 0.25) and math.isclose(base, 0.06)
     # a first run of 5 s counts: runs 5, 7, 6 s; base 0.1, 0.3, 0.2 s
     clock = iter([0.0, 5.0, 10.0, 10.1, 11.0, 11.3, 12.0, 19.0, 20.0, 20.2, 21.0, 27.0])
     monkeypatch.setattr(table.time, "perf_counter", lambda: next(clock))
     calls.clear()
     secs, _, base = table._timed(f, 3, b)
-    assert calls == ["f", "b", "b", "f", "b", "f"]
+    assert calls == ["f", "b", "b", "b", "b", "f", "b", "b", "f"]
     assert secs == 6.0 and math.isclose(base, 0.2)
     clock = iter([0.0, 0.5])  # one run, nothing beside it
     monkeypatch.setattr(table.time, "perf_counter", lambda: next(clock))

@@ -56,18 +56,27 @@ def _once(fn: Callable[[], Any]) -> tuple[float, Any]:
     return time.perf_counter() - t0, out
 
 
+def _warm_once(fn: Callable[[], Any]) -> float:
+    """The wall time of ``fn``'s second call of two in a row."""
+    fn()
+    return _once(fn)[0]
+
+
 def _timed(fn: Callable[[], Any], repeats: int, base: Callable[[], Any] | None = None
            ) -> tuple[float, Any, float | None]:
-    """Median wall time of ``repeats`` calls, the last result, and, with ``base`` (our
-    Newmark's run), the median of one ``base`` call timed beside each counted call: the two
-    medians are then measured under the same machine load. A first warm-up call is not
-    counted unless it took :data:`LONG_RUN_S` or more; ``repeats <= 1``: one call."""
+    """Median wall time of ``repeats`` calls, the last result, and, with ``base`` (ours),
+    the median of one ``base`` call timed beside each counted call: the two medians are then
+    measured under the same machine load. A first warm-up call is not counted unless it took
+    :data:`LONG_RUN_S` or more; ``repeats <= 1``: one call. Each timed ``base`` call follows
+    an untimed one, so that ours is timed warm as ``fn``'s counted calls are: right after a
+    peer's long run, caches and branch predictors are cold, which made a 0.2 ms run of ours
+    take 1.5× its warm time (paper case, our DOP853 after SciPy's 80 ms)."""
     first, out = _once(fn)
     runs = [first] if first >= LONG_RUN_S or repeats <= 1 else []
-    base_runs = [_once(base)[0]] if base is not None and runs else []
+    base_runs = [_warm_once(base)] if base is not None and runs else []
     while len(runs) < repeats:
         if base is not None:
-            base_runs.append(_once(base)[0])
+            base_runs.append(_warm_once(base))
         t, out = _once(fn)
         runs.append(t)
     return statistics.median(runs), out, statistics.median(base_runs) if base_runs else None
@@ -722,9 +731,10 @@ NOTES = [
     f"{LONG_RUN_S:g} s or more (then it is the first of the runs: one-off costs are "
     "negligible beside it and the median absorbs them); model build included, every step "
     "kept, in this process. 'vs our Newmark': the row's median over the median of our "
-    "fixed-step Newmark on the same problem, run once beside each of the row's runs (so that "
-    "both medians see the same load on a shared machine); our Newmark's own row is its median "
-    "of its runs in a block.",
+    "fixed-step Newmark on the same problem, run beside each of the row's runs (so that "
+    "both medians see the same load on a shared machine), each timed call after an untimed "
+    "one (warm, as the row's counted runs are); our Newmark's own row is its median of its "
+    "runs in a block.",
     "* Accuracy: against ONE converged reference per problem, the same for every tool: peak "
     "|x| relative error (the SDOF mass; the beam's middle slider), and the largest error of "
     "any contact's start or end time (each reference contact matched with the contact that "
