@@ -2172,12 +2172,11 @@ impl Inside {
                 };
             }
             let law = &sys.gaps[sys.walls[j].gap].law;
-            // as the dynamics evaluate it: from the smallest penetration at least, so that the
-            // first instant of a contact (Kelvin–Voigt's c·v_imp) is a candidate
+            // as the dynamics evaluate it (a linear stator's formula without the law's
+            // dispatch): from the smallest penetration at least, so that the first instant of
+            // a contact (Kelvin–Voigt's c·v_imp) is a candidate
             let evaluate = |penetration: f64, rate: f64| {
-                let penetration = penetration.max(f64::MIN_POSITIVE);
-                let max_penetration = c.max_penetration.max(penetration);
-                law.force_in_contact(penetration, rate, c.impact_speed, max_penetration)
+                force_in_contact(law, c, penetration.max(f64::MIN_POSITIVE), rate)
             };
             // the force's rate at the ends, F_δ δ' + F_δ' δ'': it peaks inside only if it
             // rises at the start and falls at the end (else the larger end is the largest)
