@@ -304,24 +304,11 @@ impl<'s> Dynamics<'s> {
     /// landed on it ends within its switching window (a quadratic's root falls 1e-3 of the
     /// way short or long, and a tiny step or a retake follows). `None` where the series is not
     /// available (a large model, a run-up, a load that is not smooth), is truncated above the
-    /// landing's precision, or Newton does not settle near `guess`.
-    fn free_closing(
-        &mut self,
-        contacts: &[Contact],
-        t: f64,
-        state: &StepEnd,
-        j: usize,
-        guess: f64,
-    ) -> Option<f64> {
-        by_size!(state.x.len(), |N| self
-            .free_closing_sized::<N>(contacts, t, state, j, guess))
-    }
-
-    /// [`Self::free_closing`] compiled for `N` DOFs ([`by_size`]): the series' rows in arrays
-    /// on the stack for `N > 0` (their length a constant, its indices checked at compile time),
-    /// else in the general size's buffers.
+    /// landing's precision, or Newton does not settle near `guess`. Compiled for `N` DOFs
+    /// ([`by_size`]): the series' rows in arrays on the stack for `N > 0` (their length a
+    /// constant, its indices checked at compile time), else in the general size's buffers.
     #[inline(always)]
-    fn free_closing_sized<const N: usize>(
+    fn free_closing<const N: usize>(
         &mut self,
         contacts: &[Contact],
         t: f64,
@@ -1695,8 +1682,10 @@ impl StepPolicy for Dop853Steps<'_> {
                 self.landing = predicted_closing(&self.contacts, &self.start)
                     .filter(|&(tau, _)| tau < limit)
                     .map(|(tau, j)| {
-                        let refined =
-                            (self.dynamics).free_closing(&self.contacts, t0, &self.start, j, tau);
+                        let (dynamics, contacts, start) =
+                            (&mut self.dynamics, &self.contacts, &*self.start);
+                        let refined = by_size!(start.x.len(), |N| dynamics
+                            .free_closing::<N>(contacts, t0, start, j, tau));
                         (refined.unwrap_or(tau), j)
                     })
                     .filter(|&(tau, _)| tau > self.near_switch && tau < limit)
@@ -2490,9 +2479,9 @@ mod tests {
         dynamics.at(&contacts, None, 0.0, &mut start);
         let (guess, wall) = super::predicted_closing(&contacts, &start).unwrap();
         assert!((guess / lo - 1.0).abs() > 1e-4, "{guess} {lo}");
-        let refined = dynamics
-            .free_closing(&contacts, 0.0, &start, wall, guess)
-            .unwrap();
+        let refined = by_size!(start.x.len(), |N| dynamics
+            .free_closing::<N>(&contacts, 0.0, &start, wall, guess))
+        .unwrap();
         assert!((refined / lo - 1.0).abs() < 1e-8, "{refined} {lo}");
     }
 
