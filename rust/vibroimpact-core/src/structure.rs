@@ -542,10 +542,21 @@ pub struct LoadValues {
     anchors: Vec<(f64, (f64, f64))>,
     /// Per group: `sin θ`, `cos θ` at the last time evaluated.
     trig: Vec<(f64, f64)>,
-    /// Each load's value `A g(t)` at the last time evaluated, N.
+    /// Each load's value `A g(t)` at the last time evaluated ([`Self::evaluate`]), N.
     pub values: Vec<f64>,
     /// Each `(load, DOF)` it applies to, in order: one flat loop in [`Self::apply`].
-    targets: Vec<(usize, usize)>,
+    targets: Vec<Target>,
+}
+
+/// A load at one of its DOFs, with what its value needs ([`LoadValues::apply`]): no pass
+/// over the loads before the pass over their DOFs, no value stored and read back.
+#[derive(Debug, Clone, Copy)]
+struct Target {
+    load: usize,
+    dof: usize,
+    amplitude: f64,
+    /// The load's group and shift ([`LoadValues::shifts`]).
+    shift: Option<(usize, [f64; 2])>,
 }
 
 /// The spacing (rad) of [`LoadValues`]' anchors, a power of 2 so that they are exact.
@@ -573,28 +584,41 @@ impl LoadValues {
                 Some((group, [cos, sin]))
             })
             .collect();
+        let targets = (loads.iter().zip(&shifts).enumerate())
+            .flat_map(|(i, (l, &shift))| {
+                l.dofs.iter().map(move |&dof| Target {
+                    load: i,
+                    dof,
+                    amplitude: l.amplitude,
+                    shift,
+                })
+            })
+            .collect();
         Self {
             shifts,
             anchors: vec![(f64::NAN, (0.0, 1.0)); groups.len()],
             trig: vec![(0.0, 1.0); groups.len()],
             groups,
             values: vec![0.0; loads.len()],
-            targets: (loads.iter().enumerate())
-                .flat_map(|(i, l)| l.dofs.iter().map(move |&d| (i, d)))
-                .collect(),
+            targets,
         }
     }
 
     /// Adds the loads' values at `t` to their DOFs' entries of `f` and returns their power
-    /// `Σ g v[d]` at the velocities `v`.
+    /// `Σ g v[d]` at the velocities `v`: each load valued at each of its DOFs as
+    /// [`Self::evaluate`] values it, in one pass (a right-hand side of a few DOFs has no use
+    /// for the values themselves).
     #[inline(always)]
     pub fn apply(&mut self, loads: &[Load], t: f64, f: &mut [f64], v: &[f64]) -> f64 {
-        self.evaluate(loads, t);
+        self.turn(t);
         let mut power = 0.0;
-        for &(i, d) in &self.targets {
-            let g = self.values[i];
-            f[d] += g;
-            power += g * v[d];
+        for target in &self.targets {
+            let g = match target.shift {
+                Some(shift) => Self::harmonic(&self.trig, target.amplitude, shift),
+                None => loads[target.load].value(t),
+            };
+            f[target.dof] += g;
+            power += g * v[target.dof];
         }
         power
     }
@@ -602,6 +626,30 @@ impl LoadValues {
     /// Evaluates `loads` (those this was built from) at `t` into [`Self::values`].
     #[inline(always)]
     pub fn evaluate(&mut self, loads: &[Load], t: f64) {
+        self.turn(t);
+        for ((value, load), &shift) in self.values.iter_mut().zip(loads).zip(&self.shifts) {
+            *value = match shift {
+                Some(shift) => Self::harmonic(&self.trig, load.amplitude, shift),
+                None => load.value(t),
+            };
+        }
+    }
+
+    /// A harmonic load's value `A sin(θ + Δ)` from its group's `sin θ`, `cos θ` in `trig` (at
+    /// the last time turned to, [`Self::turn`]).
+    #[inline(always)]
+    fn harmonic(
+        trig: &[(f64, f64)],
+        amplitude: f64,
+        (group, [cos, sin]): (usize, [f64; 2]),
+    ) -> f64 {
+        let (s, c) = trig[group];
+        amplitude * (s * cos + c * sin)
+    }
+
+    /// Each group's `sin θ`, `cos θ` at `t`.
+    #[inline(always)]
+    fn turn(&mut self, t: f64) {
         let groups = self.groups.iter().zip(&mut self.anchors);
         for ((&[omega, phase], anchor), trig) in groups.zip(&mut self.trig) {
             let angle = omega * t;
@@ -612,15 +660,6 @@ impl LoadValues {
             let (sa, ca) = anchor.1;
             let (sd, cd) = small_sin_cos(angle - k * ANCHOR_SPACING);
             *trig = (sa * cd + ca * sd, ca * cd - sa * sd);
-        }
-        for ((value, load), shift) in self.values.iter_mut().zip(loads).zip(&self.shifts) {
-            *value = match *shift {
-                Some((group, [cos, sin])) => {
-                    let (s, c) = self.trig[group];
-                    load.amplitude * (s * cos + c * sin)
-                }
-                None => load.value(t),
-            };
         }
     }
 }
@@ -775,6 +814,7 @@ mod tests {
         // `apply`: each value added to each of its load's DOFs, and their power
         let (mut f, v) = (vec![0.0; 3], [0.5, -2.0, 3.0]);
         let power = values.apply(&loads, 1.3, &mut f, &v);
+        values.evaluate(&loads, 1.3);
         let (mut expected, mut expected_power) = (vec![0.0; 3], 0.0);
         for (load, &g) in loads.iter().zip(&values.values) {
             for &d in &load.dofs {

@@ -304,8 +304,11 @@ impl<'s> Dynamics<'s> {
     /// landed on it ends within its switching window (a quadratic's root falls 1e-3 of the
     /// way short or long, and a tiny step or a retake follows). `None` where the series is not
     /// available (a large model, a run-up, a load that is not smooth), is truncated above the
-    /// landing's precision, or Newton does not settle near `guess`.
-    fn free_closing(
+    /// landing's precision, or Newton does not settle near `guess`. Compiled for `N` DOFs
+    /// ([`by_size`]): the series' rows in arrays on the stack for `N > 0` (their length a
+    /// constant, its indices checked at compile time), else in the general size's buffers.
+    #[inline(always)]
+    fn free_closing<const N: usize>(
         &mut self,
         contacts: &[Contact],
         t: f64,
@@ -316,13 +319,22 @@ impl<'s> Dynamics<'s> {
         let sys = self.sys;
         let st = &sys.structure;
         let small = self.small.as_ref()?;
-        let n = state.x.len();
+        let n = dofs::<N>(state.x.len());
         if contacts.iter().any(|c| c.active) || st.varying_gyroscopic().is_some() {
             return None;
         }
+        let mut sized_series = [[0.0; N]; SERIES_ORDER + 1];
+        let mut sized_forcing = [[0.0; N]; SERIES_ORDER - 1];
+        let (series, forcing): (&mut [f64], &mut [f64]) = if N > 0 {
+            (
+                sized_series.as_flattened_mut(),
+                sized_forcing.as_flattened_mut(),
+            )
+        } else {
+            (&mut self.series, &mut self.load_series)
+        };
         // the loads' derivatives F⁽ᵏ⁾, k ≤ SERIES_ORDER − 2
         let orders = SERIES_ORDER - 1;
-        let forcing = &mut self.load_series;
         forcing.fill(0.0);
         let mut derivatives = [0.0; SERIES_ORDER - 1];
         for load in &sys.loads {
@@ -336,17 +348,22 @@ impl<'s> Dynamics<'s> {
             }
         }
         // x⁽ᵏ⁺²⁾ = M⁻¹ (F⁽ᵏ⁾ − C x⁽ᵏ⁺¹⁾ − K x⁽ᵏ⁾)
-        let series = &mut self.series;
-        series[..n].copy_from_slice(&state.x);
-        series[n..2 * n].copy_from_slice(&state.v);
-        let rhs = &mut self.rhs;
+        series[..n].copy_from_slice(&state.x[..n]);
+        series[n..2 * n].copy_from_slice(&state.v[..n]);
+        let mut rhs = Vector::<N>::new(&mut self.rhs, n);
+        let rhs = rhs.get();
+        let (mass_inverse, damping, stiffness) = (
+            &small.mass_inverse[..n * n],
+            &small.damping[..n * n],
+            &small.stiffness[..n * n],
+        );
         for k in 0..orders {
             let (known, next) = series.split_at_mut((k + 2) * n);
             let (xk, xk1) = (&known[k * n..(k + 1) * n], &known[(k + 1) * n..(k + 2) * n]);
             rhs.copy_from_slice(&forcing[k * n..(k + 1) * n]);
-            dense_mul_add(&small.damping, -1.0, xk1, rhs);
-            dense_mul_add(&small.stiffness, -1.0, xk, rhs);
-            for (xi, row) in next[..n].iter_mut().zip(small.mass_inverse.chunks_exact(n)) {
+            dense_mul_add(damping, -1.0, xk1, rhs);
+            dense_mul_add(stiffness, -1.0, xk, rhs);
+            for (xi, row) in next[..n].iter_mut().zip(mass_inverse.chunks_exact(n)) {
                 *xi = dot(row, rhs);
             }
         }
@@ -356,9 +373,12 @@ impl<'s> Dynamics<'s> {
             factorial *= k as f64;
             row.iter_mut().for_each(|x| *x /= factorial);
         }
+        let [x, v, a] = &mut self.series_state;
+        let mut state = [x, v, a].map(|b| Vector::<N>::new(b, n));
+        let [x, v, a] = &mut state;
+        let (x, v, a) = (x.get(), v.get(), a.get());
         let mut tau = guess;
         for _ in 0..CLOSING_ITERATIONS {
-            let [x, v, a] = &mut self.series_state;
             for d in 0..n {
                 let (mut p, mut dp, mut ddp) = (0.0, 0.0, 0.0);
                 for k in (0..=SERIES_ORDER).rev() {
@@ -377,7 +397,7 @@ impl<'s> Dynamics<'s> {
             }
             if correction.abs() <= 0.01 * EVENT_NEAR * tau {
                 // the last term, the truncation's size, within the landing's precision
-                let last = series[SERIES_ORDER * n..]
+                let last = series[SERIES_ORDER * n..(SERIES_ORDER + 1) * n]
                     .iter()
                     .fold(0.0, |m: f64, c| m.max(c.abs()));
                 let truncated = last * tau.powi(SERIES_ORDER as i32);
@@ -888,15 +908,7 @@ impl Stages {
     ) -> [f64; 2] {
         let ahead = matches!(clock, Clock::Time).then_some(h);
         let [mut e5, mut e3, mut e5_next, mut e3_next] = by_size!(start.x.len(), |N| self
-            .motion_error(
-                dofs::<N>(start.x.len()),
-                tol,
-                dt_max,
-                start,
-                end,
-                v_max,
-                ahead
-            ));
+            .motion_error::<N>(tol, dt_max, start, end, v_max, ahead));
         let mut components = 2 * start.x.len();
         if let Clock::Root { wall, .. } = clock {
             let at = |y0: &[f64], y1: &[f64]| {
@@ -940,9 +952,8 @@ impl Stages {
     /// scale is rejected (without `ahead`, a step in `ζ`: the same sums).
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn motion_error(
+    fn motion_error<const N: usize>(
         &self,
-        n: usize,
         tol: &Adaptive,
         dt_max: f64,
         start: &StepEnd,
@@ -950,13 +961,16 @@ impl Stages {
         v_max: &[f64],
         ahead: Option<f64>,
     ) -> [f64; 4] {
+        let n = dofs::<N>(start.x.len());
         let (mut e5, mut e3) = (0.0, 0.0);
         let (mut e5_next, mut e3_next) = (0.0, 0.0);
-        let ends = (start.x[..n].iter().zip(&end.x[..n]))
-            .zip(&end.v[..n])
+        let ends = (start.x.sized::<N>().iter().zip(end.x.sized::<N>()))
+            .zip(end.v.sized::<N>())
             .zip(&v_max[..n]);
-        let stages = (self.kx[..n].iter()).zip(self.kv[..n].iter());
-        for (((((&x0, &x1), &v1), &speed), (kx, kv)), &a1) in ends.zip(stages).zip(&end.a[..n]) {
+        let stages = (self.kx.sized::<N>().iter()).zip(self.kv.sized::<N>());
+        for (((((&x0, &x1), &v1), &speed), (kx, kv)), &a1) in
+            ends.zip(stages).zip(end.a.sized::<N>())
+        {
             let sx = tol.atol + tol.rtol * x0.abs().max(x1.abs());
             let sv = tol.atol / dt_max + tol.rtol * speed.max(v1.abs());
             let (x5, x3) = (combine(&E5, kx), combine(&E3, kx));
@@ -1668,8 +1682,10 @@ impl StepPolicy for Dop853Steps<'_> {
                 self.landing = predicted_closing(&self.contacts, &self.start)
                     .filter(|&(tau, _)| tau < limit)
                     .map(|(tau, j)| {
-                        let refined =
-                            (self.dynamics).free_closing(&self.contacts, t0, &self.start, j, tau);
+                        let (dynamics, contacts, start) =
+                            (&mut self.dynamics, &self.contacts, &*self.start);
+                        let refined = by_size!(start.x.len(), |N| dynamics
+                            .free_closing::<N>(contacts, t0, start, j, tau));
                         (refined.unwrap_or(tau), j)
                     })
                     .filter(|&(tau, _)| tau > self.near_switch && tau < limit)
@@ -1983,6 +1999,10 @@ fn commit(
             max_penetration: c.max_penetration.max(penetration),
             ..WallState::default()
         };
+        let radial = match &sys.gaps[wall.gap].side {
+            Side::Radial(r) => Some((r, sys.radial_kinematics(r, wall.gap, &s.u, &s.u_rate))),
+            _ => None,
+        };
         if c.active && penetration > 0.0 {
             let f = sys.gaps[wall.gap].law.force_in_contact(
                 penetration,
@@ -1995,9 +2015,8 @@ fn commit(
             w.d_rate = f.d_rate;
             w.elastic_force = f.elastic;
             w.potential = f.potential;
-            if let Side::Radial(r) = &sys.gaps[wall.gap].side {
-                let k = sys.radial_kinematics(r, wall.gap, &s.u, &s.u_rate);
-                let rf = radial_contact(r, &k, w, r.radius * sys.structure.spin.start);
+            if let Some((r, k)) = &radial {
+                let rf = radial_contact(r, k, w, r.radius * sys.structure.spin.start);
                 s.phi[wall.gap] += rf.phi[0];
                 s.phi[r.partner] += rf.phi[1];
                 w.friction = rf.friction;
@@ -2005,8 +2024,7 @@ fn commit(
                 s.phi[wall.gap] += wall.sign * f.force;
             }
         }
-        if let Side::Radial(r) = &sys.gaps[wall.gap].side {
-            let k = sys.radial_kinematics(r, wall.gap, &s.u, &s.u_rate);
+        if let Some((r, k)) = &radial {
             w.slide = k.slide;
             w.slip = r.radius * sys.structure.spin.start + k.slide;
         }
@@ -2143,12 +2161,11 @@ impl Inside {
                 };
             }
             let law = &sys.gaps[sys.walls[j].gap].law;
-            // as the dynamics evaluate it: from the smallest penetration at least, so that the
-            // first instant of a contact (Kelvin–Voigt's c·v_imp) is a candidate
+            // as the dynamics evaluate it (a linear stator's formula without the law's
+            // dispatch): from the smallest penetration at least, so that the first instant of
+            // a contact (Kelvin–Voigt's c·v_imp) is a candidate
             let evaluate = |penetration: f64, rate: f64| {
-                let penetration = penetration.max(f64::MIN_POSITIVE);
-                let max_penetration = c.max_penetration.max(penetration);
-                law.force_in_contact(penetration, rate, c.impact_speed, max_penetration)
+                force_in_contact(law, c, penetration.max(f64::MIN_POSITIVE), rate)
             };
             // the force's rate at the ends, F_δ δ' + F_δ' δ'': it peaks inside only if it
             // rises at the start and falls at the end (else the larger end is the largest)
@@ -2462,9 +2479,9 @@ mod tests {
         dynamics.at(&contacts, None, 0.0, &mut start);
         let (guess, wall) = super::predicted_closing(&contacts, &start).unwrap();
         assert!((guess / lo - 1.0).abs() > 1e-4, "{guess} {lo}");
-        let refined = dynamics
-            .free_closing(&contacts, 0.0, &start, wall, guess)
-            .unwrap();
+        let refined = by_size!(start.x.len(), |N| dynamics
+            .free_closing::<N>(&contacts, 0.0, &start, wall, guess))
+        .unwrap();
         assert!((refined / lo - 1.0).abs() < 1e-8, "{refined} {lo}");
     }
 
