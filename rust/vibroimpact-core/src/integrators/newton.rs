@@ -8,7 +8,6 @@
 //! the precise method's predictor–corrector): each integrator only states its step's
 //! [`GapProblem`] (`W`, `Δu_lin`, and how the gap rates follow `Δu`).
 
-use super::sized::Inline;
 use super::StepFailure;
 use crate::gap::{Wall, WallState};
 use crate::system::{System, Tangent};
@@ -61,19 +60,19 @@ pub(crate) struct GapProblem<'a> {
 #[derive(Debug, Clone)]
 pub(crate) struct GapNewton {
     /// Unknown `Δu`: the caller writes the initial guess here.
-    pub du: Inline<f64>,
+    pub du: Vec<f64>,
     /// Gap coordinates `u₀ + Δu` and rates of the last iterate (the solution on success).
     pub u: Vec<f64>,
-    pub u_rate: Inline<f64>,
-    residual: Inline<f64>,
+    pub u_rate: Vec<f64>,
+    residual: Vec<f64>,
     tangent: Tangent,
-    stiffness: Inline<f64>,
+    stiffness: Vec<f64>,
     /// A radial gap's coupling `K[p][g]` of coordinate `g` to its partner `p` (with `K` as
     /// `stiffness` is its diagonal).
-    coupling: Inline<f64>,
+    coupling: Vec<f64>,
     jacobian: Vec<f64>,
     step: Vec<f64>,
-    increment: Inline<f64>,
+    increment: Vec<f64>,
     active: Vec<usize>,
 }
 
@@ -116,16 +115,16 @@ impl GapNewton {
     pub fn new(n_gaps: usize) -> Self {
         let ng = n_gaps;
         Self {
-            du: Inline::new(ng, 0.0),
+            du: vec![0.0; ng],
             u: vec![0.0; ng],
-            u_rate: Inline::new(ng, 0.0),
-            residual: Inline::new(ng, 0.0),
+            u_rate: vec![0.0; ng],
+            residual: vec![0.0; ng],
             tangent: Tangent::new(ng),
-            stiffness: Inline::new(ng, 0.0),
-            coupling: Inline::new(ng, 0.0),
+            stiffness: vec![0.0; ng],
+            coupling: vec![0.0; ng],
             jacobian: vec![0.0; ng * ng],
             step: vec![0.0; ng],
-            increment: Inline::new(ng, 0.0),
+            increment: vec![0.0; ng],
             active: Vec::with_capacity(ng),
         }
     }
@@ -154,8 +153,7 @@ impl GapNewton {
 
     /// [`Self::solve`] with its loops over the gap coordinates compiled for `G` of them (a
     /// model with one 1-D gap: `G = 1`), or for any number (`G = 0`): the same arithmetic in
-    /// the same order; the work vectors of one coordinate are read at their constant places
-    /// ([`Inline`]), without a length check or a pointer load.
+    /// the same order.
     #[inline(always)]
     fn solve_sized<const G: usize>(
         &mut self,
@@ -180,11 +178,7 @@ impl GapNewton {
         let mut increment_small = false;
         loop {
             // the work vectors sliced to the constant count once, not checked per access
-            let (du, u, u_rate) = (
-                self.du.sized::<G>(),
-                &mut self.u[..ng],
-                self.u_rate.sized_mut::<G>(),
-            );
+            let (du, u, u_rate) = (&self.du[..ng], &mut self.u[..ng], &mut self.u_rate[..ng]);
             match p.rate {
                 RateMap::Diagonal(c) => {
                     for gi in 0..ng {
@@ -212,11 +206,11 @@ impl GapNewton {
             );
             let mut residual_small = true;
             self.active.clear();
-            let (du, u, phi) = (self.du.sized::<G>(), &self.u[..ng], &phi[..ng]);
+            let (du, u, phi) = (&self.du[..ng], &self.u[..ng], &phi[..ng]);
             let (residual, stiffness, coupling) = (
-                self.residual.sized_mut::<G>(),
-                self.stiffness.sized_mut::<G>(),
-                self.coupling.sized_mut::<G>(),
+                &mut self.residual[..ng],
+                &mut self.stiffness[..ng],
+                &mut self.coupling[..ng],
             );
             let t = &self.tangent;
             let (d_u, d_rate, cross_u, cross_rate) = (
@@ -278,16 +272,16 @@ impl GapNewton {
                 });
             }
             iterations += 1;
-            increment_small = self.apply_increment::<G>(settings, u0);
+            increment_small = self.apply_increment(settings, ng, u0);
         }
     }
 
-    /// `Δu += d` on the gap coordinates (`G` of them, or any number for `G = 0`); whether every `|d|` is within `rtol |u| + atol`
+    /// `Δu += d` on the `ng` gap coordinates; whether every `|d|` is within `rtol |u| + atol`
     /// (paper eq. 27).
     #[inline(always)]
-    fn apply_increment<const G: usize>(&mut self, settings: &NewtonSettings, u0: &[f64]) -> bool {
+    fn apply_increment(&mut self, settings: &NewtonSettings, ng: usize, u0: &[f64]) -> bool {
         let mut small = true;
-        let (du, increment) = (self.du.sized_mut::<G>(), self.increment.sized::<G>());
+        let (du, increment, u0) = (&mut self.du[..ng], &self.increment[..ng], &u0[..ng]);
         for ((du, &d), &u0) in du.iter_mut().zip(increment).zip(u0) {
             *du += d;
             if d.abs() > settings.rtol * (u0 + *du).abs() + settings.atol {
@@ -315,14 +309,14 @@ impl GapNewton {
             // one gap coordinate (a constant in `solve_sized::<1>`): the active set is it or
             // nothing and the system the scalar `1 + W K`; the arithmetic of the general
             // path below, without its index lists and `solve_small`'s call
-            self.increment.sized_mut::<1>()[0] = if self.active.is_empty() {
+            self.increment[0] = if self.active.is_empty() {
                 0.0 // −(the empty sum)
             } else {
-                let j = w[0] * self.stiffness.sized::<1>()[0] + 1.0;
+                let j = w[0] * self.stiffness[0] + 1.0;
                 if j == 0.0 {
                     return false;
                 }
-                -self.residual.sized::<1>()[0] / j
+                -self.residual[0] / j
             };
             return true;
         }
