@@ -26,6 +26,7 @@
 //! stiff high modes are better served by the implicit methods.
 
 use super::dop853_tableau::{A, A_DENSE, B, C, C_DENSE, D, DENSE_STAGES, E3, E5, STAGES};
+use super::sized::{by_size, dofs, Inline};
 use crate::contact::{power_law, ContactForce, ContactLaw, Law, MIN_IMPACT_SPEED};
 use crate::driver::{Run, StepIntegrals, StepPolicy};
 use crate::error::SimError;
@@ -170,47 +171,6 @@ struct Small {
     mass_inverse: Vec<f64>,
     damping: Vec<f64>,
     stiffness: Vec<f64>,
-}
-
-/// `$body` with the constant `$n` the model's DOF count `$size` for the small models (1 to
-/// 4 DOFs) and 0 for the others (`$body` calls an `#[inline(always)]` function generic over
-/// `$n`, [`dofs`]): the small models' loops over the DOFs unroll and their working vectors
-/// are arrays of their size ([`Vector`]): a 2-DOF rotor's evaluations cost a quarter less.
-macro_rules! by_size {
-    ($size:expr, |$n:ident| $body:expr) => {
-        match $size {
-            1 => {
-                const $n: usize = 1;
-                $body
-            }
-            2 => {
-                const $n: usize = 2;
-                $body
-            }
-            3 => {
-                const $n: usize = 3;
-                $body
-            }
-            4 => {
-                const $n: usize = 4;
-                $body
-            }
-            _ => {
-                const $n: usize = 0;
-                $body
-            }
-        }
-    };
-}
-
-/// The DOF count of code compiled for `N` DOFs ([`by_size`]; `N = 0`: any, `len`).
-#[inline(always)]
-fn dofs<const N: usize>(len: usize) -> usize {
-    if N > 0 {
-        N
-    } else {
-        len
-    }
 }
 
 /// A working vector of `n` zeros: for code compiled for `N > 0` DOFs an array on the stack (its
@@ -564,88 +524,8 @@ struct Stages {
     acc: Vec<f64>,
 }
 
-/// The largest model whose stage values are kept inline ([`Rows`]): the sizes [`by_size`]
-/// compiles for.
-const MAX_SIZED: usize = 4;
-
-/// `len` values (one per component: a DOF's, or its row of stage values): inline (at a
-/// constant place in their owner) for up to [`MAX_SIZED`], where the code compiled for `N` of
-/// them takes the first `N` at a constant count ([`Self::sized`]), else on the heap.
-#[derive(Clone)]
-struct Inline<T> {
-    inline: [T; MAX_SIZED],
-    heap: Vec<T>,
-    len: usize,
-}
-
 /// One row of stage values per component.
 type Rows = Inline<[f64; K]>;
-
-impl<T: Copy> Inline<T> {
-    fn new(len: usize, zero: T) -> Self {
-        Self {
-            inline: [zero; MAX_SIZED],
-            heap: if len > MAX_SIZED {
-                vec![zero; len]
-            } else {
-                Vec::new()
-            },
-            len,
-        }
-    }
-
-    /// The values, for code compiled for `N` components ([`by_size`]).
-    #[inline(always)]
-    fn sized<const N: usize>(&self) -> &[T] {
-        if N > 0 {
-            &self.inline[..N]
-        } else {
-            &self.heap
-        }
-    }
-
-    #[inline(always)]
-    fn sized_mut<const N: usize>(&mut self) -> &mut [T] {
-        if N > 0 {
-            &mut self.inline[..N]
-        } else {
-            &mut self.heap
-        }
-    }
-}
-
-impl<T> std::ops::Deref for Inline<T> {
-    type Target = [T];
-
-    #[inline]
-    fn deref(&self) -> &[T] {
-        if self.len <= MAX_SIZED {
-            &self.inline[..self.len]
-        } else {
-            &self.heap
-        }
-    }
-}
-
-impl<T> std::ops::DerefMut for Inline<T> {
-    #[inline]
-    fn deref_mut(&mut self) -> &mut [T] {
-        if self.len <= MAX_SIZED {
-            &mut self.inline[..self.len]
-        } else {
-            &mut self.heap
-        }
-    }
-}
-
-impl<'a, T> IntoIterator for &'a Inline<T> {
-    type Item = &'a T;
-    type IntoIter = std::slice::Iter<'a, T>;
-
-    fn into_iter(self) -> Self::IntoIter {
-        self.iter()
-    }
-}
 
 /// The end of a step.
 struct StepEnd {

@@ -9,6 +9,7 @@ mod newmark;
 mod newmark_variational;
 mod newton;
 mod precise;
+pub(crate) mod sized;
 
 pub use bathe::{Bathe, BatheStepper};
 pub use newmark::{substitution_time, NewmarkFamily, NewmarkStepper};

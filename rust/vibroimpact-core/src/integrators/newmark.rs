@@ -14,6 +14,7 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use nalgebra::DMatrix;
 
 use super::newton::{GapNewton, GapProblem, NewtonSettings, RateMap};
+use super::sized::{by_size, dofs, Inline};
 use super::{OperatorCache, StepFailure, Stepper};
 use crate::error::{invalid, SimError};
 use crate::factor::{FactorChoice, FactorInfo, FactorPlan, SpdFactor};
@@ -412,7 +413,9 @@ pub struct NewmarkStepper {
     constants: SchemeConstants,
     newton: NewtonSettings,
     operators: OperatorCache<StepOperator>,
-    dx: Vec<f64>,
+    /// The step's vectors over the DOFs are [`Inline`]: a model of up to four DOFs keeps them
+    /// at constant places in the stepper, read at its size without a length check.
+    dx: Inline<f64>,
     /// How `K̃` is factorised (`None`: dense predictor only), decided on the first operator.
     plan: OnceLock<Option<FactorPlan>>,
     /// Work vector of the sparse solve (the banded factor's zero padding on both sides).
@@ -420,9 +423,9 @@ pub struct NewmarkStepper {
     /// Scratch memory of the sparse solve.
     scratch: MemBuffer,
     /// `x̃ + c_f x₀` and `ṽ + c_f v₀`, the inputs of the predictor's right-hand side.
-    tilde: [Vec<f64>; 2],
+    tilde: [Inline<f64>; 2],
     /// Newmark's displacement predictor `d̃ = h v₀ + h²(½ − β) a₀`.
-    d_tilde: Vec<f64>,
+    d_tilde: Inline<f64>,
     /// `y −= A x` for the dense predictor (SIMD where the CPU has it).
     mat_vec: DenseMatVec,
     choice: PredictorChoice,
@@ -447,12 +450,12 @@ impl NewmarkStepper {
             constants: SchemeConstants::new(&scheme),
             newton,
             operators: OperatorCache::new(newton.max_step_cuts),
-            dx: vec![0.0; n],
+            dx: Inline::new(n, 0.0),
             plan: OnceLock::new(),
             padded: Vec::new(),
             scratch: MemBuffer::new(faer::dyn_stack::StackReq::EMPTY),
-            tilde: [vec![0.0; n], vec![0.0; n]],
-            d_tilde: vec![0.0; n],
+            tilde: [Inline::new(n, 0.0), Inline::new(n, 0.0)],
+            d_tilde: Inline::new(n, 0.0),
             mat_vec: DenseMatVec::fastest(),
             choice: PredictorChoice::Cheapest,
             steps: None,
@@ -563,13 +566,7 @@ impl Stepper for NewmarkStepper {
         h: f64,
         s1: &mut State,
     ) -> Result<usize, StepFailure> {
-        match s0.x.len() {
-            1 => self.step::<1>(sys, s0, level, h, s1),
-            2 => self.step::<2>(sys, s0, level, h, s1),
-            3 => self.step::<3>(sys, s0, level, h, s1),
-            4 => self.step::<4>(sys, s0, level, h, s1),
-            _ => self.step::<0>(sys, s0, level, h, s1),
-        }
+        by_size!(s0.x.len(), |N| self.step::<N>(sys, s0, level, h, s1))
     }
 
     fn linear_solver(&self) -> Option<FactorInfo> {
@@ -622,7 +619,7 @@ impl NewmarkStepper {
             c_f,
         } = self.constants;
         let [a0, a1, _, _, a4, a5] = op.a;
-        let n = if N > 0 { N } else { s0.x.len() };
+        let n = dofs::<N>(s0.x.len());
 
         // Linear predictor (see StepOperator).
         s1.t = s0.t + h;
@@ -635,10 +632,10 @@ impl NewmarkStepper {
         let (d_a, v_a) = (h * h * half_minus_beta, one_minus_gamma * h);
         let [xt, vt] = &mut self.tilde;
         let (d_tilde, d, xt, vt) = (
-            &mut self.d_tilde[..n],
-            &mut self.dx[..n],
-            &mut xt[..n],
-            &mut vt[..n],
+            self.d_tilde.sized_mut::<N>(),
+            self.dx.sized_mut::<N>(),
+            xt.sized_mut::<N>(),
+            vt.sized_mut::<N>(),
         );
         for i in 0..n {
             d_tilde[i] = h * v_old[i] + d_a * a_old[i];
@@ -697,13 +694,13 @@ impl NewmarkStepper {
         if c_f != 0.0 {
             for (col, &p) in op.gaps.iter().zip(&s0.phi) {
                 if p != 0.0 {
-                    axpy(-c_f * p, &col[..n], &mut self.dx[..n]);
+                    axpy(-c_f * p, &col[..n], self.dx.sized_mut::<N>());
                 }
             }
         }
         // The gap coordinates of e and of d̃ (as System::gap_coordinates, in one pass), and
         // the linear predictor's gap coordinates u₀ + Δu_lin (Newton's first iterate).
-        let (dx, d_tilde) = (&self.dx[..n], &self.d_tilde[..n]);
+        let (dx, d_tilde) = (self.dx.sized::<N>(), self.d_tilde.sized::<N>());
         let newton = &mut self.gap_newton;
         let gaps = self.du_lin.iter_mut().zip(&mut newton.u).zip(&s0.u);
         if let Some(dofs) = &sys.unit_dofs {
@@ -749,7 +746,7 @@ impl NewmarkStepper {
             let iterations =
                 newton.solve(sys, &self.newton, &problem, &mut s1.walls, &mut s1.phi)?;
             // e = e_lin − Σ_g G_g φ_g
-            let dx = &mut self.dx[..n];
+            let dx = self.dx.sized_mut::<N>();
             for (col, &p) in op.gaps.iter().zip(&s1.phi) {
                 if p != 0.0 {
                     axpy(-p, &col[..n], dx);
@@ -761,10 +758,10 @@ impl NewmarkStepper {
         // The Newmark relations (eqs. 14, 18) in predictor form: x₁ = x₀ + d̃ + e and
         // a₁ = a₀ e (the same as a₀ Δx − a₂ v₀ − a₃ a₀ without its cancellation of large
         // terms), v₁ from a₁; a₁ below NEGLIGIBLE_ACCELERATION is set to 0.
-        let dx = &self.dx[..n];
+        let dx = self.dx.sized::<N>();
         let (x0, v0, a0_old) = (&s0.x[..n], &s0.v[..n], &s0.a[..n]);
         let (x1, v1, a1_new) = (&mut s1.x[..n], &mut s1.v[..n], &mut s1.a[..n]);
-        let d_tilde = &self.d_tilde[..n];
+        let d_tilde = self.d_tilde.sized::<N>();
         for i in 0..n {
             let e = dx[i];
             x1[i] = x0[i] + (d_tilde[i] + e);
