@@ -2199,6 +2199,7 @@ mod tests {
 
     use crate::contact::{Hertz, Law};
     use crate::gap::{Gap, Side};
+    use crate::integrators::sized::by_size;
     use crate::integrators::NewtonSettings;
     use crate::method::Method;
     use crate::settings::{Adaptive, RunSettings};
