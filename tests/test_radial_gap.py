@@ -292,6 +292,8 @@ def test_rub_benchmark_errors_equal_those_against_scipy() -> None:
     y, _ = scipy_rub(p, revolutions * period, rtol=1e-13)
     for key, method, dt in (
             ("dop853_loose", vi.Dop853(adaptive=vi.Adaptive(rtol=1e-8, atol=1e-14)), period / 100),
+            ("dop853_coarse", vi.Dop853(adaptive=vi.Adaptive(rtol=1e-6, atol=1e-14)),
+             period / 100),
             ("newmark", vi.Newmark(), period / 200)):
         r = vi.simulate(rub_model(p), t_end=revolutions * period, dt=dt, method=method,
                         every=1_000_000)
@@ -299,4 +301,5 @@ def test_rub_benchmark_errors_equal_those_against_scipy() -> None:
         assert b[f"{key}_1000_error_m"] == pytest.approx(against_scipy, abs=1e-13), key
         assert b[f"{key}_1000_error_m"] > 1e3 * b["reference_convergence_m"], key
     assert b["reference_convergence_m"] < 1e-13 * revolutions
-    assert b["reference_contacts_1000"] == b["newmark_contacts_1000"] == b["contacts_1000"]
+    assert (b["reference_contacts_1000"] == b["newmark_contacts_1000"] == b["contacts_1000"]
+            == b["dop853_coarse_contacts_1000"])

@@ -185,6 +185,7 @@ def _print_rotor_rub(repeats: int, quick: bool) -> None:
     for label, key, contacts in (
             (f"DOP853 rtol {b['rtol']:g}", "dop853", "contacts_1000"),
             (f"DOP853 rtol {b['loose_rtol']:g}", "dop853_loose", "dop853_loose_contacts_1000"),
+            (f"DOP853 rtol {b['coarse_rtol']:g}", "dop853_coarse", "dop853_coarse_contacts_1000"),
             ("Newmark 200 steps/rev", "newmark", "newmark_contacts_1000")):
         print(f"    {label:22s} {b[key + '_1000_s'] * 1e3:6.1f} ms, error "
               f"{b[key + '_1000_error_m']:.1e} / {b[key + '_1000_delta_max_error_m']:.1e} m "
