@@ -140,6 +140,13 @@ pub trait Stepper {
     /// history here).
     fn accept(&mut self, _sys: &System, _state: &State) {}
 
+    /// The last successful attempt was in free flight: every wall open at both ends of the
+    /// step, found without evaluating a wall (then the commit skips the contact accounts and
+    /// the impact table without looking at the walls). `false` when not known.
+    fn last_step_free(&self) -> bool {
+        false
+    }
+
     /// The linear solver of the largest step's effective stiffness, for the log (steppers
     /// that choose one).
     fn linear_solver(&self) -> Option<FactorInfo> {
