@@ -47,26 +47,28 @@ impl<T> OperatorCache<T> {
         self.levels[0] = Some(op);
     }
 
-    /// Builds the operator of a step of length `h` at `level` unless it is cached.
+    /// Builds the operator of a step of length `h` at `level` unless it is cached, and
+    /// returns it (one look-up where a step used to ensure it, then get it).
     pub(crate) fn ensure<E>(
         &mut self,
         level: usize,
         h: f64,
         build: impl FnOnce() -> Result<T, E>,
-    ) -> Result<(), E> {
+    ) -> Result<&T, E> {
         match self.levels.get_mut(level) {
             Some(slot) => {
                 if slot.is_none() {
                     *slot = Some(build()?);
                 }
+                Ok(slot.as_ref().expect("built above"))
             }
             None => {
                 if self.one_off.as_ref().is_none_or(|(size, _)| *size != h) {
                     self.one_off = Some((h, build()?));
                 }
+                Ok(&self.one_off.as_ref().expect("built above").1)
             }
         }
-        Ok(())
     }
 
     /// The operator of level 0, if it is built.

@@ -618,10 +618,10 @@ impl NewmarkStepper {
                 self.steps,
             )
         };
-        self.operators
+        let op = self
+            .operators
             .ensure(level, h, build)
             .map_err(|_| StepFailure::singular_tangent())?;
-        let op = self.operators.get(level);
         let gamma = self.scheme.gamma;
         let SchemeConstants {
             half_minus_beta,
