@@ -535,6 +535,9 @@ impl ImpactLog {
     /// knows of each wall inside the step (else the trapezoidal rule, the parabola through the
     /// last force samples and the cubic Hermite interpolant of the penetration). The force at
     /// a contact's first instant is always a candidate for its peak (see [`onset_force`]).
+    // (in line in `Run::commit`, its one caller, as it was before the commit had a
+    // free-flight variant)
+    #[inline(always)]
     pub(crate) fn commit(
         &mut self,
         sys: &System,

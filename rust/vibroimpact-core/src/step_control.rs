@@ -131,7 +131,8 @@ impl<S: Stepper + ?Sized, D: StepDerivative> StepPolicy for FixedSteps<'_, S, D>
             {
                 Ok(iterations) => {
                     self.derivative.step(sys, &run.cur, &run.trial, h)?;
-                    run.accept(sys, self.stepper, h, iterations)?;
+                    let free = self.stepper.last_step_free();
+                    run.accept(sys, self.stepper, h, iterations, free)?;
                 }
                 Err(failure) => {
                     run.stats.rejected_steps += 1;
@@ -545,7 +546,7 @@ impl StepPolicy for AdaptiveSteps<'_> {
             {
                 *pending = closed_now || (*pending && w1.closed() && w1.rate > 0.0);
             }
-            run.accept(sys, self.stepper, h, iterations)?;
+            run.accept(sys, self.stepper, h, iterations, false)?;
             run.stats.steps += solves - 1;
             for (m, v) in self.v_max.iter_mut().zip(&run.cur.v) {
                 *m = m.max(v.abs());

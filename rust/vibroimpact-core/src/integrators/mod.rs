@@ -47,26 +47,28 @@ impl<T> OperatorCache<T> {
         self.levels[0] = Some(op);
     }
 
-    /// Builds the operator of a step of length `h` at `level` unless it is cached.
+    /// Builds the operator of a step of length `h` at `level` unless it is cached, and
+    /// returns it (one look-up where a step used to ensure it, then get it).
     pub(crate) fn ensure<E>(
         &mut self,
         level: usize,
         h: f64,
         build: impl FnOnce() -> Result<T, E>,
-    ) -> Result<(), E> {
+    ) -> Result<&T, E> {
         match self.levels.get_mut(level) {
             Some(slot) => {
                 if slot.is_none() {
                     *slot = Some(build()?);
                 }
+                Ok(slot.as_ref().expect("built above"))
             }
             None => {
                 if self.one_off.as_ref().is_none_or(|(size, _)| *size != h) {
                     self.one_off = Some((h, build()?));
                 }
+                Ok(&self.one_off.as_ref().expect("built above").1)
             }
         }
-        Ok(())
     }
 
     /// The operator of level 0, if it is built.
@@ -139,6 +141,13 @@ pub trait Stepper {
     /// The last successful attempt became the current state (multi-step methods shift their
     /// history here).
     fn accept(&mut self, _sys: &System, _state: &State) {}
+
+    /// The last successful attempt was in free flight: every wall open at both ends of the
+    /// step, found without evaluating a wall (then the commit skips the contact accounts and
+    /// the impact table without looking at the walls). `false` when not known.
+    fn last_step_free(&self) -> bool {
+        false
+    }
 
     /// The linear solver of the largest step's effective stiffness, for the log (steppers
     /// that choose one).

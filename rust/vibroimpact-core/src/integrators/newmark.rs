@@ -434,6 +434,8 @@ pub struct NewmarkStepper {
     du_lin: Vec<f64>,
     rate_lin: Vec<f64>,
     gap_newton: GapNewton,
+    /// The last step was in free flight ([`Stepper::last_step_free`]).
+    free: bool,
 }
 
 impl NewmarkStepper {
@@ -462,6 +464,7 @@ impl NewmarkStepper {
             du_lin: vec![0.0; ng],
             rate_lin: vec![0.0; ng],
             gap_newton: GapNewton::new(ng),
+            free: false,
         })
     }
 
@@ -573,6 +576,13 @@ impl Stepper for NewmarkStepper {
         self.operators.largest().map(|op| op.info)
     }
 
+    /// A step that `GapNewton::free_flight` found free (no radial gap: that test covers the
+    /// 1-D walls only through the predictor, and a radial wall's slide is checked at commit).
+    #[inline(always)]
+    fn last_step_free(&self) -> bool {
+        self.free
+    }
+
     /// The step [`Self::attempt`] dispatches to.
     fn step_path(&self, sys: &System) -> &'static str {
         match sys.n_dof() {
@@ -608,17 +618,17 @@ impl NewmarkStepper {
                 self.steps,
             )
         };
-        self.operators
+        let op = self
+            .operators
             .ensure(level, h, build)
             .map_err(|_| StepFailure::singular_tangent())?;
-        let op = self.operators.get(level);
         let gamma = self.scheme.gamma;
         let SchemeConstants {
             half_minus_beta,
             one_minus_gamma,
             c_f,
         } = self.constants;
-        let [a0, a1, _, _, a4, a5] = op.a;
+        let a0 = op.a[0];
         let n = dofs::<N>(s0.x.len());
 
         // Linear predictor (see StepOperator).
@@ -722,37 +732,13 @@ impl NewmarkStepper {
 
         // Free flight (no wall closed at either end: the linear step is the step, with no
         // contact force) needs no Newton, no contact terms and no wall evaluated; otherwise
-        // Newton on the gap coordinates, starting from the previous step's contact forces,
-        // with the gap rates that follow the increment through eq. 17:
-        // u̇₁ = a₁ Δu − a₄ u̇₀ − a₅ ü₀.
+        // Newton (Self::contact_correction).
         let free = newton.free_flight(sys, &s0.walls);
+        self.free = free && !sys.has_radial;
         let iterations = if free {
             0
         } else {
-            let gap_rates = s0.u_rate.iter().zip(&s0.u_accel);
-            for (rate, (r0, acc0)) in self.rate_lin.iter_mut().zip(gap_rates) {
-                *rate = -a4 * r0 - a5 * acc0;
-            }
-            let problem = GapProblem {
-                w: &op.w,
-                u0: &s0.u,
-                du_lin: &self.du_lin,
-                rate_lin: &self.rate_lin,
-                rate: RateMap::Diagonal(a1),
-                start: &s0.walls,
-                h,
-            };
-            newton.start_from(&op.w, &self.du_lin, &s0.phi);
-            let iterations =
-                newton.solve(sys, &self.newton, &problem, &mut s1.walls, &mut s1.phi)?;
-            // e = e_lin − Σ_g G_g φ_g
-            let dx = self.dx.sized_mut::<N>();
-            for (col, &p) in op.gaps.iter().zip(&s1.phi) {
-                if p != 0.0 {
-                    axpy(-p, &col[..n], dx);
-                }
-            }
-            iterations
+            self.contact_correction::<N>(sys, s0, level, h, s1)?
         };
 
         // The Newmark relations (eqs. 14, 18) in predictor form: x₁ = x₀ + d̃ + e and
@@ -777,6 +763,48 @@ impl NewmarkStepper {
             s1.finish_free_flight(sys, &self.gap_newton.u);
         } else {
             s1.finish_gaps(sys, &self.gap_newton.u);
+        }
+        Ok(iterations)
+    }
+
+    /// The contact step's part of [`Self::step`] (some wall closed at an end of the step):
+    /// Newton on the gap coordinates, starting from the previous step's contact forces, with
+    /// the gap rates that follow the increment through eq. 17 (u̇₁ = a₁ Δu − a₄ u̇₀ − a₅ ü₀),
+    /// then the correction `e = e_lin − Σ_g G_g φ_g`. Out of line, so that a free-flight step
+    /// does not carry Newton's registers and stack frame.
+    #[inline(never)]
+    fn contact_correction<const N: usize>(
+        &mut self,
+        sys: &System,
+        s0: &State,
+        level: usize,
+        h: f64,
+        s1: &mut State,
+    ) -> Result<usize, StepFailure> {
+        let op = self.operators.get(level);
+        let [_, a1, _, _, a4, a5] = op.a;
+        let n = dofs::<N>(s0.x.len());
+        let gap_rates = s0.u_rate.iter().zip(&s0.u_accel);
+        for (rate, (r0, acc0)) in self.rate_lin.iter_mut().zip(gap_rates) {
+            *rate = -a4 * r0 - a5 * acc0;
+        }
+        let problem = GapProblem {
+            w: &op.w,
+            u0: &s0.u,
+            du_lin: &self.du_lin,
+            rate_lin: &self.rate_lin,
+            rate: RateMap::Diagonal(a1),
+            start: &s0.walls,
+            h,
+        };
+        let newton = &mut self.gap_newton;
+        newton.start_from(&op.w, &self.du_lin, &s0.phi);
+        let iterations = newton.solve(sys, &self.newton, &problem, &mut s1.walls, &mut s1.phi)?;
+        let dx = self.dx.sized_mut::<N>();
+        for (col, &p) in op.gaps.iter().zip(&s1.phi) {
+            if p != 0.0 {
+                axpy(-p, &col[..n], dx);
+            }
         }
         Ok(iterations)
     }
