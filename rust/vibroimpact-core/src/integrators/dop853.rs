@@ -662,14 +662,20 @@ impl Stages {
         store(&mut self.kp, 0, &start.power, g);
         store(&mut self.kf, 0, &start.forces, g);
         let root = matches!(clock, Clock::Root { .. });
-        // each stage its own code: its row of `A` a constant, its combination unrolls
+        // each stage its own code: its row of `A` a constant, its combination unrolls; and
+        // compiled apart for a step in time, where `dt/dvar` is 1 and no wall's penetration
+        // is given
         macro_rules! stages {
-            ($this:expr, $state:expr; $($i:literal)*) => {
-                $($this.stage::<N, $i>($state, dynamics, contacts, clock, t0, start, h, root)?;)*
+            ($this:expr, $state:expr, $in_time:literal; $($i:literal)*) => {
+                $($this.stage::<N, $i, $in_time>($state, dynamics, contacts, clock, t0, start, h)?;)*
             };
         }
         self.with_state::<N, _>(n, |this, mut state| {
-            stages!(this, &mut state; 1 2 3 4 5 6 7 8 9 10 11);
+            if root {
+                stages!(this, &mut state, false; 1 2 3 4 5 6 7 8 9 10 11);
+            } else {
+                stages!(this, &mut state, true; 1 2 3 4 5 6 7 8 9 10 11);
+            }
             Some(())
         })?;
         const _: () = assert!(
@@ -729,10 +735,11 @@ impl Stages {
     }
 
     /// Stage `I` of a step: its state (into `state`: `xs`, `vs`, `acc`) from the stages
-    /// before it, the right-hand side there, kept; `None` as [`Self::step`].
+    /// before it, the right-hand side there, kept; `None` as [`Self::step`]. `IN_TIME`: the
+    /// `clock` is [`Clock::Time`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn stage<const N: usize, const I: usize>(
+    fn stage<const N: usize, const I: usize, const IN_TIME: bool>(
         &mut self,
         state: &mut [&mut [f64]; 3],
         dynamics: &mut Dynamics,
@@ -741,18 +748,19 @@ impl Stages {
         t0: f64,
         start: &StepEnd,
         h: f64,
-        root: bool,
     ) -> Option<()> {
         let [xs, vs, acc] = state;
         let a = A[I];
         self.stage_state::<N>(a, start, h, xs, vs);
-        let t = if root {
-            t0 + h * combine(a, &self.kt)
+        let (t, g, wall) = if IN_TIME {
+            (t0 + C[I] * h, 1.0, None)
         } else {
-            t0 + C[I] * h
+            (
+                t0 + h * combine(a, &self.kt),
+                clock.dt_dvar(dynamics.sys, C[I], h, vs)?,
+                clock.penetration(C[I], h),
+            )
         };
-        let g = clock.dt_dvar(dynamics.sys, C[I], h, vs)?;
-        let wall = clock.penetration(C[I], h);
         // the right-hand side at the stage's size, inlined into the stage: no call and no
         // dispatch on the size per evaluation
         let power = dynamics.accel_sized::<N>(contacts, wall, t, xs, vs, acc);
