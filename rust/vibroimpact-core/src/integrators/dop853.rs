@@ -135,18 +135,68 @@ enum WallTerm<'s> {
     Radial {
         radial: &'s Radial,
         dofs: [usize; 2],
-        law: &'s Law,
+        law: WallLaw<'s>,
         clearance: f64,
     },
     /// A wall of a 1-D gap.
     Line {
         gap: &'s Gap,
+        law: WallLaw<'s>,
         sign: f64,
         clearance: f64,
     },
 }
 
+/// A wall's law with whether it is a linear stator ([`linear_stator`]) resolved once: a
+/// stage tested the law's family, exponent and series spring at every evaluation.
+#[derive(Clone, Copy)]
+struct WallLaw<'s> {
+    law: &'s Law,
+    /// The stiffness of a linear stator.
+    linear: Option<f64>,
+}
+
+impl<'s> WallLaw<'s> {
+    fn new(law: &'s Law) -> Self {
+        Self {
+            law,
+            linear: linear_stator(law),
+        }
+    }
+}
+
 impl<'s> WallTerm<'s> {
+    /// The wall's penetration, rate and acceleration at a state (a radial wall's:
+    /// `δ = ρ − c`, `δ̇ = n·ṗ`, `δ̈ = n·p̈ + (|ṗ|² − δ̇²)/ρ`).
+    #[inline]
+    fn motion(&self, x: &[f64], v: &[f64], a: &[f64]) -> [f64; 3] {
+        match *self {
+            Self::Radial {
+                radial: r,
+                dofs: [ix, iy],
+                clearance,
+                ..
+            } => {
+                let k = RadialKinematics::new(
+                    [x[ix] - r.center[0], x[iy] - r.center[1]],
+                    [v[ix], v[iy]],
+                );
+                let accel = k.normal[0] * a[ix] + k.normal[1] * a[iy] + k.slide * k.slide / k.rho;
+                [k.rho - clearance, k.rate, accel]
+            }
+            Self::Line {
+                gap,
+                sign,
+                clearance,
+                ..
+            } => [
+                signed_coordinate(gap, sign, x) - clearance,
+                signed_coordinate(gap, sign, v),
+                signed_coordinate(gap, sign, a),
+            ],
+        }
+    }
+
     fn new(sys: &'s System, j: usize) -> Self {
         let wall = &sys.walls[j];
         let gap = &sys.gaps[wall.gap];
@@ -154,11 +204,12 @@ impl<'s> WallTerm<'s> {
             Side::Radial(r) => Self::Radial {
                 radial: r,
                 dofs: [gap.dofs[0], sys.gaps[r.partner].dofs[0]],
-                law: &gap.law,
+                law: WallLaw::new(&gap.law),
                 clearance: wall.clearance,
             },
             _ => Self::Line {
                 gap,
+                law: WallLaw::new(&gap.law),
                 sign: wall.sign,
                 clearance: wall.clearance,
             },
@@ -409,7 +460,7 @@ impl<'s> Dynamics<'s> {
                 *wall_force = 0.0;
                 continue;
             }
-            let (gap, sign, clearance) = match *wall {
+            let (gap, law, sign, clearance) = match *wall {
                 WallTerm::Radial {
                     radial: r,
                     dofs: [ix, iy],
@@ -427,9 +478,10 @@ impl<'s> Dynamics<'s> {
                 }
                 WallTerm::Line {
                     gap,
+                    law,
                     sign,
                     clearance,
-                } => (gap, sign, clearance),
+                } => (gap, law, sign, clearance),
             };
             let (mut u, mut u_rate) = (0.0, 0.0);
             for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
@@ -441,7 +493,7 @@ impl<'s> Dynamics<'s> {
                 _ => sign * u - clearance,
             };
             let rate = sign * u_rate;
-            let force = force_in_contact(&gap.law, c, penetration, rate);
+            let force = force_in_contact(law, c, penetration, rate);
             for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
                 f[d] -= sign * coef * force.force;
             }
@@ -494,8 +546,8 @@ impl<'s> Dynamics<'s> {
     fn at(&mut self, contacts: &[Contact], root: Option<(usize, f64)>, t: f64, end: &mut StepEnd) {
         end.power = self.accel(contacts, root, t, &end.x, &end.v, &mut end.a);
         end.forces.copy_from_slice(&self.forces);
-        for (j, wall) in end.walls.iter_mut().enumerate() {
-            *wall = wall_motion(self.sys, j, &end.x, &end.v, &end.a);
+        for (motion, wall) in end.walls.iter_mut().zip(&self.walls) {
+            *motion = wall.motion(&end.x, &end.v, &end.a);
         }
     }
 }
@@ -1022,31 +1074,24 @@ fn norm(e5: f64, e3: f64, components: f64, h: f64, rough: bool) -> f64 {
 #[inline]
 fn toward_wall(sys: &System, j: usize, y: &[f64]) -> f64 {
     let wall = &sys.walls[j];
-    let g = &sys.gaps[wall.gap];
+    signed_coordinate(&sys.gaps[wall.gap], wall.sign, y)
+}
+
+/// Gap `g`'s coordinate `b·y` of a state vector `y`, times `sign` (a wall's, towards it).
+#[inline]
+fn signed_coordinate(g: &Gap, sign: f64, y: &[f64]) -> f64 {
     let u: f64 = g
         .dofs
         .iter()
         .zip(&g.coefficients)
         .map(|(&d, &c)| c * y[d])
         .sum();
-    wall.sign * u
+    sign * u
 }
 
-/// A wall's penetration, rate and acceleration at a state (a radial wall's:
-/// `δ = ρ − c`, `δ̇ = n·ṗ`, `δ̈ = n·p̈ + (|ṗ|² − δ̇²)/ρ`).
+/// Wall `j`'s penetration, rate and acceleration at a state ([`WallTerm::motion`]).
 fn wall_motion(sys: &System, j: usize, x: &[f64], v: &[f64], a: &[f64]) -> [f64; 3] {
-    let wall = &sys.walls[j];
-    if let Side::Radial(r) = &sys.gaps[wall.gap].side {
-        let k = sys.radial_at_dofs(r, wall.gap, x, v);
-        let (ix, iy) = (sys.gaps[wall.gap].dofs[0], sys.gaps[r.partner].dofs[0]);
-        let accel = k.normal[0] * a[ix] + k.normal[1] * a[iy] + k.slide * k.slide / k.rho;
-        return [k.rho - wall.clearance, k.rate, accel];
-    }
-    [
-        toward_wall(sys, j, x) - sys.walls[j].clearance,
-        toward_wall(sys, j, v),
-        toward_wall(sys, j, a),
-    ]
+    WallTerm::new(sys, j).motion(x, v, a)
 }
 
 /// Switches the walls that close or open (or pass their first peak) at the state: a closing
@@ -2048,7 +2093,7 @@ impl Inside {
                     penetration
                 };
             }
-            let law = &sys.gaps[sys.walls[j].gap].law;
+            let law = WallLaw::new(&sys.gaps[sys.walls[j].gap].law);
             // as the dynamics evaluate it (a linear stator's formula without the law's
             // dispatch): from the smallest penetration at least, so that the first instant of
             // a contact (Kelvin–Voigt's c·v_imp) is a candidate
@@ -2139,7 +2184,7 @@ fn radial_normal_force(
 fn radial_wall_force(
     r: &Radial,
     [ix, iy]: [usize; 2],
-    law: &Law,
+    law: WallLaw,
     clearance: f64,
     c: &Contact,
     x: &[f64],
@@ -2157,14 +2202,15 @@ fn radial_wall_force(
 /// penetration at least: a wall is closed up to its switching tolerance before it is reached,
 /// and a force that does not start from zero (Kelvin–Voigt's `c δ̇`) must not jump inside the
 /// step.
-fn force_in_contact(law: &Law, c: &Contact, penetration: f64, rate: f64) -> ContactForce {
-    if let Some(stiffness) = linear_stator(law) {
+fn force_in_contact(law: WallLaw, c: &Contact, penetration: f64, rate: f64) -> ContactForce {
+    if let Some(stiffness) = law.linear {
         // the law's own formula (`Hertz::evaluate`'s), without its dispatch and branches
         return power_law(stiffness, 1.0, penetration);
     }
     let penetration = penetration.max(f64::MIN_POSITIVE);
     let max_penetration = c.max_penetration.max(penetration);
-    law.force_in_contact(penetration, rate, c.impact_speed, max_penetration)
+    law.law
+        .force_in_contact(penetration, rate, c.impact_speed, max_penetration)
 }
 
 /// Whether a law's force continues analytically through its wall: a law linear in the
@@ -2215,7 +2261,7 @@ mod tests {
     use crate::structure::LinearStructure;
     use crate::system::System;
 
-    use super::{force_in_contact, linear_stator, Contact};
+    use super::{force_in_contact, linear_stator, Contact, WallLaw};
     use crate::contact::ContactLaw;
 
     /// A linear stator's force in contact (its own path) is its law's evaluation, bit for
@@ -2240,7 +2286,8 @@ mod tests {
         for i in 0..=200 {
             let delta = (i as f64 - 40.0) * 3.7e-8;
             let law = linear.evaluate_in_contact(delta, 0.1, 0.3, 2e-6_f64.max(delta));
-            assert_eq!(force_in_contact(&linear, &c, delta, 0.1), law, "{delta}");
+            let path = force_in_contact(WallLaw::new(&linear), &c, delta, 0.1);
+            assert_eq!(path, law, "{delta}");
         }
     }
 
