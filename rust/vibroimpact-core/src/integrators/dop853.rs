@@ -1020,29 +1020,49 @@ impl Stages {
     /// its dense output ([`Self::extend`] first): with `y` either,
     /// `y₀ + s(F₀ + (1−s)(F₁ + s(F₂ + (1−s)(F₃ + s(F₄ + (1−s)(F₅ + s F₆))))))`.
     fn dense(&self, d: usize, start: &StepEnd, end: &StepEnd, h: f64, s: f64) -> [f64; 2] {
-        let column = |k: &[[f64; K]], y0: f64, y1: f64, f0: f64, f1: f64| {
-            let k = &k[d];
-            let dy = y1 - y0;
-            let f = [
-                dy,
-                h * f0 - dy,
-                2.0 * dy - h * (f1 + f0),
-                h * combine(&D[0], k),
-                h * combine(&D[1], k),
-                h * combine(&D[2], k),
-                h * combine(&D[3], k),
-            ];
-            let mut y = 0.0;
-            for (i, fi) in f.iter().enumerate().rev() {
-                y = (y + fi) * if i % 2 == 0 { s } else { 1.0 - s };
-            }
-            y0 + y
-        };
         [
-            column(&self.kx, start.x[d], end.x[d], start.v[d], end.v[d]),
-            column(&self.kv, start.v[d], end.v[d], start.a[d], end.a[d]),
+            self.dense_displacement(d, start, end, h, s),
+            dense_column(
+                &self.kv[d],
+                [start.v[d], end.v[d]],
+                [start.a[d], end.a[d]],
+                h,
+                s,
+            ),
         ]
     }
+
+    /// [`Self::dense`]'s displacement alone (where a displacement turns, its value).
+    fn dense_displacement(&self, d: usize, start: &StepEnd, end: &StepEnd, h: f64, s: f64) -> f64 {
+        dense_column(
+            &self.kx[d],
+            [start.x[d], end.x[d]],
+            [start.v[d], end.v[d]],
+            h,
+            s,
+        )
+    }
+}
+
+/// One component `y` of [`Stages::dense`] from its stage values `k`, its values `y` and rates
+/// `f` at the step's ends.
+#[inline]
+fn dense_column(k: &[f64; K], [y0, y1]: [f64; 2], [f0, f1]: [f64; 2], h: f64, s: f64) -> f64 {
+    let dy = y1 - y0;
+    let f = [
+        dy,
+        h * f0 - dy,
+        2.0 * dy - h * (f1 + f0),
+        h * combine(&D[0], k),
+        h * combine(&D[1], k),
+        h * combine(&D[2], k),
+        h * combine(&D[3], k),
+    ];
+    let mut y = 0.0;
+    for (i, fi) in f.iter().enumerate().rev() {
+        y = (y + fi) * if i % 2 == 0 { s } else { 1.0 - s };
+    }
+    y0 + y
 }
 
 /// `x^(1/8)` by three square roots (a `powf` costs several times more, once or twice a step).
@@ -2014,6 +2034,18 @@ struct Dense<'a, 'd, 's> {
 impl Dense<'_, '_, '_> {
     /// DOF `d`'s displacement and velocity at the fraction `s` of the step.
     fn dof(&mut self, d: usize, s: f64) -> [f64; 2] {
+        self.extend();
+        self.stages.dense(d, self.start, self.end, self.h, s)
+    }
+
+    /// DOF `d`'s displacement alone at the fraction `s` of the step.
+    fn displacement(&mut self, d: usize, s: f64) -> f64 {
+        self.extend();
+        (self.stages).dense_displacement(d, self.start, self.end, self.h, s)
+    }
+
+    /// The dense output's three extra stages, computed on first use.
+    fn extend(&mut self) {
         if !self.extended {
             let (stages, dynamics) = (&mut *self.stages, &mut *self.dynamics);
             let (contacts, t0, start, h) = (self.contacts, self.t0, self.start, self.h);
@@ -2021,7 +2053,6 @@ impl Dense<'_, '_, '_> {
                 .extend::<N>(dynamics, contacts, t0, start, h));
             self.extended = true;
         }
-        self.stages.dense(d, self.start, self.end, self.h, s)
     }
 
     /// Wall `j`'s penetration and its rate at the fraction `s` of the step.
@@ -2077,7 +2108,7 @@ impl Inside {
         for &d in recorded {
             let ends = [start, end].map(|y| [y.x[d], y.v[d], y.a[d]]);
             self.displacement_turn[d] = turning_point(ends[0], ends[1], h)
-                .map(|(s, x)| (s, if in_time { dense.dof(d, s)[0] } else { x }));
+                .map(|(s, x)| (s, if in_time { dense.displacement(d, s) } else { x }));
         }
         for (j, c) in contacts.iter().enumerate() {
             (self.delta_max[j], self.force_max[j]) = (0.0, 0.0);
