@@ -538,8 +538,9 @@ pub struct LoadValues {
     shifts: Vec<Option<(usize, [f64; 2])>>,
     /// Per group of harmonic loads of one frequency: `2π f` and its first load's phase.
     groups: Vec<[f64; 2]>,
-    /// Per group: the anchor's index `k` and `sin`, `cos` of `k/4 + φ₀`.
-    anchors: Vec<(f64, (f64, f64))>,
+    /// Per group: the last anchors' indices `k` and `sin`, `cos` of `k/4 + φ₀`, anchor `k` in
+    /// slot `k mod ANCHOR_SLOTS` ([`Self::turn`]).
+    anchors: Vec<[(f64, (f64, f64)); ANCHOR_SLOTS]>,
     /// Per group: `sin θ`, `cos θ` at the last time evaluated.
     trig: Vec<(f64, f64)>,
     /// Each load's value `A g(t)` at the last time evaluated ([`Self::evaluate`]), N.
@@ -561,6 +562,11 @@ struct Target {
 
 /// The spacing (rad) of [`LoadValues`]' anchors, a power of 2 so that they are exact.
 const ANCHOR_SPACING: f64 = 0.25;
+
+/// Anchors kept per group: a DOP853 step spans about one spacing and its stages' times go
+/// back and forth over it, so with one anchor kept its `sin_cos` was recomputed ~4 times a
+/// step; with the neighbours kept, about once.
+const ANCHOR_SLOTS: usize = 4;
 
 impl LoadValues {
     pub fn new(loads: &[Load]) -> Self {
@@ -596,7 +602,7 @@ impl LoadValues {
             .collect();
         Self {
             shifts,
-            anchors: vec![(f64::NAN, (0.0, 1.0)); groups.len()],
+            anchors: vec![[(f64::NAN, (0.0, 1.0)); ANCHOR_SLOTS]; groups.len()],
             trig: vec![(0.0, 1.0); groups.len()],
             groups,
             values: vec![0.0; loads.len()],
@@ -651,9 +657,12 @@ impl LoadValues {
     #[inline(always)]
     fn turn(&mut self, t: f64) {
         let groups = self.groups.iter().zip(&mut self.anchors);
-        for ((&[omega, phase], anchor), trig) in groups.zip(&mut self.trig) {
+        for ((&[omega, phase], anchors), trig) in groups.zip(&mut self.trig) {
             let angle = omega * t;
             let k = nearest_integer(angle / ANCHOR_SPACING);
+            // `k` is an integer: its low bits pick the slot (any slot past 2⁶³, where the
+            // conversion saturates)
+            let anchor = &mut anchors[(k as i64 as usize) % ANCHOR_SLOTS];
             if anchor.0 != k {
                 *anchor = (k, (k * ANCHOR_SPACING + phase).sin_cos());
             }

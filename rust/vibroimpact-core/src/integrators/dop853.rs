@@ -135,18 +135,68 @@ enum WallTerm<'s> {
     Radial {
         radial: &'s Radial,
         dofs: [usize; 2],
-        law: &'s Law,
+        law: WallLaw<'s>,
         clearance: f64,
     },
     /// A wall of a 1-D gap.
     Line {
         gap: &'s Gap,
+        law: WallLaw<'s>,
         sign: f64,
         clearance: f64,
     },
 }
 
+/// A wall's law with whether it is a linear stator ([`linear_stator`]) resolved once: a
+/// stage tested the law's family, exponent and series spring at every evaluation.
+#[derive(Clone, Copy)]
+struct WallLaw<'s> {
+    law: &'s Law,
+    /// The stiffness of a linear stator.
+    linear: Option<f64>,
+}
+
+impl<'s> WallLaw<'s> {
+    fn new(law: &'s Law) -> Self {
+        Self {
+            law,
+            linear: linear_stator(law),
+        }
+    }
+}
+
 impl<'s> WallTerm<'s> {
+    /// The wall's penetration, rate and acceleration at a state (a radial wall's:
+    /// `δ = ρ − c`, `δ̇ = n·ṗ`, `δ̈ = n·p̈ + (|ṗ|² − δ̇²)/ρ`).
+    #[inline]
+    fn motion(&self, x: &[f64], v: &[f64], a: &[f64]) -> [f64; 3] {
+        match *self {
+            Self::Radial {
+                radial: r,
+                dofs: [ix, iy],
+                clearance,
+                ..
+            } => {
+                let k = RadialKinematics::new(
+                    [x[ix] - r.center[0], x[iy] - r.center[1]],
+                    [v[ix], v[iy]],
+                );
+                let accel = k.normal[0] * a[ix] + k.normal[1] * a[iy] + k.slide * k.slide / k.rho;
+                [k.rho - clearance, k.rate, accel]
+            }
+            Self::Line {
+                gap,
+                sign,
+                clearance,
+                ..
+            } => [
+                signed_coordinate(gap, sign, x) - clearance,
+                signed_coordinate(gap, sign, v),
+                signed_coordinate(gap, sign, a),
+            ],
+        }
+    }
+
     fn new(sys: &'s System, j: usize) -> Self {
         let wall = &sys.walls[j];
         let gap = &sys.gaps[wall.gap];
@@ -154,11 +204,12 @@ impl<'s> WallTerm<'s> {
             Side::Radial(r) => Self::Radial {
                 radial: r,
                 dofs: [gap.dofs[0], sys.gaps[r.partner].dofs[0]],
-                law: &gap.law,
+                law: WallLaw::new(&gap.law),
                 clearance: wall.clearance,
             },
             _ => Self::Line {
                 gap,
+                law: WallLaw::new(&gap.law),
                 sign: wall.sign,
                 clearance: wall.clearance,
             },
@@ -409,7 +460,7 @@ impl<'s> Dynamics<'s> {
                 *wall_force = 0.0;
                 continue;
             }
-            let (gap, sign, clearance) = match *wall {
+            let (gap, law, sign, clearance) = match *wall {
                 WallTerm::Radial {
                     radial: r,
                     dofs: [ix, iy],
@@ -427,9 +478,10 @@ impl<'s> Dynamics<'s> {
                 }
                 WallTerm::Line {
                     gap,
+                    law,
                     sign,
                     clearance,
-                } => (gap, sign, clearance),
+                } => (gap, law, sign, clearance),
             };
             let (mut u, mut u_rate) = (0.0, 0.0);
             for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
@@ -441,7 +493,7 @@ impl<'s> Dynamics<'s> {
                 _ => sign * u - clearance,
             };
             let rate = sign * u_rate;
-            let force = force_in_contact(&gap.law, c, penetration, rate);
+            let force = force_in_contact(law, c, penetration, rate);
             for (&d, &coef) in gap.dofs.iter().zip(&gap.coefficients) {
                 f[d] -= sign * coef * force.force;
             }
@@ -494,8 +546,8 @@ impl<'s> Dynamics<'s> {
     fn at(&mut self, contacts: &[Contact], root: Option<(usize, f64)>, t: f64, end: &mut StepEnd) {
         end.power = self.accel(contacts, root, t, &end.x, &end.v, &mut end.a);
         end.forces.copy_from_slice(&self.forces);
-        for (j, wall) in end.walls.iter_mut().enumerate() {
-            *wall = wall_motion(self.sys, j, &end.x, &end.v, &end.a);
+        for (motion, wall) in end.walls.iter_mut().zip(&self.walls) {
+            *motion = wall.motion(&end.x, &end.v, &end.a);
         }
     }
 }
@@ -662,14 +714,20 @@ impl Stages {
         store(&mut self.kp, 0, &start.power, g);
         store(&mut self.kf, 0, &start.forces, g);
         let root = matches!(clock, Clock::Root { .. });
-        // each stage its own code: its row of `A` a constant, its combination unrolls
+        // each stage its own code: its row of `A` a constant, its combination unrolls; and
+        // compiled apart for a step in time, where `dt/dvar` is 1 and no wall's penetration
+        // is given
         macro_rules! stages {
-            ($this:expr, $state:expr; $($i:literal)*) => {
-                $($this.stage::<N, $i>($state, dynamics, contacts, clock, t0, start, h, root)?;)*
+            ($this:expr, $state:expr, $in_time:literal; $($i:literal)*) => {
+                $($this.stage::<N, $i, $in_time>($state, dynamics, contacts, clock, t0, start, h)?;)*
             };
         }
         self.with_state::<N, _>(n, |this, mut state| {
-            stages!(this, &mut state; 1 2 3 4 5 6 7 8 9 10 11);
+            if root {
+                stages!(this, &mut state, false; 1 2 3 4 5 6 7 8 9 10 11);
+            } else {
+                stages!(this, &mut state, true; 1 2 3 4 5 6 7 8 9 10 11);
+            }
             Some(())
         })?;
         const _: () = assert!(
@@ -729,10 +787,11 @@ impl Stages {
     }
 
     /// Stage `I` of a step: its state (into `state`: `xs`, `vs`, `acc`) from the stages
-    /// before it, the right-hand side there, kept; `None` as [`Self::step`].
+    /// before it, the right-hand side there, kept; `None` as [`Self::step`]. `IN_TIME`: the
+    /// `clock` is [`Clock::Time`].
     #[inline(always)]
     #[allow(clippy::too_many_arguments)]
-    fn stage<const N: usize, const I: usize>(
+    fn stage<const N: usize, const I: usize, const IN_TIME: bool>(
         &mut self,
         state: &mut [&mut [f64]; 3],
         dynamics: &mut Dynamics,
@@ -741,18 +800,19 @@ impl Stages {
         t0: f64,
         start: &StepEnd,
         h: f64,
-        root: bool,
     ) -> Option<()> {
         let [xs, vs, acc] = state;
         let a = A[I];
         self.stage_state::<N>(a, start, h, xs, vs);
-        let t = if root {
-            t0 + h * combine(a, &self.kt)
+        let (t, g, wall) = if IN_TIME {
+            (t0 + C[I] * h, 1.0, None)
         } else {
-            t0 + C[I] * h
+            (
+                t0 + h * combine(a, &self.kt),
+                clock.dt_dvar(dynamics.sys, C[I], h, vs)?,
+                clock.penetration(C[I], h),
+            )
         };
-        let g = clock.dt_dvar(dynamics.sys, C[I], h, vs)?;
-        let wall = clock.penetration(C[I], h);
         // the right-hand side at the stage's size, inlined into the stage: no call and no
         // dispatch on the size per evaluation
         let power = dynamics.accel_sized::<N>(contacts, wall, t, xs, vs, acc);
@@ -960,29 +1020,49 @@ impl Stages {
     /// its dense output ([`Self::extend`] first): with `y` either,
     /// `y₀ + s(F₀ + (1−s)(F₁ + s(F₂ + (1−s)(F₃ + s(F₄ + (1−s)(F₅ + s F₆))))))`.
     fn dense(&self, d: usize, start: &StepEnd, end: &StepEnd, h: f64, s: f64) -> [f64; 2] {
-        let column = |k: &[[f64; K]], y0: f64, y1: f64, f0: f64, f1: f64| {
-            let k = &k[d];
-            let dy = y1 - y0;
-            let f = [
-                dy,
-                h * f0 - dy,
-                2.0 * dy - h * (f1 + f0),
-                h * combine(&D[0], k),
-                h * combine(&D[1], k),
-                h * combine(&D[2], k),
-                h * combine(&D[3], k),
-            ];
-            let mut y = 0.0;
-            for (i, fi) in f.iter().enumerate().rev() {
-                y = (y + fi) * if i % 2 == 0 { s } else { 1.0 - s };
-            }
-            y0 + y
-        };
         [
-            column(&self.kx, start.x[d], end.x[d], start.v[d], end.v[d]),
-            column(&self.kv, start.v[d], end.v[d], start.a[d], end.a[d]),
+            self.dense_displacement(d, start, end, h, s),
+            dense_column(
+                &self.kv[d],
+                [start.v[d], end.v[d]],
+                [start.a[d], end.a[d]],
+                h,
+                s,
+            ),
         ]
     }
+
+    /// [`Self::dense`]'s displacement alone (where a displacement turns, its value).
+    fn dense_displacement(&self, d: usize, start: &StepEnd, end: &StepEnd, h: f64, s: f64) -> f64 {
+        dense_column(
+            &self.kx[d],
+            [start.x[d], end.x[d]],
+            [start.v[d], end.v[d]],
+            h,
+            s,
+        )
+    }
+}
+
+/// One component `y` of [`Stages::dense`] from its stage values `k`, its values `y` and rates
+/// `f` at the step's ends.
+#[inline]
+fn dense_column(k: &[f64; K], [y0, y1]: [f64; 2], [f0, f1]: [f64; 2], h: f64, s: f64) -> f64 {
+    let dy = y1 - y0;
+    let f = [
+        dy,
+        h * f0 - dy,
+        2.0 * dy - h * (f1 + f0),
+        h * combine(&D[0], k),
+        h * combine(&D[1], k),
+        h * combine(&D[2], k),
+        h * combine(&D[3], k),
+    ];
+    let mut y = 0.0;
+    for (i, fi) in f.iter().enumerate().rev() {
+        y = (y + fi) * if i % 2 == 0 { s } else { 1.0 - s };
+    }
+    y0 + y
 }
 
 /// `x^(1/8)` by three square roots (a `powf` costs several times more, once or twice a step).
@@ -1014,31 +1094,24 @@ fn norm(e5: f64, e3: f64, components: f64, h: f64, rough: bool) -> f64 {
 #[inline]
 fn toward_wall(sys: &System, j: usize, y: &[f64]) -> f64 {
     let wall = &sys.walls[j];
-    let g = &sys.gaps[wall.gap];
+    signed_coordinate(&sys.gaps[wall.gap], wall.sign, y)
+}
+
+/// Gap `g`'s coordinate `b·y` of a state vector `y`, times `sign` (a wall's, towards it).
+#[inline]
+fn signed_coordinate(g: &Gap, sign: f64, y: &[f64]) -> f64 {
     let u: f64 = g
         .dofs
         .iter()
         .zip(&g.coefficients)
         .map(|(&d, &c)| c * y[d])
         .sum();
-    wall.sign * u
+    sign * u
 }
 
-/// A wall's penetration, rate and acceleration at a state (a radial wall's:
-/// `δ = ρ − c`, `δ̇ = n·ṗ`, `δ̈ = n·p̈ + (|ṗ|² − δ̇²)/ρ`).
+/// Wall `j`'s penetration, rate and acceleration at a state ([`WallTerm::motion`]).
 fn wall_motion(sys: &System, j: usize, x: &[f64], v: &[f64], a: &[f64]) -> [f64; 3] {
-    let wall = &sys.walls[j];
-    if let Side::Radial(r) = &sys.gaps[wall.gap].side {
-        let k = sys.radial_at_dofs(r, wall.gap, x, v);
-        let (ix, iy) = (sys.gaps[wall.gap].dofs[0], sys.gaps[r.partner].dofs[0]);
-        let accel = k.normal[0] * a[ix] + k.normal[1] * a[iy] + k.slide * k.slide / k.rho;
-        return [k.rho - wall.clearance, k.rate, accel];
-    }
-    [
-        toward_wall(sys, j, x) - sys.walls[j].clearance,
-        toward_wall(sys, j, v),
-        toward_wall(sys, j, a),
-    ]
+    WallTerm::new(sys, j).motion(x, v, a)
 }
 
 /// Switches the walls that close or open (or pass their first peak) at the state: a closing
@@ -1961,6 +2034,18 @@ struct Dense<'a, 'd, 's> {
 impl Dense<'_, '_, '_> {
     /// DOF `d`'s displacement and velocity at the fraction `s` of the step.
     fn dof(&mut self, d: usize, s: f64) -> [f64; 2] {
+        self.extend();
+        self.stages.dense(d, self.start, self.end, self.h, s)
+    }
+
+    /// DOF `d`'s displacement alone at the fraction `s` of the step.
+    fn displacement(&mut self, d: usize, s: f64) -> f64 {
+        self.extend();
+        (self.stages).dense_displacement(d, self.start, self.end, self.h, s)
+    }
+
+    /// The dense output's three extra stages, computed on first use.
+    fn extend(&mut self) {
         if !self.extended {
             let (stages, dynamics) = (&mut *self.stages, &mut *self.dynamics);
             let (contacts, t0, start, h) = (self.contacts, self.t0, self.start, self.h);
@@ -1968,7 +2053,6 @@ impl Dense<'_, '_, '_> {
                 .extend::<N>(dynamics, contacts, t0, start, h));
             self.extended = true;
         }
-        self.stages.dense(d, self.start, self.end, self.h, s)
     }
 
     /// Wall `j`'s penetration and its rate at the fraction `s` of the step.
@@ -2024,7 +2108,7 @@ impl Inside {
         for &d in recorded {
             let ends = [start, end].map(|y| [y.x[d], y.v[d], y.a[d]]);
             self.displacement_turn[d] = turning_point(ends[0], ends[1], h)
-                .map(|(s, x)| (s, if in_time { dense.dof(d, s)[0] } else { x }));
+                .map(|(s, x)| (s, if in_time { dense.displacement(d, s) } else { x }));
         }
         for (j, c) in contacts.iter().enumerate() {
             (self.delta_max[j], self.force_max[j]) = (0.0, 0.0);
@@ -2040,7 +2124,7 @@ impl Inside {
                     penetration
                 };
             }
-            let law = &sys.gaps[sys.walls[j].gap].law;
+            let law = WallLaw::new(&sys.gaps[sys.walls[j].gap].law);
             // as the dynamics evaluate it (a linear stator's formula without the law's
             // dispatch): from the smallest penetration at least, so that the first instant of
             // a contact (Kelvin–Voigt's c·v_imp) is a candidate
@@ -2131,7 +2215,7 @@ fn radial_normal_force(
 fn radial_wall_force(
     r: &Radial,
     [ix, iy]: [usize; 2],
-    law: &Law,
+    law: WallLaw,
     clearance: f64,
     c: &Contact,
     x: &[f64],
@@ -2149,14 +2233,15 @@ fn radial_wall_force(
 /// penetration at least: a wall is closed up to its switching tolerance before it is reached,
 /// and a force that does not start from zero (Kelvin–Voigt's `c δ̇`) must not jump inside the
 /// step.
-fn force_in_contact(law: &Law, c: &Contact, penetration: f64, rate: f64) -> ContactForce {
-    if let Some(stiffness) = linear_stator(law) {
+fn force_in_contact(law: WallLaw, c: &Contact, penetration: f64, rate: f64) -> ContactForce {
+    if let Some(stiffness) = law.linear {
         // the law's own formula (`Hertz::evaluate`'s), without its dispatch and branches
         return power_law(stiffness, 1.0, penetration);
     }
     let penetration = penetration.max(f64::MIN_POSITIVE);
     let max_penetration = c.max_penetration.max(penetration);
-    law.force_in_contact(penetration, rate, c.impact_speed, max_penetration)
+    law.law
+        .force_in_contact(penetration, rate, c.impact_speed, max_penetration)
 }
 
 /// Whether a law's force continues analytically through its wall: a law linear in the
@@ -2207,7 +2292,7 @@ mod tests {
     use crate::structure::LinearStructure;
     use crate::system::System;
 
-    use super::{force_in_contact, linear_stator, Contact};
+    use super::{force_in_contact, linear_stator, Contact, WallLaw};
     use crate::contact::ContactLaw;
 
     /// A linear stator's force in contact (its own path) is its law's evaluation, bit for
@@ -2232,7 +2317,8 @@ mod tests {
         for i in 0..=200 {
             let delta = (i as f64 - 40.0) * 3.7e-8;
             let law = linear.evaluate_in_contact(delta, 0.1, 0.3, 2e-6_f64.max(delta));
-            assert_eq!(force_in_contact(&linear, &c, delta, 0.1), law, "{delta}");
+            let path = force_in_contact(WallLaw::new(&linear), &c, delta, 0.1);
+            assert_eq!(path, law, "{delta}");
         }
     }
 
