@@ -316,6 +316,8 @@ impl<'o> Run<'o> {
         self.observer.is_some()
     }
 
+    /// The general commit ([`Self::commit_step`] with the walls), one body out of line for
+    /// every method's callers; only the fixed-step loop's free steps inline the other variant.
     fn commit(
         &mut self,
         sys: &System,
