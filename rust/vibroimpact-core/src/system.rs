@@ -452,8 +452,22 @@ impl State {
             }
         }
         let (u, u_rate) = (&*gap_u, &*u_rate);
-        for (wall, state) in sys.walls.iter().zip(walls.iter_mut()) {
-            if sys.has_radial && wall.sign == 0.0 {
+        let one_d = |wall: &Wall, state: &mut WallState| {
+            let rate = wall.sign * u_rate[wall.gap];
+            if FREE {
+                state.set_open(wall.sign * u[wall.gap] - wall.clearance, rate);
+            } else {
+                state.rate = rate;
+            }
+        };
+        let walls = sys.walls.iter().zip(walls.iter_mut());
+        // (a model without radial gaps, every free step of the fixed-step loop: no test per wall)
+        if !sys.has_radial {
+            walls.for_each(|(wall, state)| one_d(wall, state));
+            return;
+        }
+        for (wall, state) in walls {
+            if wall.sign == 0.0 {
                 let Side::Radial(r) = &sys.gaps[wall.gap].side else {
                     unreachable!("a wall of sign 0 is radial")
                 };
@@ -467,13 +481,8 @@ impl State {
                 state.rate = k.rate;
                 state.slide = k.slide;
                 state.slip = r.radius * sys.structure.spin.start + k.slide;
-            } else if FREE {
-                state.set_open(
-                    wall.sign * u[wall.gap] - wall.clearance,
-                    wall.sign * u_rate[wall.gap],
-                );
             } else {
-                state.rate = wall.sign * u_rate[wall.gap];
+                one_d(wall, state);
             }
         }
     }
