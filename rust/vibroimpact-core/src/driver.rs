@@ -749,10 +749,11 @@ impl Recorder<'_> {
         self.last_time = s.t;
         // (the peaks are kept by the commits, Run::commit and Run::jumped, or taken from the
         // rows, Self::complete)
+        let (x, v, a) = (&*s.x, &*s.v, &*s.a); // (their lengths looked at once)
         for &d in &self.dofs {
-            rows.displacement.push(s.x[d]);
-            rows.velocity.push(s.v[d]);
-            rows.acceleration.push(s.a[d]);
+            rows.displacement.push(x[d]);
+            rows.velocity.push(v[d]);
+            rows.acceleration.push(a[d]);
         }
         // Walls of one gap are adjacent: one column per gap (deepest wall, summed force).
         let mut potential = 0.0;

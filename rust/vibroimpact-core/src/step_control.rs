@@ -341,7 +341,7 @@ impl<'s> AdaptiveSteps<'s> {
             event_tol,
             touch_tol: 4.0 * event_tol.max(1e-9 * control.dt_max),
             landing: None,
-            a_prev: run.cur.a.clone(),
+            a_prev: run.cur.a.to_vec(),
             h_prev: None,
             h_contact: None,
             just_closed: vec![false; sys.walls.len()],

@@ -11,6 +11,8 @@ use crate::gap::{
 };
 use crate::structure::{LinearStructure, Load};
 
+pub use crate::integrators::sized::Inline;
+
 /// `M x'' + C x' + K x = F(t) − Σ_g φ_g b_gᵀ`, with `φ_g = Σ_walls s F` the generalized
 /// contact force on gap coordinate `u_g = b_g · x` (it pushes the coordinate out of the wall).
 ///
@@ -373,13 +375,15 @@ fn gap_walls<'s>(
     [force, d_penetration, d_rate]
 }
 
-/// Everything the integrators carry from one step to the next.
+/// Everything the integrators carry from one step to the next. The motion is held at a small
+/// model's size ([`Inline`]): the Newmark step of a model of up to four DOFs reads and writes
+/// it at constant places.
 #[derive(Debug, Clone)]
 pub struct State {
     pub t: f64,
-    pub x: Vec<f64>,
-    pub v: Vec<f64>,
-    pub a: Vec<f64>,
+    pub x: Inline<f64>,
+    pub v: Inline<f64>,
+    pub a: Inline<f64>,
     /// Value of each load at `t`, N.
     pub load: Vec<f64>,
     /// Generalized contact force per gap.
@@ -398,19 +402,20 @@ impl State {
     // (this and the next in line in the step: no second frame, no reload of the vectors)
     #[inline(always)]
     pub fn finish_gaps(&mut self, sys: &System, u: &[f64]) {
-        self.finish::<false>(sys, u);
+        self.finish::<false, 0>(sys, u);
     }
 
     /// [`Self::finish_gaps`] after a step in free flight (no wall closed at either end, found
     /// without evaluating a wall: `GapNewton::free_flight`): also the zero contact forces and
-    /// each wall's whole state, open, its penetration from `u`.
+    /// each wall's whole state, open, its penetration from `u`. `N`: the DOF count of a step
+    /// compiled for it ([`by_size`](crate::integrators::sized)), else 0.
     #[inline(always)]
-    pub fn finish_free_flight(&mut self, sys: &System, u: &[f64]) {
-        self.finish::<true>(sys, u);
+    pub fn finish_free_flight<const N: usize>(&mut self, sys: &System, u: &[f64]) {
+        self.finish::<true, N>(sys, u);
     }
 
     #[inline(always)]
-    fn finish<const FREE: bool>(&mut self, sys: &System, u: &[f64]) {
+    fn finish<const FREE: bool, const N: usize>(&mut self, sys: &System, u: &[f64]) {
         let State {
             x: _,
             v,
@@ -422,6 +427,7 @@ impl State {
             walls,
             ..
         } = self;
+        let (v, a) = (v.sized::<N>(), a.sized::<N>());
         // (u copied in the same loop: no memcpy call for a few values)
         let gaps = u.iter().zip(gap_u.iter_mut()).zip(u_rate.iter_mut());
         let gaps = gaps.zip(u_accel.iter_mut().zip(phi.iter_mut()));
@@ -446,8 +452,22 @@ impl State {
             }
         }
         let (u, u_rate) = (&*gap_u, &*u_rate);
-        for (wall, state) in sys.walls.iter().zip(walls.iter_mut()) {
-            if sys.has_radial && wall.sign == 0.0 {
+        let one_d = |wall: &Wall, state: &mut WallState| {
+            let rate = wall.sign * u_rate[wall.gap];
+            if FREE {
+                state.set_open(wall.sign * u[wall.gap] - wall.clearance, rate);
+            } else {
+                state.rate = rate;
+            }
+        };
+        let walls = sys.walls.iter().zip(walls.iter_mut());
+        // (a model without radial gaps, every free step of the fixed-step loop: no test per wall)
+        if !sys.has_radial {
+            walls.for_each(|(wall, state)| one_d(wall, state));
+            return;
+        }
+        for (wall, state) in walls {
+            if wall.sign == 0.0 {
                 let Side::Radial(r) = &sys.gaps[wall.gap].side else {
                     unreachable!("a wall of sign 0 is radial")
                 };
@@ -461,13 +481,8 @@ impl State {
                 state.rate = k.rate;
                 state.slide = k.slide;
                 state.slip = r.radius * sys.structure.spin.start + k.slide;
-            } else if FREE {
-                state.set_open(
-                    wall.sign * u[wall.gap] - wall.clearance,
-                    wall.sign * u_rate[wall.gap],
-                );
             } else {
-                state.rate = wall.sign * u_rate[wall.gap];
+                one_d(wall, state);
             }
         }
     }
@@ -513,9 +528,9 @@ impl State {
         sys.gap_coordinates(&a, &mut u_accel);
         Ok(State {
             t: t0,
-            x: x0.as_slice().to_vec(),
-            v: v0.as_slice().to_vec(),
-            a,
+            x: x0.as_slice().into(),
+            v: v0.as_slice().into(),
+            a: a.as_slice().into(),
             load,
             phi,
             u,

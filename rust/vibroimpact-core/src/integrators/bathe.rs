@@ -24,7 +24,7 @@ use super::{OperatorCache, StepFailure, Stepper};
 use crate::error::SimError;
 use crate::gap::WallState;
 use crate::linalg::axpy;
-use crate::system::{State, System};
+use crate::system::{Inline, State, System};
 
 /// Parameters of Bathe's composite scheme.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -142,9 +142,9 @@ impl BatheStepper {
             operators: OperatorCache::new(newton.max_step_cuts),
             mid: State {
                 t: 0.0,
-                x: zeros(n),
-                v: zeros(n),
-                a: zeros(n),
+                x: Inline::new(n, 0.0),
+                v: Inline::new(n, 0.0),
+                a: Inline::new(n, 0.0),
                 load: zeros(sys.loads.len()),
                 phi: zeros(ng),
                 u: zeros(ng),

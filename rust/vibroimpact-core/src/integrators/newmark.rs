@@ -638,7 +638,9 @@ impl NewmarkStepper {
         }
         // d̃, and the vectors `R`'s operators multiply: x̃ + c_f x₀, ṽ + c_f v₀, a₀; the
         // correction e = Δx − d̃ accumulates in dx
-        let (x_old, v_old, a_old) = (&s0.x[..n], &s0.v[..n], &s0.a[..n]);
+        // (at constant places for a small model; `[..n]`: one length for the general one)
+        let (x_old, v_old, a_old) = (s0.x.sized::<N>(), s0.v.sized::<N>(), s0.a.sized::<N>());
+        let (x_old, v_old, a_old) = (&x_old[..n], &v_old[..n], &a_old[..n]);
         let (d_a, v_a) = (h * h * half_minus_beta, one_minus_gamma * h);
         let [xt, vt] = &mut self.tilde;
         let (d_tilde, d, xt, vt) = (
@@ -745,8 +747,13 @@ impl NewmarkStepper {
         // a₁ = a₀ e (the same as a₀ Δx − a₂ v₀ − a₃ a₀ without its cancellation of large
         // terms), v₁ from a₁; a₁ below NEGLIGIBLE_ACCELERATION is set to 0.
         let dx = self.dx.sized::<N>();
-        let (x0, v0, a0_old) = (&s0.x[..n], &s0.v[..n], &s0.a[..n]);
-        let (x1, v1, a1_new) = (&mut s1.x[..n], &mut s1.v[..n], &mut s1.a[..n]);
+        let (x0, v0, a0_old) = (s0.x.sized::<N>(), s0.v.sized::<N>(), s0.a.sized::<N>());
+        let (x0, v0, a0_old) = (&x0[..n], &v0[..n], &a0_old[..n]);
+        let (x1, v1, a1_new) = (
+            &mut s1.x.sized_mut::<N>()[..n],
+            &mut s1.v.sized_mut::<N>()[..n],
+            &mut s1.a.sized_mut::<N>()[..n],
+        );
         let d_tilde = self.d_tilde.sized::<N>();
         for i in 0..n {
             let e = dx[i];
@@ -760,7 +767,7 @@ impl NewmarkStepper {
             v1[i] = v0[i] + h * (one_minus_gamma * a0_old[i] + gamma * a1_new[i]);
         }
         if free {
-            s1.finish_free_flight(sys, &self.gap_newton.u);
+            s1.finish_free_flight::<N>(sys, &self.gap_newton.u);
         } else {
             s1.finish_gaps(sys, &self.gap_newton.u);
         }

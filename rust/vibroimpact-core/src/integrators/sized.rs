@@ -52,9 +52,10 @@ pub(crate) const MAX_SIZED: usize = 4;
 
 /// `len` values (one per component: a DOF's, or its row of stage values): inline (at a
 /// constant place in their owner) for up to [`MAX_SIZED`], where the code compiled for `N` of
-/// them takes the first `N` at a constant count ([`Self::sized`]), else on the heap.
-#[derive(Debug, Clone)]
-pub(crate) struct Inline<T> {
+/// them takes the first `N` at a constant count ([`Self::sized`]), else on the heap. Read and
+/// written as a slice otherwise (`Deref`: general code takes the slice once, not per access,
+/// which would test the length each time).
+pub struct Inline<T> {
     inline: [T; MAX_SIZED],
     heap: Vec<T>,
     len: usize,
@@ -91,6 +92,46 @@ impl<T: Copy> Inline<T> {
         } else {
             self
         }
+    }
+}
+
+impl<T: Copy + Default> From<&[T]> for Inline<T> {
+    fn from(values: &[T]) -> Self {
+        let mut held = Self::new(values.len(), T::default());
+        held.copy_from_slice(values);
+        held
+    }
+}
+
+impl<T: Clone> Clone for Inline<T> {
+    fn clone(&self) -> Self {
+        Self {
+            inline: self.inline.clone(),
+            heap: self.heap.clone(),
+            len: self.len,
+        }
+    }
+
+    /// Into the heap values' allocation, as `Vec::clone_from` (a large model's state is
+    /// copied every step).
+    fn clone_from(&mut self, source: &Self) {
+        self.inline.clone_from(&source.inline);
+        self.heap.clone_from(&source.heap);
+        self.len = source.len;
+    }
+}
+
+/// Equal values (whatever their place).
+impl<T: PartialEq> PartialEq for Inline<T> {
+    fn eq(&self, other: &Self) -> bool {
+        **self == **other
+    }
+}
+
+/// As the slice (a `State`'s vectors print as they did when they were `Vec`s).
+impl<T: std::fmt::Debug> std::fmt::Debug for Inline<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        (**self).fmt(f)
     }
 }
 
