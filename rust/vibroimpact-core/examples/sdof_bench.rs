@@ -1,7 +1,8 @@
 //! Times the paper's SDOF case (0.02 s at dt = 1 µs) in the core alone, without Python:
 //! `cargo run --release --example sdof_bench -p vibroimpact-core`; `METHOD=dop853` times
 //! adaptive DOP853 (rtol 1e-8) instead of Newmark, `METHOD=floor` the benchmark's floor
-//! (`vibroimpact_core::floor`: the same Newmark steps as a bare loop), `SCHEME=generalized-alpha`
+//! (`vibroimpact_core::floor`: the same Newmark steps as a bare loop), `METHOD=precise` precise
+//! integration (Adams; `METHOD=precise-pc` its predictor–corrector), `SCHEME=generalized-alpha`
 //! generalized-α (ρ∞ = 0.8) instead of average acceleration; `SWEEP=1` times two points of the
 //! fixed-step sweep benchmark instead ([`sweep_points`]).
 
@@ -15,7 +16,7 @@ use nalgebra::{DMatrix, DVector};
 use vibroimpact_core::contact::{Hertz, Hysteretic, Law};
 use vibroimpact_core::floor::{self, FloorCase};
 use vibroimpact_core::gap::{Gap, Side};
-use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings};
+use vibroimpact_core::integrators::{NewmarkFamily, NewtonSettings, PreciseIntegration};
 use vibroimpact_core::settings::Adaptive;
 use vibroimpact_core::simulate::{simulate, Method, RunSettings};
 use vibroimpact_core::structure::{LinearStructure, Load, LoadHistory};
@@ -86,8 +87,18 @@ fn main() {
             continue;
         }
         let sys = System::new(s, vec![gap], vec![]).unwrap();
-        let dop853 = std::env::var("METHOD").is_ok_and(|m| m == "dop853");
-        let (method, adaptive) = if dop853 {
+        let method_name = std::env::var("METHOD").unwrap_or_default();
+        let dop853 = method_name == "dop853";
+        let (method, adaptive) = if let Some(pc) = match method_name.as_str() {
+            "precise" => Some(false),
+            "precise-pc" => Some(true),
+            _ => None,
+        } {
+            let variant = PreciseIntegration {
+                predictor_corrector: pc,
+            };
+            (Method::Precise(variant), None)
+        } else if dop853 {
             let tol = Adaptive {
                 rtol: 1e-8,
                 atol: 1e-12,

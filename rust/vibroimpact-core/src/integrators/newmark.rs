@@ -818,7 +818,7 @@ impl NewmarkStepper {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use nalgebra::{DMatrix, DVector};
 
     use super::*;
@@ -892,11 +892,11 @@ mod tests {
     }
 
     /// A gap's DOFs and coefficients, clearance and side.
-    type GapSpec<'a> = (&'a [(usize, f64)], f64, Side);
+    pub(crate) type GapSpec<'a> = (&'a [(usize, f64)], f64, Side);
 
     /// A chain of `n` masses (springs to ground and between neighbours, Rayleigh damping
     /// `c`), a harmonic load on the last, and `walls`, each with Lankarani–Nikravesh's law.
-    fn small_chain(n: usize, c: f64, walls: &[GapSpec]) -> System {
+    pub(crate) fn small_chain(n: usize, c: f64, walls: &[GapSpec]) -> System {
         let (mut m, mut k) = (DMatrix::zeros(n, n), DMatrix::zeros(n, n));
         for i in 0..n {
             m[(i, i)] = 1.0 + 0.3 * i as f64;

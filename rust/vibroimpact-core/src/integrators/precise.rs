@@ -40,6 +40,7 @@ use nalgebra::DMatrix;
 
 use super::expm::duhamel;
 use super::newton::{solve_small, GapNewton, GapProblem, NewtonSettings, RateMap};
+use super::sized::{by_size, dofs};
 use super::{OperatorCache, StepFailure, Stepper};
 use crate::error::{invalid, SimError};
 use crate::gap::WallState;
@@ -172,6 +173,39 @@ impl Fixed {
             t,
             t_inv,
         })
+    }
+
+    /// The acceleration of `s` from the equation of motion, `a = M⁻¹(Σ_l F_l b_l − K x − C v
+    /// − Σ_g φ_g b_g)`, with the contact forces when `contact` (else they are zero); `N` as
+    /// [`PreciseStepper::step`].
+    #[inline(always)]
+    fn acceleration<const N: usize>(&self, s: &mut State, contact: bool) {
+        let n = dofs::<N>(self.n);
+        let (x, v, a) = (&s.x[..n], &s.v[..n], &mut s.a[..n]);
+        for (i, a) in a.iter_mut().enumerate() {
+            let (rk, rc) = (
+                &self.m_inv_k[i * n..(i + 1) * n],
+                &self.m_inv_c[i * n..(i + 1) * n],
+            );
+            let mut acc = 0.0;
+            for j in 0..n {
+                acc -= rk[j] * x[j] + rc[j] * v[j];
+            }
+            *a = acc;
+        }
+        for (&g, col) in s.load.iter().zip(&self.m_inv_b) {
+            if g != 0.0 {
+                axpy(g, &col[..n], a);
+            }
+        }
+        if contact {
+            let gaps = &self.m_inv_b[s.load.len()..];
+            for (&p, col) in s.phi.iter().zip(gaps) {
+                if p != 0.0 {
+                    axpy(-p, &col[..n], a);
+                }
+            }
+        }
     }
 
     fn operator(&self, sys: &System, h: f64, implicit: bool) -> Result<StepOperator, SimError> {
@@ -316,11 +350,15 @@ pub struct PreciseStepper {
     newton: NewtonSettings,
     fixed: Fixed,
     operators: OperatorCache<StepOperator>,
-    /// Newest first; `history[0]` is the state the next step starts from.
+    /// A ring: `history[newest]` is the state the next step starts from, the next older at
+    /// `newest + 1` (mod 3).
     history: [Sample; 3],
+    newest: usize,
     history_len: usize,
     /// Length of the last attempted step (the one `accept` refers to).
     last_h: f64,
+    /// The last attempt was an Adams step in free flight ([`Stepper::last_step_free`]).
+    free_flight: bool,
     predictor: Weights,
     corrector: Weights,
     free: Vec<f64>,
@@ -356,8 +394,10 @@ impl PreciseStepper {
             fixed: Fixed::new(sys)?,
             operators: OperatorCache::new(newton.max_step_cuts),
             history: [sample.clone(), sample.clone(), sample],
+            newest: 0,
             history_len: 0,
             last_h: f64::NAN,
+            free_flight: false,
             predictor: Weights::new(),
             corrector: Weights::new(),
             free: vec![0.0; 2 * n],
@@ -384,14 +424,14 @@ impl PreciseStepper {
         Ok(())
     }
 
-    /// Makes `history[0]` the step's start `s0` (a new run, or a state the history does not
-    /// end at): the Adams formulas then restart from one point.
+    /// Makes the newest sample the step's start `s0` (a new run, or a state the history does
+    /// not end at): the Adams formulas then restart from one point.
     fn sync_history(&mut self, s0: &State, h: f64) {
-        let newest = &self.history[0];
+        let newest = &self.history[self.newest];
         if self.history_len > 0 && (newest.t - s0.t).abs() <= 1e-9 * h {
             return;
         }
-        let first = &mut self.history[0];
+        let first = &mut self.history[self.newest];
         first.t = s0.t;
         first.h = f64::NAN;
         first.load.copy_from_slice(&s0.load);
@@ -404,7 +444,7 @@ impl PreciseStepper {
         let mut nodes = [0.0; 3];
         let mut count = 1;
         for i in 0..2 {
-            let spacing = self.history[i].h;
+            let spacing = self.history[(self.newest + i) % 3].h;
             if self.history_len > i + 1 && spacing.is_finite() && spacing >= MIN_SPACING * h {
                 nodes[i + 1] = nodes[i] - spacing / h;
                 count += 1;
@@ -418,8 +458,9 @@ impl PreciseStepper {
 
 /// `out += Σ_l Σ_m d_m(load_l) D_m b_l − Σ_g Σ_m d_m(φ_g) D_m b_g` for the polynomial through
 /// the values at the nodes of `w` (`loads[i]`, `phis[i]`: values at node i); gaps are skipped
-/// when `phis` is `None`.
-fn add_forces(
+/// when `phis` is `None`. `N`: as [`PreciseStepper::step`] (`out` holds `2N` values).
+#[inline(always)]
+fn add_forces<const N: usize>(
     cols: &[[Vec<f64>; 3]],
     w: &Weights,
     loads: [&[f64]; 3],
@@ -431,7 +472,7 @@ fn add_forces(
         let d = w.coefficients([loads[0][l], loads[1][l], loads[2][l]]);
         for (dm, cm) in d.iter().zip(col).take(w.count) {
             if *dm != 0.0 {
-                axpy(*dm, cm, out);
+                axpy(*dm, &cm[..out.len()], out);
             }
         }
     }
@@ -440,7 +481,7 @@ fn add_forces(
             let d = w.coefficients([phis[0][g], phis[1][g], phis[2][g]]);
             for (dm, cm) in d.iter().zip(col).take(w.count) {
                 if *dm != 0.0 {
-                    axpy(-*dm, cm, out);
+                    axpy(-*dm, &cm[..out.len()], out);
                 }
             }
         }
@@ -448,6 +489,8 @@ fn add_forces(
 }
 
 impl Stepper for PreciseStepper {
+    /// Models of up to four DOFs take a step compiled for their size ([`Self::step`] with
+    /// `N = n`): the same arithmetic in the same order, the loops over the DOFs unrolled.
     fn attempt(
         &mut self,
         sys: &System,
@@ -456,55 +499,108 @@ impl Stepper for PreciseStepper {
         h: f64,
         s1: &mut State,
     ) -> Result<usize, StepFailure> {
+        by_size!(s0.x.len(), |N| self.step::<N>(sys, s0, level, h, s1))
+    }
+
+    fn accept(&mut self, _sys: &System, state: &State) {
+        self.newest = if self.newest == 0 { 2 } else { self.newest - 1 };
+        let newest = &mut self.history[self.newest];
+        newest.t = state.t;
+        newest.h = self.last_h;
+        // element by element: no memcpy call for a few values
+        for (to, &from) in newest.load.iter_mut().zip(&state.load) {
+            *to = from;
+        }
+        for (to, &from) in newest.phi.iter_mut().zip(&state.phi) {
+            *to = from;
+        }
+        self.history_len = (self.history_len + 1).min(3);
+    }
+
+    /// An Adams step whose walls stayed open at both ends (found by the gap coordinates alone,
+    /// as `GapNewton::free_flight`, before any wall is evaluated).
+    #[inline(always)]
+    fn last_step_free(&self) -> bool {
+        self.free_flight
+    }
+
+    /// The step [`Self::attempt`] dispatches to.
+    fn step_path(&self, sys: &System) -> &'static str {
+        match sys.n_dof() {
+            1 => "fixed-size N=1",
+            2 => "fixed-size N=2",
+            3 => "fixed-size N=3",
+            4 => "fixed-size N=4",
+            _ => "general",
+        }
+    }
+}
+
+impl PreciseStepper {
+    /// One attempt of a step of `h` from `s0` into `s1` ([`Stepper::attempt`]); `N`: the
+    /// model's DOFs when it has at most four (known at compile time), 0 otherwise.
+    #[inline(always)]
+    fn step<const N: usize>(
+        &mut self,
+        sys: &System,
+        s0: &State,
+        level: usize,
+        h: f64,
+        s1: &mut State,
+    ) -> Result<usize, StepFailure> {
         let implicit = self.variant.predictor_corrector;
-        let fixed = &self.fixed;
-        self.operators
-            .ensure(level, h, || fixed.operator(sys, h, implicit))
-            .map_err(|_| StepFailure::singular_tangent())?;
         self.last_h = h;
+        self.free_flight = false;
         self.sync_history(s0, h);
         let (nodes, count) = self.past_nodes(h);
+        let [h1, h2] = [1, 2].map(|i| (self.newest + i) % 3);
+        let fixed = &self.fixed;
+        let op = self
+            .operators
+            .ensure(level, h, || fixed.operator(sys, h, implicit))
+            .map_err(|_| StepFailure::singular_tangent())?;
         let Self {
-            newton: settings,
-            fixed,
-            operators,
-            history,
-            predictor,
-            corrector,
-            free,
-            z,
-            z_pred,
-            u,
-            u_rate,
-            walls_pred,
-            phi_pred,
-            tangent,
-            du_lin,
-            rate_lin,
-            gap_newton,
+            newton: ref settings,
+            ref fixed,
+            ref history,
+            ref mut predictor,
+            ref mut corrector,
+            ref mut free,
+            ref mut z,
+            ref mut z_pred,
+            ref mut u,
+            ref mut u_rate,
+            ref mut walls_pred,
+            ref mut phi_pred,
+            ref mut tangent,
+            ref mut du_lin,
+            ref mut rate_lin,
+            ref mut gap_newton,
             ..
-        } = self;
-        let op = operators.get(level);
-        let n = fixed.n;
+        } = *self;
+        let n = dofs::<N>(fixed.n);
         let n2 = 2 * n;
         let ng = sys.gaps.len();
+        let (x0, v0) = (&s0.x[..n], &s0.v[..n]);
 
         s1.t = s0.t + h;
         for (g, load) in s1.load.iter_mut().zip(&sys.loads) {
             *g = load.value(s1.t);
         }
         // The free response Φ z₀, shared by predictor and corrector.
+        let free = &mut free[..n2];
         for (row, out) in op.phi.chunks_exact(n2).zip(free.iter_mut()) {
             let (rx, rv) = row.split_at(n);
             let mut acc = 0.0;
             for j in 0..n {
-                acc += rx[j] * s0.x[j] + rv[j] * s0.v[j];
+                acc += rx[j] * x0[j] + rv[j] * v0[j];
             }
             *out = acc;
         }
-        let (h1, h2) = (&history[1], &history[2]);
+        let (h1, h2) = (&history[h1], &history[h2]);
         let past_loads = [&s0.load[..], &h1.load[..], &h2.load[..]];
         let past_phis = [&s0.phi[..], &h1.phi[..], &h2.phi[..]];
+        let z = &mut z[..n2];
         let mut iterations = 0;
         let mut gaps = GapBuffers {
             u: &mut u[..],
@@ -516,14 +612,25 @@ impl Stepper for PreciseStepper {
             // Adams (eqs. 42–43): f extrapolated from t_k, t_{k−1}, t_{k−2}.
             predictor.set(&nodes);
             z.copy_from_slice(free);
-            add_forces(&op.cols, predictor, past_loads, Some(past_phis), z);
-            gaps.evaluate(sys, &s0.walls, &z[..], n, h, &mut s1.walls, &mut s1.phi);
+            add_forces::<N>(&op.cols, predictor, past_loads, Some(past_phis), z);
+            // Free flight (every wall open at both ends: no wall evaluated, no contact force)
+            sys.gap_coordinates(&z[..n], &mut gap_newton.u);
+            if gap_newton.free_flight(sys, &s0.walls) {
+                self.free_flight = true;
+                s1.x[..n].copy_from_slice(&z[..n]);
+                s1.v[..n].copy_from_slice(&z[n..]);
+                fixed.acceleration::<N>(s1, false);
+                s1.finish_free_flight(sys, &gap_newton.u);
+                return Ok(0);
+            }
+            gaps.evaluate(sys, &s0.walls, z, n, h, &mut s1.walls, &mut s1.phi);
         } else {
             // Predict with the points available; evaluate the contact forces there.
             predictor.set(&nodes[..count]);
+            let z_pred = &mut z_pred[..n2];
             z_pred.copy_from_slice(free);
-            add_forces(&op.cols, predictor, past_loads, Some(past_phis), z_pred);
-            gaps.evaluate(sys, &s0.walls, &z_pred[..], n, h, walls_pred, phi_pred);
+            add_forces::<N>(&op.cols, predictor, past_loads, Some(past_phis), z_pred);
+            gaps.evaluate(sys, &s0.walls, z_pred, n, h, walls_pred, phi_pred);
             // Correct with the polynomial through t_{k+1}, t_k (and t_{k−1}).
             let mut cnodes = [1.0, 0.0, 0.0];
             let ccount = (count + 1).min(3);
@@ -533,11 +640,11 @@ impl Stepper for PreciseStepper {
             z.copy_from_slice(free);
             if !implicit {
                 let phis_c = [&phi_pred[..], &s0.phi[..], &h1.phi[..]];
-                add_forces(&op.cols, corrector, loads_c, Some(phis_c), z);
-                gaps.evaluate(sys, &s0.walls, &z[..], n, h, &mut s1.walls, &mut s1.phi);
+                add_forces::<N>(&op.cols, corrector, loads_c, Some(phis_c), z);
+                gaps.evaluate(sys, &s0.walls, z, n, h, &mut s1.walls, &mut s1.phi);
             } else {
                 // Loads by the corrector's polynomial; contact force (φ_k + φ_{k+1})/2.
-                add_forces(&op.cols, corrector, loads_c, None, z);
+                add_forces::<N>(&op.cols, corrector, loads_c, None, z);
                 let nl = sys.loads.len();
                 for (col, &p) in op.cols[nl..].iter().zip(&s0.phi) {
                     if p != 0.0 {
@@ -580,52 +687,13 @@ impl Stepper for PreciseStepper {
                 }
             }
         }
-        // State, gap coordinates and the acceleration from the equation of motion.
-        s1.x.copy_from_slice(&z[..n]);
-        s1.v.copy_from_slice(&z[n..]);
-        let nl = sys.loads.len();
-        for i in 0..n {
-            let (rk, rc) = (
-                &fixed.m_inv_k[i * n..(i + 1) * n],
-                &fixed.m_inv_c[i * n..(i + 1) * n],
-            );
-            let mut acc = 0.0;
-            for j in 0..n {
-                acc -= rk[j] * s1.x[j] + rc[j] * s1.v[j];
-            }
-            s1.a[i] = acc;
-        }
-        for (l, &g) in s1.load.iter().enumerate() {
-            if g != 0.0 {
-                axpy(g, &fixed.m_inv_b[l], &mut s1.a);
-            }
-        }
-        for (g, &p) in s1.phi.iter().enumerate() {
-            if p != 0.0 {
-                axpy(-p, &fixed.m_inv_b[nl + g], &mut s1.a);
-            }
-        }
-        if implicit && ng > 0 {
-            s1.u.copy_from_slice(&gap_newton.u);
-        } else {
-            sys.gap_coordinates(&s1.x, &mut s1.u);
-        }
-        sys.gap_coordinates(&s1.v, &mut s1.u_rate);
-        sys.gap_coordinates(&s1.a, &mut s1.u_accel);
-        for (wall, state) in sys.walls.iter().zip(s1.walls.iter_mut()) {
-            state.rate = wall.sign * s1.u_rate[wall.gap];
-        }
+        // State, gap coordinates and the acceleration from the equation of motion; the gap
+        // coordinates are Newton's, or those of the last `z` evaluated (the step's end).
+        s1.x[..n].copy_from_slice(&z[..n]);
+        s1.v[..n].copy_from_slice(&z[n..]);
+        fixed.acceleration::<N>(s1, true);
+        s1.finish_gaps(sys, if implicit && ng > 0 { &gap_newton.u } else { u });
         Ok(iterations)
-    }
-
-    fn accept(&mut self, _sys: &System, state: &State) {
-        self.history.rotate_right(1);
-        let newest = &mut self.history[0];
-        newest.t = state.t;
-        newest.h = self.last_h;
-        newest.load.copy_from_slice(&state.load);
-        newest.phi.copy_from_slice(&state.phi);
-        self.history_len = (self.history_len + 1).min(3);
     }
 }
 
@@ -652,5 +720,79 @@ impl GapBuffers<'_> {
         sys.gap_coordinates(&z[..n], self.u);
         sys.gap_coordinates(&z[n..], self.u_rate);
         sys.evaluate_contacts(start, self.u, self.u_rate, h, walls, phi, self.tangent);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use nalgebra::DVector;
+
+    use super::*;
+    use crate::gap::Side;
+    use crate::integrators::newmark::tests::small_chain;
+
+    /// The step compiled for a small model's size gives the general step's bits, through the
+    /// Adams history, contacts and free flights, in both variants.
+    #[test]
+    fn sized_step_equals_the_general_step() {
+        let models = [
+            small_chain(1, 0.0, &[(&[(0, 1.0)], 1e-3, Side::Positive)]),
+            small_chain(1, 2.0, &[(&[(0, 1.0)], 1e-3, Side::Both)]),
+            small_chain(2, 3.0, &[(&[(1, 1.0), (0, -1.0)], 1e-4, Side::Both)]),
+            small_chain(
+                3,
+                1.0,
+                &[
+                    (&[(0, 1.0)], 1e-3, Side::Negative),
+                    (&[(2, 1.0), (1, -1.0)], 5e-4, Side::Both),
+                ],
+            ),
+        ];
+        for sys in &models {
+            let n = sys.n_dof();
+            for predictor_corrector in [false, true] {
+                let variant = PreciseIntegration {
+                    predictor_corrector,
+                };
+                let mut states = [0, 1].map(|_| {
+                    let v0 = DVector::from_fn(n, |i, _| 0.3 - 0.2 * i as f64);
+                    let cur = State::initial(sys, DVector::zeros(n), v0, 0.0).unwrap();
+                    let stepper =
+                        PreciseStepper::new(sys, variant, NewtonSettings::default()).unwrap();
+                    (stepper, cur.clone(), cur)
+                });
+                let (mut contacts, mut free) = (0, 0);
+                for _ in 0..4000 {
+                    for (sized, (stepper, cur, next)) in states.iter_mut().enumerate() {
+                        let iterations = if sized == 1 {
+                            stepper.attempt(sys, cur, 0, 1e-5, next)
+                        } else {
+                            stepper.step::<0>(sys, cur, 0, 1e-5, next)
+                        };
+                        iterations.unwrap();
+                        stepper.accept(sys, next);
+                        std::mem::swap(cur, next);
+                    }
+                    let (general, sized) = (&states[0].1, &states[1].1);
+                    assert_eq!(
+                        (&general.x, &general.v, &general.a, &general.phi, &general.u),
+                        (&sized.x, &sized.v, &sized.a, &sized.phi, &sized.u),
+                        "{n} DOFs, {variant:?}, t {}",
+                        general.t
+                    );
+                    assert_eq!(general.walls, sized.walls);
+                    assert_eq!(states[0].0.free_flight, states[1].0.free_flight);
+                    contacts += general.walls.iter().filter(|w| w.closed()).count();
+                    free += usize::from(states[1].0.last_step_free());
+                }
+                assert!(
+                    contacts > 50,
+                    "{n} DOFs, {variant:?}: {contacts} steps in contact"
+                );
+                if !predictor_corrector {
+                    assert!(free > 1000, "{n} DOFs: {free} free-flight steps");
+                }
+            }
+        }
     }
 }
