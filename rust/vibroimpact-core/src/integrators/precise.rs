@@ -181,7 +181,7 @@ impl Fixed {
     #[inline(always)]
     fn acceleration<const N: usize>(&self, s: &mut State, contact: bool) {
         let n = dofs::<N>(self.n);
-        let (x, v, a) = (&s.x[..n], &s.v[..n], &mut s.a[..n]);
+        let (x, v, a) = (s.x.sized::<N>(), s.v.sized::<N>(), s.a.sized_mut::<N>());
         for (i, a) in a.iter_mut().enumerate() {
             let (rk, rc) = (
                 &self.m_inv_k[i * n..(i + 1) * n],
@@ -581,7 +581,7 @@ impl PreciseStepper {
         let n = dofs::<N>(fixed.n);
         let n2 = 2 * n;
         let ng = sys.gaps.len();
-        let (x0, v0) = (&s0.x[..n], &s0.v[..n]);
+        let (x0, v0) = (s0.x.sized::<N>(), s0.v.sized::<N>());
 
         s1.t = s0.t + h;
         for (g, load) in s1.load.iter_mut().zip(&sys.loads) {
@@ -617,10 +617,10 @@ impl PreciseStepper {
             sys.gap_coordinates(&z[..n], &mut gap_newton.u);
             if gap_newton.free_flight(sys, &s0.walls) {
                 self.free_flight = true;
-                s1.x[..n].copy_from_slice(&z[..n]);
-                s1.v[..n].copy_from_slice(&z[n..]);
+                s1.x.sized_mut::<N>().copy_from_slice(&z[..n]);
+                s1.v.sized_mut::<N>().copy_from_slice(&z[n..]);
                 fixed.acceleration::<N>(s1, false);
-                s1.finish_free_flight(sys, &gap_newton.u);
+                s1.finish_free_flight::<N>(sys, &gap_newton.u);
                 return Ok(0);
             }
             gaps.evaluate(sys, &s0.walls, z, n, h, &mut s1.walls, &mut s1.phi);
@@ -689,8 +689,8 @@ impl PreciseStepper {
         }
         // State, gap coordinates and the acceleration from the equation of motion; the gap
         // coordinates are Newton's, or those of the last `z` evaluated (the step's end).
-        s1.x[..n].copy_from_slice(&z[..n]);
-        s1.v[..n].copy_from_slice(&z[n..]);
+        s1.x.sized_mut::<N>().copy_from_slice(&z[..n]);
+        s1.v.sized_mut::<N>().copy_from_slice(&z[n..]);
         fixed.acceleration::<N>(s1, true);
         s1.finish_gaps(sys, if implicit && ng > 0 { &gap_newton.u } else { u });
         Ok(iterations)
