@@ -536,17 +536,17 @@ impl Load {
 pub struct LoadValues {
     /// Per load: its group and `(cos Δ, sin Δ)`, or `None` (its own [`Load::value`]).
     shifts: Vec<Option<(usize, [f64; 2])>>,
-    /// Per group of harmonic loads of one frequency: `2π f` and its first load's phase.
-    groups: Vec<[f64; 2]>,
-    /// Per group: the last anchors' indices `k` and `sin`, `cos` of `k/4 + φ₀`, anchor `k` in
-    /// slot `k mod ANCHOR_SLOTS` ([`Self::turn`]).
-    anchors: Vec<[(f64, (f64, f64)); ANCHOR_SLOTS]>,
+    /// Per group of harmonic loads of one frequency: its rotation.
+    groups: Vec<Rotation>,
     /// Per group: `sin θ`, `cos θ` at the last time evaluated.
     trig: Vec<(f64, f64)>,
     /// Each load's value `A g(t)` at the last time evaluated ([`Self::evaluate`]), N.
     pub values: Vec<f64>,
     /// Each `(load, DOF)` it applies to, in order: one flat loop in [`Self::apply`].
     targets: Vec<Target>,
+    /// The targets when they are two harmonic ones of one frequency (an unbalance's pair):
+    /// both valued from one rotation in [`Self::apply`], without the per-target dispatch.
+    pair: Option<[Shifted; 2]>,
 }
 
 /// A load at one of its DOFs, with what its value needs ([`LoadValues::apply`]): no pass
@@ -560,6 +560,27 @@ struct Target {
     shift: Option<(usize, [f64; 2])>,
 }
 
+/// A harmonic load of group 0 at one of its DOFs ([`LoadValues::pair`]).
+#[derive(Debug, Clone, Copy)]
+struct Shifted {
+    dof: usize,
+    amplitude: f64,
+    /// `(cos Δ, sin Δ)` of its phase from the group's.
+    shift: [f64; 2],
+}
+
+/// The angle `θ = ω t + φ₀` of a group of harmonic loads, its sine and cosine turned from
+/// exact anchors `k/4 + φ₀` by a small-angle series.
+#[derive(Debug, Clone)]
+struct Rotation {
+    /// `ω = 2π f` and `φ₀`, the group's first load's phase.
+    omega: f64,
+    phase: f64,
+    /// The last anchors' indices `k` and `sin`, `cos` of `k/4 + φ₀`, anchor `k` in slot
+    /// `k mod ANCHOR_SLOTS`.
+    anchors: [(f64, (f64, f64)); ANCHOR_SLOTS],
+}
+
 /// The spacing (rad) of [`LoadValues`]' anchors, a power of 2 so that they are exact.
 const ANCHOR_SPACING: f64 = 0.25;
 
@@ -570,7 +591,7 @@ const ANCHOR_SLOTS: usize = 4;
 
 impl LoadValues {
     pub fn new(loads: &[Load]) -> Self {
-        let mut groups: Vec<[f64; 2]> = Vec::new();
+        let mut groups: Vec<Rotation> = Vec::new();
         let mut frequencies: Vec<f64> = Vec::new();
         let shifts = loads
             .iter()
@@ -582,11 +603,15 @@ impl LoadValues {
                     Some(g) => g,
                     None => {
                         frequencies.push(frequency);
-                        groups.push([2.0 * std::f64::consts::PI * frequency, phase]);
+                        groups.push(Rotation {
+                            omega: 2.0 * std::f64::consts::PI * frequency,
+                            phase,
+                            anchors: [(f64::NAN, (0.0, 1.0)); ANCHOR_SLOTS],
+                        });
                         groups.len() - 1
                     }
                 };
-                let (sin, cos) = (phase - groups[group][1]).sin_cos();
+                let (sin, cos) = (phase - groups[group].phase).sin_cos();
                 Some((group, [cos, sin]))
             })
             .collect();
@@ -599,14 +624,26 @@ impl LoadValues {
                     shift,
                 })
             })
-            .collect();
+            .collect::<Vec<Target>>();
+        let shifted = |t: &Target| match t.shift {
+            Some((0, shift)) => Some(Shifted {
+                dof: t.dof,
+                amplitude: t.amplitude,
+                shift,
+            }),
+            _ => None,
+        };
+        let pair = match targets[..] {
+            [a, b] => shifted(&a).zip(shifted(&b)).map(|(a, b)| [a, b]),
+            _ => None,
+        };
         Self {
             shifts,
-            anchors: vec![[(f64::NAN, (0.0, 1.0)); ANCHOR_SLOTS]; groups.len()],
             trig: vec![(0.0, 1.0); groups.len()],
             groups,
             values: vec![0.0; loads.len()],
             targets,
+            pair,
         }
     }
 
@@ -616,11 +653,20 @@ impl LoadValues {
     /// for the values themselves).
     #[inline(always)]
     pub fn apply(&mut self, loads: &[Load], t: f64, f: &mut [f64], v: &[f64]) -> f64 {
-        self.turn(t);
         let mut power = 0.0;
+        if let Some(pair) = self.pair {
+            let trig = self.groups[0].turn(t);
+            for target in pair {
+                let g = harmonic(trig, target.amplitude, target.shift);
+                f[target.dof] += g;
+                power += g * v[target.dof];
+            }
+            return power;
+        }
+        self.turn(t);
         for target in &self.targets {
             let g = match target.shift {
-                Some(shift) => Self::harmonic(&self.trig, target.amplitude, shift),
+                Some((group, shift)) => harmonic(self.trig[group], target.amplitude, shift),
                 None => loads[target.load].value(t),
             };
             f[target.dof] += g;
@@ -635,41 +681,42 @@ impl LoadValues {
         self.turn(t);
         for ((value, load), &shift) in self.values.iter_mut().zip(loads).zip(&self.shifts) {
             *value = match shift {
-                Some(shift) => Self::harmonic(&self.trig, load.amplitude, shift),
+                Some((group, shift)) => harmonic(self.trig[group], load.amplitude, shift),
                 None => load.value(t),
             };
         }
     }
 
-    /// A harmonic load's value `A sin(θ + Δ)` from its group's `sin θ`, `cos θ` in `trig` (at
-    /// the last time turned to, [`Self::turn`]).
-    #[inline(always)]
-    fn harmonic(
-        trig: &[(f64, f64)],
-        amplitude: f64,
-        (group, [cos, sin]): (usize, [f64; 2]),
-    ) -> f64 {
-        let (s, c) = trig[group];
-        amplitude * (s * cos + c * sin)
-    }
-
     /// Each group's `sin θ`, `cos θ` at `t`.
     #[inline(always)]
     fn turn(&mut self, t: f64) {
-        let groups = self.groups.iter().zip(&mut self.anchors);
-        for ((&[omega, phase], anchors), trig) in groups.zip(&mut self.trig) {
-            let angle = omega * t;
-            let k = nearest_integer(angle / ANCHOR_SPACING);
-            // `k` is an integer: its low bits pick the slot (any slot past 2⁶³, where the
-            // conversion saturates)
-            let anchor = &mut anchors[(k as i64 as usize) % ANCHOR_SLOTS];
-            if anchor.0 != k {
-                *anchor = (k, (k * ANCHOR_SPACING + phase).sin_cos());
-            }
-            let (sa, ca) = anchor.1;
-            let (sd, cd) = small_sin_cos(angle - k * ANCHOR_SPACING);
-            *trig = (sa * cd + ca * sd, ca * cd - sa * sd);
+        for (rotation, trig) in self.groups.iter_mut().zip(&mut self.trig) {
+            *trig = rotation.turn(t);
         }
+    }
+}
+
+/// A harmonic load's value `A sin(θ + Δ)` from its group's `sin θ`, `cos θ`.
+#[inline(always)]
+fn harmonic((s, c): (f64, f64), amplitude: f64, [cos, sin]: [f64; 2]) -> f64 {
+    amplitude * (s * cos + c * sin)
+}
+
+impl Rotation {
+    /// `sin θ`, `cos θ` at `t`.
+    #[inline(always)]
+    fn turn(&mut self, t: f64) -> (f64, f64) {
+        let angle = self.omega * t;
+        let k = nearest_integer(angle / ANCHOR_SPACING);
+        // `k` is an integer: its low bits pick the slot (any slot past 2⁶³, where the
+        // conversion saturates)
+        let anchor = &mut self.anchors[(k as i64 as usize) % ANCHOR_SLOTS];
+        if anchor.0 != k {
+            *anchor = (k, (k * ANCHOR_SPACING + self.phase).sin_cos());
+        }
+        let (sa, ca) = anchor.1;
+        let (sd, cd) = small_sin_cos(angle - k * ANCHOR_SPACING);
+        (sa * cd + ca * sd, ca * cd - sa * sd)
     }
 }
 
@@ -779,8 +826,8 @@ mod tests {
 
     /// [`LoadValues`] (an unbalance's pair sharing one angle, a lone harmonic load, a
     /// constant and a table) equals each load's own [`Load::value`] to the rounding of the
-    /// angle, over 1e4 revolutions and at the anchors' midpoints; its small-angle sine and
-    /// cosine equal the library's to 2 ulp.
+    /// angle, over 1e4 revolutions and at the anchors' midpoints; the pair alone (its own
+    /// path) gives the same bits; its small-angle sine and cosine equal the library's to 2 ulp.
     #[test]
     fn load_values_equal_each_loads_value() {
         let spin = SpinProfile::constant(150.0);
@@ -832,6 +879,19 @@ mod tests {
             }
         }
         assert_eq!((f, power), (expected, expected_power));
+        // an unbalance's pair alone (valued from one rotation): the same bits
+        let pair = vec![loads[0].clone(), loads[3].clone()];
+        let mut pair_values = LoadValues::new(&pair);
+        assert!(pair_values.pair.is_some() && values.pair.is_none());
+        for i in 0..1000 {
+            let t = 420.0 * ((i as f64 * 0.618_034) % 1.0);
+            let (mut f, v) = ([0.0; 2], [0.5, -2.0]);
+            let power = pair_values.apply(&pair, t, &mut f, &v);
+            values.evaluate(&loads, t);
+            let [gx, gy] = [values.values[0], values.values[3]];
+            let expected_power = 0.0 + gx * v[0] + gy * v[1];
+            assert_eq!((f, power), ([gx, gy], expected_power), "{t}");
+        }
         // the anchors' rounding: `round` away from ties (ties to even), either side of 2⁵¹
         for i in 0..100_000 {
             let x = (i as f64 * 0.618_034 - 30_000.0) * 1.37;

@@ -26,7 +26,7 @@
 //! stiff high modes are better served by the implicit methods.
 
 use super::dop853_tableau::{A, A_DENSE, B, C, C_DENSE, D, DENSE_STAGES, E3, E5, STAGES};
-use super::sized::{by_size, dofs, Inline};
+use super::sized::{by_size, dofs, Inline, MAX_SIZED};
 use crate::contact::{power_law, ContactForce, ContactLaw, Law, MIN_IMPACT_SPEED};
 use crate::driver::{Run, StepIntegrals, StepPolicy};
 use crate::error::SimError;
@@ -111,6 +111,8 @@ struct Dynamics<'s> {
     /// `M⁻¹`, `C` and `K` (each row-major) of a small model, whose products are then dense
     /// dot products (a sparse product's row bookkeeping costs several times more at 2 DOFs).
     small: Option<Small>,
+    /// The same of a model of up to [`MAX_SIZED`] DOFs inline ([`small_matrices`]).
+    sized_small: [[f64; MAX_SIZED * MAX_SIZED]; 3],
     rhs: Vec<f64>,
     loads: LoadValues,
     /// Each wall as the right-hand side applies it.
@@ -224,6 +226,25 @@ struct Small {
     stiffness: Vec<f64>,
 }
 
+/// A small model's `M⁻¹`, `C` and `K` for code compiled for `N` DOFs ([`by_size`]): for
+/// `N > 0` (always small) the inline copies `sized`, with no test of `small` and their
+/// length a constant; else `small`'s, if the model is small.
+#[inline(always)]
+fn small_matrices<'a, const N: usize>(
+    small: &'a Option<Small>,
+    sized: &'a [[f64; MAX_SIZED * MAX_SIZED]; 3],
+    n: usize,
+) -> Option<[&'a [f64]; 3]> {
+    const { assert!(MAX_SIZED <= MAX_DENSE_INVERSE) };
+    if N > 0 {
+        Some(sized.each_ref().map(|m| &m[..N * N]))
+    } else {
+        small
+            .as_ref()
+            .map(|s| [&s.mass_inverse, &s.damping, &s.stiffness].map(|m| &m[..n * n]))
+    }
+}
+
 /// A working vector of `n` zeros: for code compiled for `N > 0` DOFs an array on the stack (its
 /// length a constant, no pointer or length reloaded around the right-hand side's writes), else
 /// the general size's buffer `general`, which it borrows.
@@ -292,10 +313,21 @@ impl<'s> Dynamics<'s> {
                 stiffness: product(&st.stiffness),
             }
         });
+        let mut sized_small = [[0.0; MAX_SIZED * MAX_SIZED]; 3];
+        if let Some(small) = small.as_ref().filter(|_| n <= MAX_SIZED) {
+            for (sized, m) in
+                sized_small
+                    .iter_mut()
+                    .zip([&small.mass_inverse, &small.damping, &small.stiffness])
+            {
+                sized[..n * n].copy_from_slice(m);
+            }
+        }
         Self {
             sys,
             cv: vec![0.0; n],
             small,
+            sized_small,
             rhs: vec![0.0; n],
             loads: LoadValues::new(&sys.loads),
             walls: (0..sys.walls.len())
@@ -329,8 +361,9 @@ impl<'s> Dynamics<'s> {
     ) -> Option<f64> {
         let sys = self.sys;
         let st = &sys.structure;
-        let small = self.small.as_ref()?;
         let n = dofs::<N>(state.x.len());
+        let [mass_inverse, damping, stiffness] =
+            small_matrices::<N>(&self.small, &self.sized_small, n)?;
         if contacts.iter().any(|c| c.active) || st.varying_gyroscopic().is_some() {
             return None;
         }
@@ -363,11 +396,6 @@ impl<'s> Dynamics<'s> {
         series[n..2 * n].copy_from_slice(&state.v[..n]);
         let mut rhs = Vector::<N>::new(&mut self.rhs, n);
         let rhs = rhs.get();
-        let (mass_inverse, damping, stiffness) = (
-            &small.mass_inverse[..n * n],
-            &small.damping[..n * n],
-            &small.stiffness[..n * n],
-        );
         for k in 0..orders {
             let (known, next) = series.split_at_mut((k + 2) * n);
             let (xk, xk1) = (&known[k * n..(k + 1) * n], &known[(k + 1) * n..(k + 2) * n]);
@@ -500,12 +528,13 @@ impl<'s> Dynamics<'s> {
             *wall_force = force.force;
             contact += (force.force - force.elastic) * rate;
         }
+        let small = small_matrices::<N>(&self.small, &self.sized_small, n);
         let mut damping = 0.0;
         if sys.has_damping {
             let mut cv = Vector::<N>::new(&mut self.cv, n);
             let cv = cv.get();
-            match &self.small {
-                Some(small) => dense_mul_add(&small.damping[..n * n], 1.0, v, cv),
+            match small {
+                Some([_, damping, _]) => dense_mul_add(damping, 1.0, v, cv),
                 None => st.damping.mul_add(1.0, v, cv),
             }
             for ((fi, ci), vi) in f.iter_mut().zip(&*cv).zip(v) {
@@ -517,19 +546,14 @@ impl<'s> Dynamics<'s> {
             // a run-up: `damping` holds Ω(0) G; the rest of Ω(t) G x' (no power: G = −Gᵀ)
             g.mul_add(-(st.spin.speed(t) - st.spin.start), v, f);
         }
-        match &self.small {
-            Some(small) if self.has_stiffness => {
-                dense_mul_add(&small.stiffness[..n * n], -1.0, x, f)
-            }
+        match small {
+            Some([_, _, stiffness]) if self.has_stiffness => dense_mul_add(stiffness, -1.0, x, f),
             None if self.has_stiffness => st.stiffness.mul_add(-1.0, x, f),
             _ => {}
         }
-        match &self.small {
-            Some(small) => {
-                for (ai, row) in a
-                    .iter_mut()
-                    .zip(small.mass_inverse[..n * n].chunks_exact(n))
-                {
+        match small {
+            Some([mass_inverse, ..]) => {
+                for (ai, row) in a.iter_mut().zip(mass_inverse.chunks_exact(n)) {
                     *ai = dot(row, f);
                 }
             }
