@@ -14,7 +14,7 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use nalgebra::DMatrix;
 
 use super::newton::{GapNewton, GapProblem, NewtonSettings, RateMap};
-use super::sized::{by_size, dofs, Inline};
+use super::sized::{by_size, dofs, sized_step_path, Inline};
 use super::{OperatorCache, StepFailure, Stepper};
 use crate::error::{invalid, SimError};
 use crate::factor::{FactorChoice, FactorInfo, FactorPlan, SpdFactor};
@@ -585,13 +585,7 @@ impl Stepper for NewmarkStepper {
 
     /// The step [`Self::attempt`] dispatches to.
     fn step_path(&self, sys: &System) -> &'static str {
-        match sys.n_dof() {
-            1 => "fixed-size N=1",
-            2 => "fixed-size N=2",
-            3 => "fixed-size N=3",
-            4 => "fixed-size N=4",
-            _ => "general",
-        }
+        sized_step_path(sys.n_dof())
     }
 }
 
@@ -933,13 +927,11 @@ pub(crate) mod tests {
         System::new(s, gaps, vec![load]).unwrap()
     }
 
-    /// The step compiled for a model's size (`attempt`, up to four DOFs) and the general one
-    /// (`step::<0>`) take the same steps to the bit, contacts included: 1-DOF with one wall
-    /// and with two, 2- and 3-DOF chains with damping, a harmonic load and a relative gap,
-    /// each with Newmark, HHT-α and generalized-α.
-    #[test]
-    fn sized_step_equals_the_general_step() {
-        let models = [
+    /// The small models the steps compiled for a size are checked on: one DOF with a
+    /// one-sided and with a two-sided stop, 2- and 3-DOF chains with damping, a harmonic load
+    /// and a relative gap.
+    pub(crate) fn small_models() -> [System; 4] {
+        [
             small_chain(1, 0.0, &[(&[(0, 1.0)], 1e-3, Side::Positive)]),
             small_chain(1, 2.0, &[(&[(0, 1.0)], 1e-3, Side::Both)]),
             small_chain(2, 3.0, &[(&[(1, 1.0), (0, -1.0)], 1e-4, Side::Both)]),
@@ -951,41 +943,72 @@ pub(crate) mod tests {
                     (&[(2, 1.0), (1, -1.0)], 5e-4, Side::Both),
                 ],
             ),
-        ];
-        for sys in &models {
-            let n = sys.n_dof();
+        ]
+    }
+
+    /// Runs 4,000 steps of `h` on `sys` twice, by `attempt` (compiled for the size) and by
+    /// `general`, from the same start and accepting each, and asserts the same state after
+    /// every step; returns the steps' count of closed walls and of free-flight steps.
+    pub(crate) fn assert_sized_equals_general<S: Stepper>(
+        sys: &System,
+        make: impl Fn() -> S,
+        general: impl Fn(&mut S, &System, &State, f64, &mut State) -> Result<usize, StepFailure>,
+        h: f64,
+    ) -> (usize, usize) {
+        let n = sys.n_dof();
+        let mut states = [0, 1].map(|_| {
+            let v0 = DVector::from_fn(n, |i, _| 0.3 - 0.2 * i as f64);
+            let cur = State::initial(sys, DVector::zeros(n), v0, 0.0).unwrap();
+            (make(), cur.clone(), cur)
+        });
+        let (mut contacts, mut free) = (0, 0);
+        for _ in 0..4000 {
+            for (sized, (stepper, cur, next)) in states.iter_mut().enumerate() {
+                let iterations = if sized == 1 {
+                    stepper.attempt(sys, cur, 0, h, next)
+                } else {
+                    general(stepper, sys, cur, h, next)
+                };
+                iterations.unwrap();
+                stepper.accept(sys, next);
+                std::mem::swap(cur, next);
+            }
+            let (general, sized) = (&states[0].1, &states[1].1);
+            assert_eq!(
+                (&general.x, &general.v, &general.a, &general.phi, &general.u),
+                (&sized.x, &sized.v, &sized.a, &sized.phi, &sized.u),
+                "{n} DOFs, t {}",
+                general.t
+            );
+            assert_eq!(general.walls, sized.walls);
+            assert_eq!(states[0].0.last_step_free(), states[1].0.last_step_free());
+            contacts += general.walls.iter().filter(|w| w.closed()).count();
+            free += usize::from(states[1].0.last_step_free());
+        }
+        (contacts, free)
+    }
+
+    /// Newmark's step compiled for one to four DOFs gives the general step's bits (one DOF
+    /// with one wall and with two, 2- and 3-DOF chains with damping, a harmonic load and a
+    /// relative gap), each with Newmark, HHT-α and generalized-α.
+    #[test]
+    fn sized_step_equals_the_general_step() {
+        for sys in &small_models() {
             for scheme in TEST_SCHEMES {
-                let mut states = [0, 1].map(|_| {
-                    let v0 = DVector::from_fn(n, |i, _| 0.3 - 0.2 * i as f64);
-                    let cur = State::initial(sys, DVector::zeros(n), v0, 0.0).unwrap();
-                    let stepper =
-                        NewmarkStepper::new(sys, scheme, NewtonSettings::default()).unwrap();
-                    (stepper, cur.clone(), cur)
-                });
-                let mut contacts = 0;
-                for _ in 0..4000 {
-                    for (sized, (stepper, cur, next)) in states.iter_mut().enumerate() {
-                        let iterations = if sized == 1 {
-                            stepper.attempt(sys, cur, 0, 2e-5, next)
-                        } else {
-                            stepper.step::<0>(sys, cur, 0, 2e-5, next)
-                        };
-                        iterations.unwrap();
-                        std::mem::swap(cur, next);
-                    }
-                    let (general, sized) = (&states[0].1, &states[1].1);
-                    assert_eq!(
-                        (&general.x, &general.v, &general.a, &general.phi),
-                        (&sized.x, &sized.v, &sized.a, &sized.phi),
-                        "{n} DOFs, {scheme:?}, t {}",
-                        general.t
-                    );
-                    assert_eq!(general.walls, sized.walls);
-                    contacts += general.walls.iter().filter(|w| w.closed()).count();
-                }
+                let make = || NewmarkStepper::new(sys, scheme, NewtonSettings::default()).unwrap();
+                let general =
+                    |s: &mut NewmarkStepper, sys: &System, s0: &State, h, s1: &mut State| {
+                        s.step::<0>(sys, s0, 0, h, s1)
+                    };
+                let (contacts, free) = assert_sized_equals_general(sys, make, general, 2e-5);
+                let n = sys.n_dof();
                 assert!(
                     contacts > 50,
                     "{n} DOFs, {scheme:?}: {contacts} steps in contact"
+                );
+                assert!(
+                    free > 1000,
+                    "{n} DOFs, {scheme:?}: {free} free-flight steps"
                 );
             }
         }

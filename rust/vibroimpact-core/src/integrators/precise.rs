@@ -40,7 +40,7 @@ use nalgebra::DMatrix;
 
 use super::expm::duhamel;
 use super::newton::{solve_small, GapNewton, GapProblem, NewtonSettings, RateMap};
-use super::sized::{by_size, dofs};
+use super::sized::{by_size, dofs, sized_step_path};
 use super::{OperatorCache, StepFailure, Stepper};
 use crate::error::{invalid, SimError};
 use crate::gap::WallState;
@@ -526,13 +526,7 @@ impl Stepper for PreciseStepper {
 
     /// The step [`Self::attempt`] dispatches to.
     fn step_path(&self, sys: &System) -> &'static str {
-        match sys.n_dof() {
-            1 => "fixed-size N=1",
-            2 => "fixed-size N=2",
-            3 => "fixed-size N=3",
-            4 => "fixed-size N=4",
-            _ => "general",
-        }
+        sized_step_path(sys.n_dof())
     }
 }
 
@@ -725,72 +719,31 @@ impl GapBuffers<'_> {
 
 #[cfg(test)]
 mod tests {
-    use nalgebra::DVector;
-
     use super::*;
-    use crate::gap::Side;
-    use crate::integrators::newmark::tests::small_chain;
+    use crate::integrators::newmark::tests::{assert_sized_equals_general, small_models};
 
     /// The step compiled for a small model's size gives the general step's bits, through the
     /// Adams history, contacts and free flights, in both variants.
     #[test]
     fn sized_step_equals_the_general_step() {
-        let models = [
-            small_chain(1, 0.0, &[(&[(0, 1.0)], 1e-3, Side::Positive)]),
-            small_chain(1, 2.0, &[(&[(0, 1.0)], 1e-3, Side::Both)]),
-            small_chain(2, 3.0, &[(&[(1, 1.0), (0, -1.0)], 1e-4, Side::Both)]),
-            small_chain(
-                3,
-                1.0,
-                &[
-                    (&[(0, 1.0)], 1e-3, Side::Negative),
-                    (&[(2, 1.0), (1, -1.0)], 5e-4, Side::Both),
-                ],
-            ),
-        ];
-        for sys in &models {
-            let n = sys.n_dof();
+        for sys in &small_models() {
             for predictor_corrector in [false, true] {
                 let variant = PreciseIntegration {
                     predictor_corrector,
                 };
-                let mut states = [0, 1].map(|_| {
-                    let v0 = DVector::from_fn(n, |i, _| 0.3 - 0.2 * i as f64);
-                    let cur = State::initial(sys, DVector::zeros(n), v0, 0.0).unwrap();
-                    let stepper =
-                        PreciseStepper::new(sys, variant, NewtonSettings::default()).unwrap();
-                    (stepper, cur.clone(), cur)
-                });
-                let (mut contacts, mut free) = (0, 0);
-                for _ in 0..4000 {
-                    for (sized, (stepper, cur, next)) in states.iter_mut().enumerate() {
-                        let iterations = if sized == 1 {
-                            stepper.attempt(sys, cur, 0, 1e-5, next)
-                        } else {
-                            stepper.step::<0>(sys, cur, 0, 1e-5, next)
-                        };
-                        iterations.unwrap();
-                        stepper.accept(sys, next);
-                        std::mem::swap(cur, next);
-                    }
-                    let (general, sized) = (&states[0].1, &states[1].1);
-                    assert_eq!(
-                        (&general.x, &general.v, &general.a, &general.phi, &general.u),
-                        (&sized.x, &sized.v, &sized.a, &sized.phi, &sized.u),
-                        "{n} DOFs, {variant:?}, t {}",
-                        general.t
-                    );
-                    assert_eq!(general.walls, sized.walls);
-                    assert_eq!(states[0].0.free_flight, states[1].0.free_flight);
-                    contacts += general.walls.iter().filter(|w| w.closed()).count();
-                    free += usize::from(states[1].0.last_step_free());
-                }
+                let make = || PreciseStepper::new(sys, variant, NewtonSettings::default()).unwrap();
+                let general =
+                    |s: &mut PreciseStepper, sys: &System, s0: &State, h, s1: &mut State| {
+                        s.step::<0>(sys, s0, 0, h, s1)
+                    };
+                let (contacts, free) = assert_sized_equals_general(sys, make, general, 1e-5);
+                let n = sys.n_dof();
                 assert!(
                     contacts > 50,
                     "{n} DOFs, {variant:?}: {contacts} steps in contact"
                 );
                 if !predictor_corrector {
-                    assert!(free > 1000, "{n} DOFs: {free} free-flight steps");
+                    assert!(free > 1000, "{n} DOFs: {free} free-flight Adams steps");
                 }
             }
         }

@@ -46,6 +46,18 @@ pub(crate) fn dofs<const N: usize>(len: usize) -> usize {
 
 pub(crate) use by_size;
 
+/// The step a stepper compiled by [`by_size`] takes for a model of `n_dof` DOFs
+/// ([`crate::output::Stats::step_path`]).
+pub(crate) fn sized_step_path(n_dof: usize) -> &'static str {
+    match n_dof {
+        1 => "fixed-size N=1",
+        2 => "fixed-size N=2",
+        3 => "fixed-size N=3",
+        4 => "fixed-size N=4",
+        _ => "general",
+    }
+}
+
 /// The largest model whose values are kept inline ([`Inline`]): the sizes [`by_size`]
 /// compiles for.
 pub(crate) const MAX_SIZED: usize = 4;
