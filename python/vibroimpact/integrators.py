@@ -735,6 +735,12 @@ machine's load):
 | precise (predictor–corrector) | 4.68 ms | 1.32 | 1.43 | | |
 | Bathe (γ = 1/2) | 5.84 ms | 1.65 | 1.64 | | |
 
-Targets: generalized-α ≤ 1.3× Newmark, precise ≤ 3× Newmark: both met. The precise method is
-the cheapest per step here: no Newton at all, and one 2×2 mat-vec for the exact linear part.
+Targets: generalized-α ≤ 1.3× Newmark, precise ≤ 3× Newmark: both met. The table predates
+issue 20's per-step work, which made every step cheaper and Newmark's free-flight step most
+(issue 20 asks precise ≤ 1.5× Newmark). Instructions a step on the current core (callgrind,
+`examples/sdof_bench.rs`; `METHOD=precise`, `METHOD=precise-pc`, `SCHEME=generalized-alpha`):
+Newmark 1,069, generalized-α 1,107 (1.04×), precise Adams 1,201 (1.12×: no Newton, one 2×2
+mat-vec for the exact linear part, and in free flight no wall evaluated, as Newmark's step),
+predictor–corrector 2,030 (1.90×); the latest wall-time ratios are `vibroimpact bench`'s, in
+the README.
 """
