@@ -449,7 +449,7 @@ impl<'s> Dynamics<'s> {
                     .iter()
                     .fold(0.0, |m: f64, c| m.max(c.abs()));
                 let truncated = last * tau.powi(SERIES_ORDER as i32);
-                return (truncated <= 0.1 * precision * delta_rate.abs() * tau).then_some(tau);
+                return (truncated <= precision * delta_rate.abs() * tau).then_some(tau);
             }
         }
         None
