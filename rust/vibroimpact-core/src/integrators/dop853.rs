@@ -8,8 +8,9 @@
 //! wall's closing and opening (and a tabulated law's first peak, where it turns onto its
 //! unloading curve) is located on the step's quintic Hermite interpolant of the penetration
 //! (value, rate and acceleration at both ends) and the step is retaken to end there, until
-//! the event lies within [`EVENT_NEAR`] of a step (or [`EVENT_TOL`] of `t_end`) of the step's
-//! end; the wall is switched at the start of the next step. A force clamped to zero before
+//! the event lies within [`EVENT_NEAR`] of a step (or [`EVENT_TOL`] of `t_end`, or a linear
+//! stator's tolerance-scaled window, [`switch_slack`]) of the step's end; the wall is
+//! switched at the start of the next step. A force clamped to zero before
 //! its wall opens (its law's formula turned tensile) is landed on too. A closing predicted
 //! inside the next step is landed on at once. `v_imp`, `t_start`, `t_end` and `v_out` are
 //! therefore those of the integrated motion, to its tolerance; peaks (penetration, force,
@@ -64,6 +65,10 @@ const MAX_LANDINGS: usize = 8;
 /// when the state-transition matrix is carried or a force jumps at its onset
 /// (`landing_correction`).
 const LANDING_WINDOW: f64 = 1e-3;
+
+/// The share of the velocity's tolerance that a linear stator's switch may cost where it is
+/// switched off the step's end ([`switch_slack`]).
+const SWITCH_ERROR: f64 = 0.1;
 
 /// Models up to this many DOFs apply a dense `M⁻¹` instead of solving with `M`'s factor.
 const MAX_DENSE_INVERSE: usize = 32;
@@ -345,7 +350,8 @@ impl<'s> Dynamics<'s> {
     /// `guess` (s) after it at constant acceleration ([`predicted_closing`]): refined by
     /// Newton's method on the motion's Taylor series to [`SERIES_ORDER`], so that the step
     /// landed on it ends within its switching window (a quadratic's root falls 1e-3 of the
-    /// way short or long, and a tiny step or a retake follows). `None` where the series is not
+    /// way short or long, and a tiny step or a retake follows), [`EVENT_NEAR`] of the step or
+    /// the wall's `slack` (s, [`switch_slack`]). `None` where the series is not
     /// available (a large model, a run-up, a load that is not smooth), is truncated above the
     /// landing's precision, or Newton does not settle near `guess`. Compiled for `N` DOFs
     /// ([`by_size`]): the series' rows in arrays on the stack for `N > 0` (their length a
@@ -358,6 +364,7 @@ impl<'s> Dynamics<'s> {
         state: &StepEnd,
         j: usize,
         guess: f64,
+        slack: f64,
     ) -> Option<f64> {
         let sys = self.sys;
         let st = &sys.structure;
@@ -434,13 +441,15 @@ impl<'s> Dynamics<'s> {
             if !(tau > 0.0 && (tau - guess).abs() < 0.5 * guess) {
                 return None;
             }
-            if correction.abs() <= 0.01 * EVENT_NEAR * tau {
+            // within the wall's switching window: EVENT_NEAR of the step, or its slack
+            let precision = EVENT_NEAR.max(slack / tau);
+            if correction.abs() <= 0.01 * precision * tau {
                 // the last term, the truncation's size, within the landing's precision
                 let last = series[SERIES_ORDER * n..(SERIES_ORDER + 1) * n]
                     .iter()
                     .fold(0.0, |m: f64, c| m.max(c.abs()));
                 let truncated = last * tau.powi(SERIES_ORDER as i32);
-                return (truncated <= 0.1 * EVENT_NEAR * delta_rate.abs() * tau).then_some(tau);
+                return (truncated <= precision * delta_rate.abs() * tau).then_some(tau);
             }
         }
         None
@@ -1149,6 +1158,7 @@ fn wall_motion(sys: &System, j: usize, x: &[f64], v: &[f64], a: &[f64]) -> [f64;
 fn switch_walls(
     sys: &System,
     contacts: &mut [Contact],
+    slack: &[f64],
     state: &StepEnd,
     tol_t: f64,
     within: f64,
@@ -1157,9 +1167,10 @@ fn switch_walls(
     for (j, c) in contacts.iter_mut().enumerate() {
         let [delta, rate, accel] = state.walls[j];
         let continues = continues_through_wall(&sys.gaps[sys.walls[j].gap].law);
-        let window = tol_t.max(within);
+        let near = tol_t.max(slack[j]);
+        let window = near.max(within);
         let ahead = delta + window * (rate + 0.5 * accel * window);
-        let closes = rate > 0.0 && delta + rate * tol_t >= 0.0 && !(continues && ahead < 0.0);
+        let closes = rate > 0.0 && delta + rate * near >= 0.0 && !(continues && ahead < 0.0);
         let opens = if continues {
             ahead <= 0.0
         } else {
@@ -1244,23 +1255,27 @@ enum Event {
 }
 
 /// The first event inside a step: its fraction of the step, its wall and kind (a peak only
-/// with `peaks`), if one lies more than `tol_t` inside the step.
+/// with `peaks`), if one lies more than `tol_t` inside the step (a wall's closing or opening
+/// more than its `slack`, s, too).
+#[allow(clippy::too_many_arguments)]
 fn first_event(
     sys: &System,
     contacts: &[Contact],
+    slack: &[f64],
     start: &StepEnd,
     end: &StepEnd,
     h: f64,
     tol_t: f64,
     peaks: bool,
 ) -> Option<(f64, usize, Event)> {
-    let inside = |s: &f64| s * h > tol_t && (1.0 - s) * h > tol_t;
+    let within = |tol: f64| move |s: &f64| s * h > tol && (1.0 - s) * h > tol;
+    let inside = within(tol_t);
     let mut first: Option<(f64, usize, Event)> = None;
     for (j, c) in contacts.iter().enumerate() {
         let seg = QuinticSegment::new(start.walls[j], end.walls[j], h);
         let crossing = seg
             .first_crossing(false, !c.active, EVENT_SAMPLES)
-            .filter(inside)
+            .filter(within(tol_t.max(slack[j])))
             .map(|s| {
                 (
                     s,
@@ -1445,6 +1460,9 @@ pub(crate) struct Dop853Steps<'s> {
     grid_step: usize,
     /// How close (s) to a wall's event the last step ended for the wall to be switched.
     near_switch: f64,
+    /// How far (s) each wall's closing or opening may lie from a step's end and be switched
+    /// there ([`switch_slack`]).
+    slack: Vec<f64>,
     /// Steps land on every switch to round-off ([`landing_correction`]): the
     /// state-transition matrix differentiates the landing condition, and a force that jumps
     /// at its wall's onset ([`jumps_at_onset`]) must not act before it.
@@ -1496,6 +1514,14 @@ impl<'s> Dop853Steps<'s> {
         dynamics.at(&contacts, None, run.cur.t, &mut start);
         let exact_switches =
             variational.is_some() || sys.walls.iter().any(|w| jumps_at_onset(sys, w.gap));
+        let slack = match steps {
+            Steps::Adaptive { tol, .. } if !exact_switches => switch_slack(
+                sys,
+                dynamics.small.as_ref().map(|s| &s.mass_inverse[..]),
+                tol.rtol,
+            ),
+            _ => vec![0.0; sys.walls.len()],
+        };
         if exact_switches {
             release_walls(sys, &mut contacts, &start, 0.0);
         }
@@ -1537,6 +1563,7 @@ impl<'s> Dop853Steps<'s> {
             last: None,
             grid_step: 0,
             near_switch: tol_t,
+            slack,
             exact_switches,
             variational,
         }
@@ -1599,6 +1626,7 @@ impl StepPolicy for Dop853Steps<'_> {
             let (switched, closed) = switch_walls(
                 sys,
                 &mut self.contacts,
+                &self.slack,
                 &self.start,
                 self.near_switch,
                 within,
@@ -1661,8 +1689,9 @@ impl StepPolicy for Dop853Steps<'_> {
                     .map(|(tau, j)| {
                         let (dynamics, contacts, start) =
                             (&mut self.dynamics, &self.contacts, &*self.start);
+                        let slack = self.slack[j];
                         let refined = by_size!(start.x.len(), |N| dynamics
-                            .free_closing::<N>(contacts, t0, start, j, tau));
+                            .free_closing::<N>(contacts, t0, start, j, tau, slack));
                         (refined.unwrap_or(tau), j)
                     })
                     .filter(|&(tau, _)| tau > self.near_switch && tau < limit)
@@ -1766,6 +1795,7 @@ impl StepPolicy for Dop853Steps<'_> {
                         if let Some((s, j, event)) = first_event(
                             sys,
                             &self.contacts,
+                            &self.slack,
                             &self.start,
                             &self.end,
                             h_try,
@@ -1796,6 +1826,7 @@ impl StepPolicy for Dop853Steps<'_> {
                 if let Some((s, j, event)) = first_event(
                     sys,
                     &self.contacts,
+                    &self.slack,
                     &self.start,
                     &self.end,
                     duration,
@@ -2297,6 +2328,34 @@ fn linear_stator(law: &Law) -> Option<f64> {
     }
 }
 
+/// How far (s) each wall's closing or opening may lie from a step's end and still be switched
+/// there instead of landed on. A linear stator's force continues through its wall
+/// ([`continues_through_wall`]), so a switch `τ` off the crossing applies (or leaves out) a
+/// force `K |δ̇| t` for `t < τ`: a velocity error `ω² |δ̇| τ² / 2` along the wall, `ω² = K bᵀM⁻¹b
+/// ≤ K |b|² ‖M⁻¹‖∞`, which `τ = √(2 SWITCH_ERROR rtol) / ω` keeps to [`SWITCH_ERROR`] of the
+/// tolerance of a velocity `|δ̇|`. At a loose tolerance a landing found on a long step's
+/// interpolant misses the crossing by more than [`EVENT_NEAR`] of the step and was retaken
+/// a second time at almost every contact. Zero for other laws and without a dense `M⁻¹`.
+fn switch_slack(sys: &System, mass_inverse: Option<&[f64]>, rtol: f64) -> Vec<f64> {
+    let n = sys.n_dof();
+    let norm = mass_inverse.map_or(0.0, |m| {
+        m.chunks_exact(n)
+            .map(|row| row.iter().map(|x| x.abs()).sum::<f64>())
+            .fold(0.0, f64::max)
+    });
+    sys.walls
+        .iter()
+        .map(|w| {
+            let gap = &sys.gaps[w.gap];
+            let b2: f64 = gap.coefficients.iter().map(|c| c * c).sum();
+            match linear_stator(&gap.law) {
+                Some(k) if norm > 0.0 => (2.0 * SWITCH_ERROR * rtol / (k * b2 * norm)).sqrt(),
+                _ => 0.0,
+            }
+        })
+        .collect()
+}
+
 /// Whether wall `j`'s force continues through its wall ([`continues_through_wall`]).
 fn smooth_switch(sys: &System, j: usize) -> bool {
     continues_through_wall(&sys.gaps[sys.walls[j].gap].law)
@@ -2471,7 +2530,7 @@ mod tests {
         let (guess, wall) = super::predicted_closing(&contacts, &start).unwrap();
         assert!((guess / lo - 1.0).abs() > 1e-4, "{guess} {lo}");
         let refined = by_size!(start.x.len(), |N| dynamics
-            .free_closing::<N>(&contacts, 0.0, &start, wall, guess))
+            .free_closing::<N>(&contacts, 0.0, &start, wall, guess, 0.0))
         .unwrap();
         assert!((refined / lo - 1.0).abs() < 1e-8, "{refined} {lo}");
     }
@@ -2538,5 +2597,87 @@ mod tests {
             let total = e.kinetic[i] + e.contact_potential[i];
             assert!((total / e0 - 1.0).abs() < 3e-9, "{i}: {total}");
         }
+    }
+
+    /// The rub of `rotor_bench` (a Jeffcott rotor on a linear stator with regularised
+    /// friction), 100 revolutions at `rtol`: the final displacement, contacts, rejections.
+    fn linear_stator_rub(rtol: f64) -> ([f64; 2], usize, usize) {
+        use crate::gap::{FrictionLaw, Radial};
+        use crate::structure::{Load, LoadHistory};
+        use std::f64::consts::{FRAC_PI_2, PI};
+        let spin = 150.0;
+        let eye = DMatrix::<f64>::identity(2, 2);
+        let st = LinearStructure::new(eye.clone(), &eye * 10.0, &eye * 1e4)
+            .unwrap()
+            .spinning(None, spin)
+            .unwrap();
+        let gap = Gap {
+            dofs: vec![0, 1],
+            coefficients: vec![1.0, 1.0],
+            clearance: 1e-4,
+            side: Side::Radial(Radial {
+                center: [0.0, 0.0],
+                friction: 0.05,
+                radius: 0.01,
+                friction_law: FrictionLaw::Regularised { speed: 0.05 },
+                partner: 0,
+            }),
+            law: Law::Hertz(Hertz::new(1e6, 1.0).unwrap()),
+        };
+        let unbalance = |dof: usize, phase: f64| Load {
+            dofs: vec![dof],
+            amplitude: 1e-4 * spin * spin,
+            history: LoadHistory::Harmonic {
+                frequency: spin / (2.0 * PI),
+                phase,
+            },
+        };
+        let loads = vec![unbalance(0, 0.0), unbalance(1, -FRAC_PI_2)];
+        let sys = System::new(st, vec![gap], loads).unwrap();
+        let period = 2.0 * PI / spin;
+        let t_end = 100.0 * period;
+        let settings = RunSettings {
+            t_end,
+            dt: period / 100.0,
+            every: 1_000_000,
+            record_dofs: vec![0, 1],
+            newton: NewtonSettings::default(),
+            adaptive: Some(Adaptive {
+                rtol,
+                atol: 1e-14_f64.min(rtol * 1e-4),
+                dt_min: period / 1e6,
+                dt_max: t_end / 50.0,
+            }),
+        };
+        let out = simulate(
+            &sys,
+            Method::Dop853,
+            &settings,
+            DVector::zeros(2),
+            DVector::zeros(2),
+        )
+        .unwrap();
+        assert!(out.error.is_none());
+        let x = &out.rows.displacement;
+        (
+            [x[x.len() - 2], x[x.len() - 1]],
+            out.impacts.len(),
+            out.stats.rejected_steps,
+        )
+    }
+
+    /// At a loose tolerance a linear stator's switch is taken within its window
+    /// ([`super::switch_slack`]) instead of landed on again (2.9 retaken steps a contact
+    /// before, 1.23 now: the step over the opening and some closings), to the tolerance's
+    /// accuracy.
+    #[test]
+    fn linear_stator_switches_at_a_loose_tolerance_are_not_retaken_twice() {
+        let (reference, contacts, _) = linear_stator_rub(1e-12);
+        let (x, coarse_contacts, rejected) = linear_stator_rub(1e-6);
+        assert_eq!(coarse_contacts, contacts);
+        assert!(rejected < 3 * contacts / 2, "{rejected} for {contacts}");
+        let error = (x[0] - reference[0]).hypot(x[1] - reference[1]);
+        // 7.9e-8 m, 0.08 % of the clearance (1.0e-6 m after 1,000 revolutions, as before)
+        assert!(error < 2e-7, "{error}");
     }
 }
