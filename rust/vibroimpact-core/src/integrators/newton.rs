@@ -78,8 +78,16 @@ pub(crate) struct GapNewton {
 
 impl GapNewton {
     /// Initial guess `Δu = Δu_lin − W φ`: the linear predictor moved by given contact forces
-    /// (those of the start of the step, or of an earlier sub-step).
+    /// (those of the start of the step, or of an earlier sub-step). In line in each step, as
+    /// before it had a path for one coordinate (out of line, the rotor's Newmark run costs
+    /// +0.7 %).
+    #[inline(always)]
     pub fn start_from(&mut self, w: &[f64], du_lin: &[f64], phi: &[f64]) {
+        if let ([du], [w], [du_lin], [phi]) = (self.du.as_mut_slice(), w, du_lin, phi) {
+            // one coordinate: the one term of the sum below (from −0.0: the term itself)
+            *du = du_lin - w * phi;
+            return;
+        }
         let ng = du_lin.len();
         for (gi, du) in self.du.iter_mut().enumerate() {
             let wrow = &w[gi * ng..(gi + 1) * ng];
