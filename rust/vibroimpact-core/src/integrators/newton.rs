@@ -161,11 +161,12 @@ impl GapNewton {
         }
     }
 
-    /// [`Self::solve`] on one 1-D gap coordinate with `S = c_v` (the Newmark family's and
-    /// Bathe's contact step on a model with one 1-D gap, the precise method's corrector): the
-    /// arithmetic of [`Self::solve_general`] on one coordinate in the same order, its iterate held in registers rather than in the work vectors
-    /// (they get `Δu`, `u`, `u̇` on return) and the gap's walls evaluated without
-    /// [`System::evaluate_contacts`]'s tests of the model's shape per iteration.
+    /// [`Self::solve`] on one 1-D gap coordinate with `S = c_v` (the contact step of the
+    /// Newmark family, Bathe and the precise corrector on a model with one 1-D gap): the
+    /// arithmetic of [`Self::solve_general`] on one coordinate in the same order, its iterate
+    /// held in registers rather than in the work vectors (they get `Δu`, `u`, `u̇` on return)
+    /// and the gap's walls evaluated without [`System::evaluate_contacts`]' tests of the
+    /// model's shape per iteration.
     #[inline(always)]
     fn solve_one(
         &mut self,
