@@ -384,8 +384,8 @@ pub fn contact_state(
     s
 }
 
-/// [`contact_state`] written into `s`: an open wall's in line (no call: the far wall of a
-/// two-sided gap in contact is evaluated at each Newton iterate), a closed one's by
+/// [`contact_state`] written into `s`: an open wall's motion (the far wall of a two-sided gap
+/// in contact is evaluated at each Newton iterate), a closed one's whole state by
 /// [`write_closed_state`].
 #[inline(always)]
 fn write_contact_state(
@@ -408,8 +408,12 @@ fn write_contact_state(
     }
 }
 
-/// The rest of a closed wall's state, `s` holding its penetration and rate.
-#[inline(never)]
+/// The rest of a closed wall's state, `s` holding its penetration and rate. In line (a
+/// closed wall is evaluated at each Newton iterate of a contact step): called, it cost the
+/// call, the spills of the caller's registers around it and the state's whole write before
+/// it (callgrind: the paper's case −18 instructions a step in line, the rotor's Newmark run
+/// −0.6 %).
+#[inline(always)]
 fn write_closed_state(s: &mut WallState, law: &Law, start: &WallState, h: f64) {
     let (penetration, rate) = (s.penetration, s.rate);
     s.impact_speed = if start.closed() {

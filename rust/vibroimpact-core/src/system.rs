@@ -267,7 +267,6 @@ impl System {
         phi: &mut [f64],
         tangent: &mut Tangent,
     ) {
-        let states = self.walls.iter().zip(start).zip(walls.iter_mut());
         if !self.has_radial {
             if let ([gap], [u], [u_rate], [phi], [d_u], [d_rate]) = (
                 self.gaps.as_slice(),
@@ -277,13 +276,12 @@ impl System {
                 tangent.d_u.as_mut_slice(),
                 tangent.d_rate.as_mut_slice(),
             ) {
-                // one gap (the common small model): every wall is its, without the pass
-                // over the gaps and the test of each wall's gap
-                [*phi, *d_u, *d_rate] = gap_walls(&gap.law, states, *u, *u_rate, h);
+                [*phi, *d_u, *d_rate] = self.one_gap_walls(&gap.law, start, *u, *u_rate, h, walls);
                 return;
             }
             // Every gap has one or two walls, adjacent in `walls` and in the gaps' order: one
             // pass over the gaps with their coordinates and sums (no index into them)
+            let states = self.walls.iter().zip(start).zip(walls.iter_mut());
             let mut states = states.peekable();
             let sums = phi
                 .iter_mut()
@@ -301,7 +299,7 @@ impl System {
         tangent.d_rate.fill(0.0);
         tangent.cross_u.fill(0.0);
         tangent.cross_rate.fill(0.0);
-        for ((wall, start), s) in states {
+        for ((wall, start), s) in self.walls.iter().zip(start).zip(walls.iter_mut()) {
             let g = wall.gap;
             let gap = &self.gaps[g];
             if let Side::Radial(r) = &gap.side {
@@ -313,6 +311,24 @@ impl System {
             tangent.d_u[g] += s.d_penetration;
             tangent.d_rate[g] += s.d_rate;
         }
+    }
+
+    /// The walls of a model's one gap (no radial gap), `law` its law, evaluated at its
+    /// coordinate `u` and rate `u_rate` (as [`Self::evaluate_contacts`]): its generalized force
+    /// `φ` and `∂φ/∂u`, `∂φ/∂u̇`. Every wall is the gap's: no pass over the gaps and no test of
+    /// each wall's gap.
+    #[inline(always)]
+    pub(crate) fn one_gap_walls(
+        &self,
+        law: &Law,
+        start: &[WallState],
+        u: f64,
+        u_rate: f64,
+        h: f64,
+        walls: &mut [WallState],
+    ) -> [f64; 3] {
+        let states = self.walls.iter().zip(start).zip(walls.iter_mut());
+        gap_walls(law, states, u, u_rate, h)
     }
 
     /// A radial wall's state, its force added to `φ` and its 2×2 tangent to `tangent`.

@@ -785,9 +785,16 @@ impl NewmarkStepper {
         let op = self.operators.get(level);
         let [_, a1, _, _, a4, a5] = op.a;
         let n = dofs::<N>(s0.x.len());
-        let gap_rates = s0.u_rate.iter().zip(&s0.u_accel);
-        for (rate, (r0, acc0)) in self.rate_lin.iter_mut().zip(gap_rates) {
-            *rate = -a4 * r0 - a5 * acc0;
+        // u̇_lin = −a₄ u̇₀ − a₅ ü₀ (one gap coordinate without the loop's set-up)
+        let rate_lin = |r0: f64, acc0: f64| -a4 * r0 - a5 * acc0;
+        let gap_rates = (&s0.u_rate[..], &s0.u_accel[..]);
+        if let ([rate], ([r0], [acc0])) = (self.rate_lin.as_mut_slice(), gap_rates) {
+            *rate = rate_lin(*r0, *acc0);
+        } else {
+            let gap_rates = s0.u_rate.iter().zip(&s0.u_accel);
+            for (rate, (r0, acc0)) in self.rate_lin.iter_mut().zip(gap_rates) {
+                *rate = rate_lin(*r0, *acc0);
+            }
         }
         let problem = GapProblem {
             w: &op.w,
