@@ -645,7 +645,13 @@ pub(crate) struct Recorder<'o> {
     /// strain energies are evaluated from their recorded velocities and displacements when
     /// the rows are handed on ([`Self::complete`]), not per row (the same values).
     energies_from_rows: bool,
+    /// The rows, written by index ([`Self::record`]): their columns' lengths lag behind
+    /// `written` until [`Self::sync`].
     rows: Rows,
+    /// Rows written into `rows`.
+    written: usize,
+    /// Rows every column of `rows` has the capacity for ([`Self::make_room`]).
+    room: usize,
     /// The peaks (empty without them, [`Peaks::Off`]).
     max_abs: Vec<f64>,
     peaks: Peaks,
@@ -685,6 +691,8 @@ impl Recorder<'_> {
             strain,
             energies_from_rows,
             rows: Rows::with_capacity(n_rec, dofs.len(), sys.n_gaps),
+            written: 0,
+            room: 0,
             max_abs: vec![0.0; dofs.len()],
             peaks: Peaks::PerCommit,
             peaks_taken: 0,
@@ -699,6 +707,7 @@ impl Recorder<'_> {
     /// ([`Self::energies_from_rows`]), and the peaks of the rows not yet taken
     /// ([`Peaks::FromRows`]).
     fn complete(&mut self) {
+        self.sync();
         let rows = &mut self.rows;
         if self.energies_from_rows {
             self.kinetic.fill(&mut rows.energy.kinetic, &rows.velocity);
@@ -734,30 +743,38 @@ impl Recorder<'_> {
         // a full block goes before the next row is added, so the last row always stays for
         // the RunOutput
         if let (Some(n), true) = (self.chunk, self.sink.is_some()) {
-            if self.rows.time.len() >= n {
+            if self.written >= n {
                 let fresh = Rows::with_capacity(n, self.dofs.len(), sys.n_gaps);
                 self.complete();
-                self.peaks_taken = 0;
+                (self.peaks_taken, self.written, self.room) = (0, 0, 0);
                 let full = std::mem::replace(&mut self.rows, fresh);
                 if let Some(sink) = self.sink.as_deref_mut() {
                     sink.rows(full);
                 }
             }
         }
+        // one capacity test a row, not one a value
+        if self.written == self.room {
+            self.make_room();
+        }
+        let r = self.written;
+        self.written += 1;
         let rows = &mut self.rows;
-        rows.time.push(s.t);
+        put(&mut rows.time, r, s.t);
         self.last_time = s.t;
         // (the peaks are kept by the commits, Run::commit and Run::jumped, or taken from the
         // rows, Self::complete)
         let (x, v, a) = (&*s.x, &*s.v, &*s.a); // (their lengths looked at once)
-        for &d in &self.dofs {
-            rows.displacement.push(x[d]);
-            rows.velocity.push(v[d]);
-            rows.acceleration.push(a[d]);
+        let n = self.dofs.len();
+        for (i, &d) in (r * n..).zip(&self.dofs) {
+            put(&mut rows.displacement, i, x[d]);
+            put(&mut rows.velocity, i, v[d]);
+            put(&mut rows.acceleration, i, a[d]);
         }
         // Walls of one gap are adjacent: one column per gap (deepest wall, summed force).
         let mut potential = 0.0;
-        for walls in self.gap_walls.iter().map(|r| &s.walls[r.clone()]) {
+        let first = r * self.gap_walls.len();
+        for (i, walls) in (first..).zip(self.gap_walls.iter().map(|w| &s.walls[w.clone()])) {
             // a one- or two-sided gap without the loop over its walls (the same sums)
             let (pen, force) = match walls {
                 [one] => {
@@ -783,21 +800,94 @@ impl Recorder<'_> {
                     (pen, force)
                 }
             };
-            rows.gap_penetration.push(pen);
-            rows.gap_force.push(force);
+            put(&mut rows.gap_penetration, i, pen);
+            put(&mut rows.gap_force, i, force);
         }
         let e = &mut rows.energy;
         if !self.energies_from_rows {
-            e.kinetic
-                .push(self.kinetic.value(&sys.structure.mass, &s.v));
-            e.strain
-                .push(self.strain.value(&sys.structure.stiffness, &s.x));
+            put(
+                &mut e.kinetic,
+                r,
+                self.kinetic.value(&sys.structure.mass, &s.v),
+            );
+            put(
+                &mut e.strain,
+                r,
+                self.strain.value(&sys.structure.stiffness, &s.x),
+            );
         }
-        e.contact_potential.push(potential);
-        e.external_work.push(account.external_work);
-        e.damping_dissipated.push(account.damping_dissipated);
-        e.contact_dissipated.push(account.contact_dissipated);
+        put(&mut e.contact_potential, r, potential);
+        put(&mut e.external_work, r, account.external_work);
+        put(&mut e.damping_dissipated, r, account.damping_dissipated);
+        put(&mut e.contact_dissipated, r, account.contact_dissipated);
     }
+
+    /// The columns [`Self::record`] writes, each with its values a row (the kinetic and
+    /// strain energies' none when they come from the rows, [`Self::complete`]).
+    fn columns(&mut self) -> impl Iterator<Item = (&mut Vec<f64>, usize)> {
+        let (n, gaps) = (self.dofs.len(), self.gap_walls.len());
+        let energies = usize::from(!self.energies_from_rows);
+        let Rows {
+            time,
+            displacement,
+            velocity,
+            acceleration,
+            gap_penetration,
+            gap_force,
+            energy: e,
+        } = &mut self.rows;
+        [
+            (time, 1),
+            (displacement, n),
+            (velocity, n),
+            (acceleration, n),
+            (gap_penetration, gaps),
+            (gap_force, gaps),
+            (&mut e.kinetic, energies),
+            (&mut e.strain, energies),
+            (&mut e.contact_potential, 1),
+            (&mut e.external_work, 1),
+            (&mut e.damping_dissipated, 1),
+            (&mut e.contact_dissipated, 1),
+        ]
+        .into_iter()
+        .filter(|&(_, width)| width > 0)
+    }
+
+    /// Brings the columns' lengths up to the rows written.
+    fn sync(&mut self) {
+        let written = self.written;
+        for (column, width) in self.columns() {
+            assert!(written * width <= column.capacity());
+            // SAFETY: within the capacity (asserted), and `record` wrote every value of the
+            // rows below `written` (each row `width` values from `row * width`).
+            unsafe { column.set_len(written * width) };
+        }
+    }
+
+    /// Room for at least one more row in every column (amortised growth, as `push`'s).
+    #[cold]
+    #[inline(never)]
+    fn make_room(&mut self) {
+        self.sync();
+        self.room = self
+            .columns()
+            .map(|(column, width)| {
+                column.reserve(width);
+                column.capacity() / width
+            })
+            .fold(usize::MAX, usize::min);
+    }
+}
+
+/// Writes `value` at `column[i]`, which may be past its length (the rows not yet synced,
+/// [`Recorder::sync`]) but is within its capacity ([`Recorder::make_room`]).
+#[inline(always)]
+fn put(column: &mut Vec<f64>, i: usize, value: f64) {
+    debug_assert!(i < column.capacity());
+    // SAFETY: `i` is below the capacity: `Recorder::record` writes the row `r < room`, and
+    // `make_room` made every column's capacity at least `room` times its values a row.
+    unsafe { column.as_mut_ptr().add(i).write(value) };
 }
 
 /// `½ yᵀ A y` of a structure matrix for every recorded row: by its diagonal when it has no
