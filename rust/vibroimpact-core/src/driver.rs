@@ -765,11 +765,17 @@ impl Recorder<'_> {
         // (the peaks are kept by the commits, Run::commit and Run::jumped, or taken from the
         // rows, Self::complete)
         let (x, v, a) = (&*s.x, &*s.v, &*s.a); // (their lengths looked at once)
-        let n = self.dofs.len();
-        for (i, &d) in (r * n..).zip(&self.dofs) {
+        let mut put_dof = |i: usize, d: usize| {
             put(&mut rows.displacement, i, x[d]);
             put(&mut rows.velocity, i, v[d]);
             put(&mut rows.acceleration, i, a[d]);
+        };
+        // one recorded DOF (the 1-DOF models) without the loop's setup
+        match *self.dofs {
+            [d] => put_dof(r, d),
+            ref dofs => (r * dofs.len()..)
+                .zip(dofs)
+                .for_each(|(i, &d)| put_dof(i, d)),
         }
         // Walls of one gap are adjacent: one column per gap (deepest wall, summed force).
         let mut potential = 0.0;
