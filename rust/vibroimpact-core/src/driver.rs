@@ -721,7 +721,7 @@ impl Recorder<'_> {
             let peak = |m: f64, x: &f64| m.max(x.abs());
             if let [m] = self.max_abs.as_mut_slice() {
                 // one DOF: its column is the block, without a stride known only at run time
-                *m = new_rows.iter().fold(*m, peak);
+                *m = largest_abs(*m, new_rows);
             } else {
                 for (i, m) in self.max_abs.iter_mut().enumerate() {
                     *m = new_rows[i..].iter().step_by(n).fold(*m, peak);
@@ -896,6 +896,17 @@ fn put(column: &mut Vec<f64>, i: usize, value: f64) {
     unsafe { column.as_mut_ptr().add(i).write(value) };
 }
 
+/// The largest of `m` and the `|x|` of `values`, in four running maxima combined at the end
+/// so that the loop vectorises: the same value as one fold in order (the largest of the
+/// values that are not NaN, which `f64::max` passes over, whatever their order).
+fn largest_abs(m: f64, values: &[f64]) -> f64 {
+    let peak = |m: f64, x: &f64| m.max(x.abs());
+    let blocks = values.chunks_exact(4);
+    let m = blocks.remainder().iter().fold(m, peak);
+    let lanes = blocks.fold([m; 4], |l, b| std::array::from_fn(|k| peak(l[k], &b[k])));
+    lanes.into_iter().fold(m, f64::max)
+}
+
 /// `½ yᵀ A y` of a structure matrix for every recorded row: by its diagonal when it has no
 /// other entries (lumped masses, grounded springs, the 1-DOF models), without the sparse
 /// form's setup per call, and with the same sums as [`Csr::quadratic_form`] (so the same
@@ -1018,6 +1029,25 @@ mod tests {
     /// those columns equal the ones evaluated row by row (the same DOFs recorded in the other
     /// order), to the bit, over a fixed-step run with contacts, with every row and with every
     /// third.
+    /// The peaks' four running maxima give the in-order fold's value, NaN among the values
+    /// or not, for every remainder length.
+    #[test]
+    fn largest_abs_is_the_fold_in_order() {
+        let values: Vec<f64> = (0..23)
+            .map(|k| ((k * 7919) % 31) as f64 * if k % 3 == 0 { -0.5 } else { 0.25 })
+            .collect();
+        let mut with_nan = values.clone();
+        with_nan[5] = f64::NAN;
+        for v in [&values, &with_nan] {
+            for n in 0..v.len() {
+                for m in [0.0, 3.0, 100.0] {
+                    let fold = v[..n].iter().fold(m, |m, x| m.max(x.abs()));
+                    assert_eq!(largest_abs(m, &v[..n]).to_bits(), fold.to_bits());
+                }
+            }
+        }
+    }
+
     #[test]
     fn energies_from_the_rows_equal_the_energies_per_row() {
         let sys = two_masses(0.0);
