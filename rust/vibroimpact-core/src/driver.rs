@@ -21,6 +21,7 @@ use nalgebra::DVector;
 
 use crate::error::{SimError, ENERGY_GROWTH_LIMIT};
 use crate::gap::{FrictionLaw, ImpactLog, ImpactRecord, Side, WallInterior};
+use crate::integrators::sized::by_size;
 use crate::integrators::{StepFailure, Stepper};
 use crate::interrupt;
 use crate::linalg::Csr;
@@ -345,12 +346,7 @@ impl<'o> Run<'o> {
         self.stats.newton_iterations += iterations;
         self.stats.steps += 1;
         let trial = &self.trial;
-        if !trial
-            .x
-            .iter()
-            .zip(&trial.v)
-            .all(|(x, v)| x.is_finite() && v.is_finite())
-        {
+        if !motion_finite(trial) {
             return Err(SimError::Diverged {
                 t: trial.t,
                 gap: busiest_gap(sys, &self.cur),
@@ -600,6 +596,19 @@ fn check_sliding(sys: &System, s0: &State, s1: &State) -> Result<(), SimError> {
         }
     }
     Ok(())
+}
+
+/// Whether the displacements and velocities of `s` are finite: compiled for the small
+/// models' sizes ([`by_size`]), whose values are then at constant places, without the
+/// slices' length tests (a third of a free-flight step's commit otherwise).
+#[inline(always)]
+fn motion_finite(s: &State) -> bool {
+    by_size!(s.x.len(), |N| s
+        .x
+        .sized::<N>()
+        .iter()
+        .zip(s.v.sized::<N>())
+        .all(|(x, v)| x.is_finite() && v.is_finite()))
 }
 
 /// Kinetic + strain + contact potential energy of a state, J.
@@ -1040,7 +1049,7 @@ mod tests {
         with_nan[5] = f64::NAN;
         for v in [&values, &with_nan] {
             for n in 0..v.len() {
-                for m in [0.0, 3.0, 100.0] {
+                for m in [0.0_f64, 3.0, 100.0] {
                     let fold = v[..n].iter().fold(m, |m, x| m.max(x.abs()));
                     assert_eq!(largest_abs(m, &v[..n]).to_bits(), fold.to_bits());
                 }
