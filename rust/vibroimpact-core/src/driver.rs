@@ -773,19 +773,7 @@ impl Recorder<'_> {
         self.last_time = s.t;
         // (the peaks are kept by the commits, Run::commit and Run::jumped, or taken from the
         // rows, Self::complete)
-        let (x, v, a) = (&*s.x, &*s.v, &*s.a); // (their lengths looked at once)
-        let mut put_dof = |i: usize, d: usize| {
-            put(&mut rows.displacement, i, x[d]);
-            put(&mut rows.velocity, i, v[d]);
-            put(&mut rows.acceleration, i, a[d]);
-        };
-        // one recorded DOF (the 1-DOF models) without the loop's setup
-        match *self.dofs {
-            [d] => put_dof(r, d),
-            ref dofs => (r * dofs.len()..)
-                .zip(dofs)
-                .for_each(|(i, &d)| put_dof(i, d)),
-        }
+        by_size!(s.x.len(), |N| put_motion::<N>(rows, &self.dofs, r, s));
         // Walls of one gap are adjacent: one column per gap (deepest wall, summed force).
         let mut potential = 0.0;
         let first = r * self.gap_walls.len();
@@ -892,6 +880,26 @@ impl Recorder<'_> {
                 column.capacity() / width
             })
             .fold(usize::MAX, usize::min);
+    }
+}
+
+/// The recorded DOFs' displacements, velocities and accelerations of `s` into row `r` of
+/// `rows`; `N`: the model's DOFs ([`by_size`]: a small model's values at constant places,
+/// without their slices' length tests).
+#[inline(always)]
+fn put_motion<const N: usize>(rows: &mut Rows, dofs: &[usize], r: usize, s: &State) {
+    let (x, v, a) = (s.x.sized::<N>(), s.v.sized::<N>(), s.a.sized::<N>());
+    let mut put_dof = |i: usize, d: usize| {
+        put(&mut rows.displacement, i, x[d]);
+        put(&mut rows.velocity, i, v[d]);
+        put(&mut rows.acceleration, i, a[d]);
+    };
+    // one recorded DOF (the 1-DOF models) without the loop's setup
+    match *dofs {
+        [d] => put_dof(r, d),
+        ref dofs => (r * dofs.len()..)
+            .zip(dofs)
+            .for_each(|(i, &d)| put_dof(i, d)),
     }
 }
 
