@@ -1041,11 +1041,6 @@ mod tests {
         System::new(s, vec![gap], vec![load]).unwrap()
     }
 
-    /// The recorder evaluates the kinetic and strain energies from the recorded rows after
-    /// the run exactly when both forms are diagonal and every DOF is recorded in order, and
-    /// those columns equal the ones evaluated row by row (the same DOFs recorded in the other
-    /// order), to the bit, over a fixed-step run with contacts, with every row and with every
-    /// third.
     /// The peaks' four running maxima give the in-order fold's value, NaN among the values
     /// or not, for every remainder length.
     #[test]
@@ -1065,6 +1060,11 @@ mod tests {
         }
     }
 
+    /// The recorder evaluates the kinetic and strain energies from the recorded rows after
+    /// the run exactly when both forms are diagonal and every DOF is recorded in order, and
+    /// those columns equal the ones evaluated row by row (the same DOFs recorded in the other
+    /// order), to the bit, over a fixed-step run with contacts, with every row and with every
+    /// third.
     #[test]
     fn energies_from_the_rows_equal_the_energies_per_row() {
         let sys = two_masses(0.0);
