@@ -21,6 +21,7 @@ use nalgebra::DVector;
 
 use crate::error::{SimError, ENERGY_GROWTH_LIMIT};
 use crate::gap::{FrictionLaw, ImpactLog, ImpactRecord, Side, WallInterior};
+use crate::integrators::sized::by_size;
 use crate::integrators::{StepFailure, Stepper};
 use crate::interrupt;
 use crate::linalg::Csr;
@@ -355,12 +356,7 @@ impl<'o> Run<'o> {
         self.stats.newton_iterations += iterations;
         self.stats.steps += 1;
         let trial = &self.trial;
-        if !trial
-            .x
-            .iter()
-            .zip(&trial.v)
-            .all(|(x, v)| x.is_finite() && v.is_finite())
-        {
+        if !motion_finite(trial) {
             return Err(SimError::Diverged {
                 t: trial.t,
                 gap: busiest_gap(sys, &self.cur),
@@ -612,6 +608,19 @@ fn check_sliding(sys: &System, s0: &State, s1: &State) -> Result<(), SimError> {
     Ok(())
 }
 
+/// Whether the displacements and velocities of `s` are finite: compiled for the small
+/// models' sizes ([`by_size`]), whose values are then at constant places, without the
+/// slices' length tests (a third of a free-flight step's commit otherwise).
+#[inline(always)]
+fn motion_finite(s: &State) -> bool {
+    by_size!(s.x.len(), |N| s
+        .x
+        .sized::<N>()
+        .iter()
+        .zip(s.v.sized::<N>())
+        .all(|(x, v)| x.is_finite() && v.is_finite()))
+}
+
 /// Kinetic + strain + contact potential energy of a state, J.
 fn mechanical_energy(sys: &System, s: &State) -> f64 {
     let potential: f64 = s.walls.iter().map(|w| w.potential).sum();
@@ -655,7 +664,13 @@ pub(crate) struct Recorder<'o> {
     /// strain energies are evaluated from their recorded velocities and displacements when
     /// the rows are handed on ([`Self::complete`]), not per row (the same values).
     energies_from_rows: bool,
+    /// The rows, written by index ([`Self::record`]): their columns' lengths lag behind
+    /// `written` until [`Self::sync`].
     rows: Rows,
+    /// Rows written into `rows`.
+    written: usize,
+    /// Rows every column of `rows` has the capacity for ([`Self::make_room`]).
+    room: usize,
     /// The peaks (empty without them, [`Peaks::Off`]).
     max_abs: Vec<f64>,
     peaks: Peaks,
@@ -695,6 +710,8 @@ impl Recorder<'_> {
             strain,
             energies_from_rows,
             rows: Rows::with_capacity(n_rec, dofs.len(), sys.n_gaps),
+            written: 0,
+            room: 0,
             max_abs: vec![0.0; dofs.len()],
             peaks: Peaks::PerCommit,
             peaks_taken: 0,
@@ -709,6 +726,7 @@ impl Recorder<'_> {
     /// ([`Self::energies_from_rows`]), and the peaks of the rows not yet taken
     /// ([`Peaks::FromRows`]).
     fn complete(&mut self) {
+        self.sync();
         let rows = &mut self.rows;
         if self.energies_from_rows {
             self.kinetic.fill(&mut rows.energy.kinetic, &rows.velocity);
@@ -722,7 +740,7 @@ impl Recorder<'_> {
             let peak = |m: f64, x: &f64| m.max(x.abs());
             if let [m] = self.max_abs.as_mut_slice() {
                 // one DOF: its column is the block, without a stride known only at run time
-                *m = new_rows.iter().fold(*m, peak);
+                *m = largest_abs(*m, new_rows);
             } else {
                 for (i, m) in self.max_abs.iter_mut().enumerate() {
                     *m = new_rows[i..].iter().step_by(n).fold(*m, peak);
@@ -744,30 +762,32 @@ impl Recorder<'_> {
         // a full block goes before the next row is added, so the last row always stays for
         // the RunOutput
         if let (Some(n), true) = (self.chunk, self.sink.is_some()) {
-            if self.rows.time.len() >= n {
+            if self.written >= n {
                 let fresh = Rows::with_capacity(n, self.dofs.len(), sys.n_gaps);
                 self.complete();
-                self.peaks_taken = 0;
+                (self.peaks_taken, self.written, self.room) = (0, 0, 0);
                 let full = std::mem::replace(&mut self.rows, fresh);
                 if let Some(sink) = self.sink.as_deref_mut() {
                     sink.rows(full);
                 }
             }
         }
+        // one capacity test a row, not one a value
+        if self.written == self.room {
+            self.make_room();
+        }
+        let r = self.written;
+        self.written += 1;
         let rows = &mut self.rows;
-        rows.time.push(s.t);
+        put(&mut rows.time, r, s.t);
         self.last_time = s.t;
         // (the peaks are kept by the commits, Run::commit and Run::jumped, or taken from the
         // rows, Self::complete)
-        let (x, v, a) = (&*s.x, &*s.v, &*s.a); // (their lengths looked at once)
-        for &d in &self.dofs {
-            rows.displacement.push(x[d]);
-            rows.velocity.push(v[d]);
-            rows.acceleration.push(a[d]);
-        }
+        by_size!(s.x.len(), |N| put_motion::<N>(rows, &self.dofs, r, s));
         // Walls of one gap are adjacent: one column per gap (deepest wall, summed force).
         let mut potential = 0.0;
-        for walls in self.gap_walls.iter().map(|r| &s.walls[r.clone()]) {
+        let first = r * self.gap_walls.len();
+        for (i, walls) in (first..).zip(self.gap_walls.iter().map(|w| &s.walls[w.clone()])) {
             // a one- or two-sided gap without the loop over its walls (the same sums)
             let (pen, force) = match walls {
                 [one] => {
@@ -793,21 +813,125 @@ impl Recorder<'_> {
                     (pen, force)
                 }
             };
-            rows.gap_penetration.push(pen);
-            rows.gap_force.push(force);
+            put(&mut rows.gap_penetration, i, pen);
+            put(&mut rows.gap_force, i, force);
         }
         let e = &mut rows.energy;
         if !self.energies_from_rows {
-            e.kinetic
-                .push(self.kinetic.value(&sys.structure.mass, &s.v));
-            e.strain
-                .push(self.strain.value(&sys.structure.stiffness, &s.x));
+            put(
+                &mut e.kinetic,
+                r,
+                self.kinetic.value(&sys.structure.mass, &s.v),
+            );
+            put(
+                &mut e.strain,
+                r,
+                self.strain.value(&sys.structure.stiffness, &s.x),
+            );
         }
-        e.contact_potential.push(potential);
-        e.external_work.push(account.external_work);
-        e.damping_dissipated.push(account.damping_dissipated);
-        e.contact_dissipated.push(account.contact_dissipated);
+        put(&mut e.contact_potential, r, potential);
+        put(&mut e.external_work, r, account.external_work);
+        put(&mut e.damping_dissipated, r, account.damping_dissipated);
+        put(&mut e.contact_dissipated, r, account.contact_dissipated);
     }
+
+    /// The columns [`Self::record`] writes, each with its values a row (the kinetic and
+    /// strain energies' none when they come from the rows, [`Self::complete`]).
+    fn columns(&mut self) -> impl Iterator<Item = (&mut Vec<f64>, usize)> {
+        let (n, gaps) = (self.dofs.len(), self.gap_walls.len());
+        let energies = usize::from(!self.energies_from_rows);
+        let Rows {
+            time,
+            displacement,
+            velocity,
+            acceleration,
+            gap_penetration,
+            gap_force,
+            energy: e,
+        } = &mut self.rows;
+        [
+            (time, 1),
+            (displacement, n),
+            (velocity, n),
+            (acceleration, n),
+            (gap_penetration, gaps),
+            (gap_force, gaps),
+            (&mut e.kinetic, energies),
+            (&mut e.strain, energies),
+            (&mut e.contact_potential, 1),
+            (&mut e.external_work, 1),
+            (&mut e.damping_dissipated, 1),
+            (&mut e.contact_dissipated, 1),
+        ]
+        .into_iter()
+        .filter(|&(_, width)| width > 0)
+    }
+
+    /// Brings the columns' lengths up to the rows written.
+    fn sync(&mut self) {
+        let written = self.written;
+        for (column, width) in self.columns() {
+            assert!(written * width <= column.capacity());
+            // SAFETY: within the capacity (asserted), and `record` wrote every value of the
+            // rows below `written` (each row `width` values from `row * width`).
+            unsafe { column.set_len(written * width) };
+        }
+    }
+
+    /// Room for at least one more row in every column (amortised growth, as `push`'s).
+    #[cold]
+    #[inline(never)]
+    fn make_room(&mut self) {
+        self.sync();
+        self.room = self
+            .columns()
+            .map(|(column, width)| {
+                column.reserve(width);
+                column.capacity() / width
+            })
+            .fold(usize::MAX, usize::min);
+    }
+}
+
+/// The recorded DOFs' displacements, velocities and accelerations of `s` into row `r` of
+/// `rows`; `N`: the model's DOFs ([`by_size`]: a small model's values at constant places,
+/// without their slices' length tests).
+#[inline(always)]
+fn put_motion<const N: usize>(rows: &mut Rows, dofs: &[usize], r: usize, s: &State) {
+    let (x, v, a) = (s.x.sized::<N>(), s.v.sized::<N>(), s.a.sized::<N>());
+    let mut put_dof = |i: usize, d: usize| {
+        put(&mut rows.displacement, i, x[d]);
+        put(&mut rows.velocity, i, v[d]);
+        put(&mut rows.acceleration, i, a[d]);
+    };
+    // one recorded DOF (the 1-DOF models) without the loop's setup
+    match *dofs {
+        [d] => put_dof(r, d),
+        ref dofs => (r * dofs.len()..)
+            .zip(dofs)
+            .for_each(|(i, &d)| put_dof(i, d)),
+    }
+}
+
+/// Writes `value` at `column[i]`, which may be past its length (the rows not yet synced,
+/// [`Recorder::sync`]) but is within its capacity ([`Recorder::make_room`]).
+#[inline(always)]
+fn put(column: &mut Vec<f64>, i: usize, value: f64) {
+    debug_assert!(i < column.capacity());
+    // SAFETY: `i` is below the capacity: `Recorder::record` writes the row `r < room`, and
+    // `make_room` made every column's capacity at least `room` times its values a row.
+    unsafe { column.as_mut_ptr().add(i).write(value) };
+}
+
+/// The largest of `m` and the `|x|` of `values`, in four running maxima combined at the end
+/// so that the loop vectorises: the same value as one fold in order (the largest of the
+/// values that are not NaN, which `f64::max` passes over, whatever their order).
+fn largest_abs(m: f64, values: &[f64]) -> f64 {
+    let peak = |m: f64, x: &f64| m.max(x.abs());
+    let blocks = values.chunks_exact(4);
+    let m = blocks.remainder().iter().fold(m, peak);
+    let lanes = blocks.fold([m; 4], |l, b| std::array::from_fn(|k| peak(l[k], &b[k])));
+    lanes.into_iter().fold(m, f64::max)
 }
 
 /// `½ yᵀ A y` of a structure matrix for every recorded row: by its diagonal when it has no
@@ -925,6 +1049,25 @@ mod tests {
         };
         let s = LinearStructure::new(m, c, k).unwrap();
         System::new(s, vec![gap], vec![load]).unwrap()
+    }
+
+    /// The peaks' four running maxima give the in-order fold's value, NaN among the values
+    /// or not, for every remainder length.
+    #[test]
+    fn largest_abs_is_the_fold_in_order() {
+        let values: Vec<f64> = (0..23)
+            .map(|k| ((k * 7919) % 31) as f64 * if k % 3 == 0 { -0.5 } else { 0.25 })
+            .collect();
+        let mut with_nan = values.clone();
+        with_nan[5] = f64::NAN;
+        for v in [&values, &with_nan] {
+            for n in 0..v.len() {
+                for m in [0.0_f64, 3.0, 100.0] {
+                    let fold = v[..n].iter().fold(m, |m, x| m.max(x.abs()));
+                    assert_eq!(largest_abs(m, &v[..n]).to_bits(), fold.to_bits());
+                }
+            }
+        }
     }
 
     /// The recorder evaluates the kinetic and strain energies from the recorded rows after
