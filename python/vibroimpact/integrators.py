@@ -739,8 +739,8 @@ Targets: generalized-α ≤ 1.3× Newmark, precise ≤ 3× Newmark: both met. Th
 issue 20's per-step work, which made every step cheaper and Newmark's free-flight step most
 (issue 20 asks precise ≤ 1.5× Newmark). Instructions a step on the current core (callgrind,
 `examples/sdof_bench.rs`; `METHOD=precise`, `METHOD=precise-pc`, `SCHEME=generalized-alpha`):
-Newmark 1,069, generalized-α 1,107 (1.04×), precise Adams 1,201 (1.12×: no Newton, one 2×2
-mat-vec for the exact linear part, and in free flight no wall evaluated, as Newmark's step),
-predictor–corrector 2,030 (1.90×); the latest wall-time ratios are `vibroimpact bench`'s, in
-the README.
+Newmark 876, generalized-α 915 (1.04×), precise Adams 1,118 (1.28×: no Newton, one 2×2
+mat-vec for the exact linear part, and in free flight no wall evaluated, as Newmark's step;
+Newmark's contact step is cheaper still), predictor–corrector 1,815 (2.07×); the latest
+wall-time ratios are `vibroimpact bench`'s, in the README.
 """
