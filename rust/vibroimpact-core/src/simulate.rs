@@ -13,8 +13,10 @@ use crate::driver::Run;
 use crate::error::{invalid, SimError};
 use crate::impulsive::{EventDrivenSteps, MoreauJeanSteps};
 use crate::integrators::dop853::{Dop853Steps, Steps};
+use crate::integrators::sized::by_size;
 use crate::integrators::{
-    BatheStepper, NewmarkStepper, NewmarkTransition, NewtonSettings, PreciseStepper, Stepper,
+    BatheStepper, NewmarkStepper, NewmarkTransition, NewtonSettings, PreciseStepper, SizedNewmark,
+    Stepper,
 };
 use crate::method_catalog;
 use crate::sensitivity::Parameter;
@@ -258,16 +260,16 @@ fn run_watched<'o>(
                     run.stats.step_path = stepper.as_dyn().step_path(sys);
                     let cuts = newton.max_step_cuts;
                     match (&control, &mut stepper) {
-                        (None, Implicit::Newmark(s)) => fixed_steps(
+                        (None, Implicit::Newmark(s)) => by_size!(sys.n_dof(), |N| fixed_steps(
                             &mut run,
                             sys,
                             method,
-                            s.as_mut(),
+                            &mut SizedNewmark::<N>(s.as_mut()),
                             h0,
                             n_steps,
                             cuts,
                             every,
-                        )?,
+                        ))?,
                         (None, Implicit::Other(s)) => fixed_steps(
                             &mut run,
                             sys,

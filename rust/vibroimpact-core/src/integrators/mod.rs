@@ -12,6 +12,7 @@ mod precise;
 pub(crate) mod sized;
 
 pub use bathe::{Bathe, BatheStepper};
+pub(crate) use newmark::SizedNewmark;
 pub use newmark::{substitution_time, NewmarkFamily, NewmarkStepper};
 pub(crate) use newmark_variational::{NewmarkTransition, MAX_TRANSITION_DOFS};
 pub use newton::NewtonSettings;
@@ -48,7 +49,9 @@ impl<T> OperatorCache<T> {
     }
 
     /// Builds the operator of a step of length `h` at `level` unless it is cached, and
-    /// returns it (one look-up where a step used to ensure it, then get it).
+    /// returns it (one look-up where a step used to ensure it, then get it). In line: LLVM
+    /// left it out of the Newmark step compiled per model size, a call each step.
+    #[inline(always)]
     pub(crate) fn ensure<E>(
         &mut self,
         level: usize,
