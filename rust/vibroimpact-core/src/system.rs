@@ -424,10 +424,25 @@ impl State {
     /// [`Self::finish_gaps`] after a step in free flight (no wall closed at either end, found
     /// without evaluating a wall: `GapNewton::free_flight`): also the zero contact forces and
     /// each wall's whole state, open, its penetration from `u`. `N`: the DOF count of a step
-    /// compiled for it ([`by_size`](crate::integrators::sized)), else 0.
+    /// compiled for it ([`by_size`](crate::integrators::sized)), else 0. Returns whether the
+    /// motion is finite ([`Self::motion_finite`], here at the step's size: the free commit
+    /// takes it from [`Stepper::last_step_free`](crate::integrators::Stepper)).
     #[inline(always)]
-    pub fn finish_free_flight<const N: usize>(&mut self, sys: &System, u: &[f64]) {
+    #[must_use]
+    pub fn finish_free_flight<const N: usize>(&mut self, sys: &System, u: &[f64]) -> bool {
         self.finish::<true, N>(sys, u);
+        self.motion_finite::<N>()
+    }
+
+    /// Whether the displacements and velocities are finite, read at `N` of them (as
+    /// [`Self::finish_free_flight`]).
+    #[inline(always)]
+    pub(crate) fn motion_finite<const N: usize>(&self) -> bool {
+        self.x
+            .sized::<N>()
+            .iter()
+            .zip(self.v.sized::<N>())
+            .all(|(x, v)| x.is_finite() && v.is_finite())
     }
 
     #[inline(always)]

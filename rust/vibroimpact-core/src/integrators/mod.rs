@@ -146,8 +146,10 @@ pub trait Stepper {
     fn accept(&mut self, _sys: &System, _state: &State) {}
 
     /// The last successful attempt was in free flight: every wall open at both ends of the
-    /// step, found without evaluating a wall (then the commit skips the contact accounts and
-    /// the impact table without looking at the walls). `false` when not known.
+    /// step, found without evaluating a wall, and its motion finite (then the commit skips
+    /// the contact accounts, the impact table and its finiteness test without looking at the
+    /// walls; a step that is not finite commits as any other, which reports it). `false` when
+    /// not known.
     fn last_step_free(&self) -> bool {
         false
     }

@@ -577,7 +577,8 @@ impl Stepper for NewmarkStepper {
     }
 
     /// A step that `GapNewton::free_flight` found free (no radial gap: that test covers the
-    /// 1-D walls only through the predictor, and a radial wall's slide is checked at commit).
+    /// 1-D walls only through the predictor, and a radial wall's slide is checked at commit),
+    /// its motion finite.
     #[inline(always)]
     fn last_step_free(&self) -> bool {
         self.free
@@ -778,7 +779,6 @@ impl NewmarkStepper {
         // contact force) needs no Newton, no contact terms and no wall evaluated; otherwise
         // Newton (Self::contact_correction).
         let free = newton.free_flight(sys, &s0.walls);
-        self.free = free && !sys.has_radial;
         let iterations = if free {
             0
         } else {
@@ -808,11 +808,12 @@ impl NewmarkStepper {
             };
             v1[i] = v0[i] + h * (one_minus_gamma * a0_old[i] + gamma * a1_new[i]);
         }
-        if free {
-            s1.finish_free_flight::<N>(sys, &self.gap_newton.u);
+        self.free = if free {
+            s1.finish_free_flight::<N>(sys, &self.gap_newton.u) && !sys.has_radial
         } else {
             s1.finish_gaps(sys, &self.gap_newton.u);
-        }
+            false
+        };
         Ok(iterations)
     }
 

@@ -518,7 +518,7 @@ impl Stepper for PreciseStepper {
     }
 
     /// An Adams step whose walls stayed open at both ends (found by the gap coordinates alone,
-    /// as `GapNewton::free_flight`, before any wall is evaluated).
+    /// as `GapNewton::free_flight`, before any wall is evaluated), its motion finite.
     #[inline(always)]
     fn last_step_free(&self) -> bool {
         self.free_flight
@@ -610,11 +610,10 @@ impl PreciseStepper {
             // Free flight (every wall open at both ends: no wall evaluated, no contact force)
             sys.gap_coordinates(&z[..n], &mut gap_newton.u);
             if gap_newton.free_flight(sys, &s0.walls) {
-                self.free_flight = true;
                 s1.x.sized_mut::<N>().copy_from_slice(&z[..n]);
                 s1.v.sized_mut::<N>().copy_from_slice(&z[n..]);
                 fixed.acceleration::<N>(s1, false);
-                s1.finish_free_flight::<N>(sys, &gap_newton.u);
+                self.free_flight = s1.finish_free_flight::<N>(sys, &gap_newton.u);
                 return Ok(0);
             }
             gaps.evaluate(sys, &s0.walls, z, n, h, &mut s1.walls, &mut s1.phi);
