@@ -438,11 +438,13 @@ impl State {
     /// [`Self::finish_free_flight`]).
     #[inline(always)]
     pub(crate) fn motion_finite<const N: usize>(&self) -> bool {
+        // 0·x is ±0 for a finite x, NaN for an infinite or NaN one: one test in floating
+        // point for both values, where `is_finite` tests each in the integer registers
         self.x
             .sized::<N>()
             .iter()
             .zip(self.v.sized::<N>())
-            .all(|(x, v)| x.is_finite() && v.is_finite())
+            .all(|(&x, &v)| x * 0.0 + v * 0.0 == 0.0)
     }
 
     #[inline(always)]
@@ -599,6 +601,49 @@ mod tests {
 
     use super::*;
     use crate::contact::Hysteretic;
+
+    /// `State::motion_finite` (its test in floating point) is `is_finite` of every x and v,
+    /// at the compiled size and in general, for the values at the edges of finiteness.
+    #[test]
+    fn motion_finite_is_every_value_finite() {
+        let law = Law::Hysteretic(Hysteretic::new("lankarani-nikravesh", 1e9, 1.5, 0.8).unwrap());
+        let gap = Gap {
+            dofs: vec![0],
+            coefficients: vec![1.0],
+            clearance: 1.0,
+            side: Side::Both,
+            law,
+        };
+        let i = DMatrix::identity(2, 2);
+        let structure = LinearStructure::new(i.clone(), DMatrix::zeros(2, 2), i).unwrap();
+        let sys = System::new(structure, vec![gap], vec![]).unwrap();
+        let mut s = State::initial(&sys, DVector::zeros(2), DVector::zeros(2), 0.0).unwrap();
+        let values = [
+            0.0,
+            -0.0,
+            f64::MIN_POSITIVE / 4.0,
+            f64::MAX,
+            f64::MIN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NAN,
+            -f64::NAN,
+        ];
+        for (x, v) in values
+            .iter()
+            .flat_map(|&x| values.iter().map(move |&v| (x, v)))
+        {
+            for slot in 0..2 {
+                s.x[slot] = x;
+                s.v[1 - slot] = v;
+                let expected = s.x.iter().chain(s.v.iter()).all(|z| z.is_finite());
+                assert_eq!(s.motion_finite::<2>(), expected, "{x} {v}");
+                assert_eq!(s.motion_finite::<0>(), expected, "{x} {v}");
+                s.x[slot] = 0.0;
+                s.v[1 - slot] = 0.0;
+            }
+        }
+    }
 
     /// A model's one gap (its walls evaluated without the pass over the gaps) gives the same
     /// wall states, force and tangent to the bit as the same gap first among others (the pass).
