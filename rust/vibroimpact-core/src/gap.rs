@@ -359,14 +359,17 @@ pub fn evaluate_wall(
     h: f64,
     out: &mut WallState,
 ) {
-    write_contact_state(
-        out,
-        law,
-        start,
-        wall.sign * u - wall.clearance,
-        wall.sign * u_rate,
-        h,
-    );
+    let (penetration, rate) = wall.motion(u, u_rate);
+    write_contact_state(out, law, start, penetration, rate, h);
+}
+
+impl Wall {
+    /// A 1-D wall's penetration `δ = s u − c` and rate `δ̇ = s u̇` at its gap's coordinate `u`
+    /// and rate `u̇`.
+    #[inline(always)]
+    pub(crate) fn motion(&self, u: f64, u_rate: f64) -> (f64, f64) {
+        (self.sign * u - self.clearance, self.sign * u_rate)
+    }
 }
 
 /// A wall's state at penetration `δ` and rate `δ̇` at the end of a step of length `h` from
@@ -397,25 +400,31 @@ fn write_contact_state(
     h: f64,
 ) {
     if penetration > 0.0 {
-        *s = WallState {
-            penetration,
-            rate,
-            ..WallState::default()
-        };
-        write_closed_state(s, law, start, h);
+        write_closed_state(s, law, start, penetration, rate, h);
     } else {
         s.set_open(penetration, rate);
     }
 }
 
-/// The rest of a closed wall's state, `s` holding its penetration and rate. In line (a
-/// closed wall is evaluated at each Newton iterate of a contact step): called, it cost the
-/// call, the spills of the caller's registers around it and the state's whole write before
-/// it (callgrind: the paper's case −18 instructions a step in line, the rotor's Newmark run
-/// −0.6 %).
+/// A closed wall's whole state at penetration `δ > 0` and rate `δ̇`, each field stored once:
+/// those known before the law's call first (the call then keeps none of them in a register:
+/// no register preserves a float across it), the law's after it. (Zeroed whole first and
+/// then set, the state cost five stores more; built as a value and stored after the call, its
+/// fields were spilled and copied.) In line (a closed wall is evaluated at each Newton
+/// iterate of a contact step): called, it cost the call and the spills of the caller's
+/// registers around it (callgrind: the paper's case −18 instructions a step in line, the
+/// rotor's Newmark run −0.6 %).
 #[inline(always)]
-fn write_closed_state(s: &mut WallState, law: &Law, start: &WallState, h: f64) {
-    let (penetration, rate) = (s.penetration, s.rate);
+pub(crate) fn write_closed_state(
+    s: &mut WallState,
+    law: &Law,
+    start: &WallState,
+    penetration: f64,
+    rate: f64,
+    h: f64,
+) {
+    s.penetration = penetration;
+    s.rate = rate;
     s.impact_speed = if start.closed() {
         start.impact_speed
     } else if law.uses_impact_speed() {
@@ -441,6 +450,7 @@ fn write_closed_state(s: &mut WallState, law: &Law, start: &WallState, h: f64) {
     s.d_rate = f.d_rate;
     s.elastic_force = f.elastic;
     s.potential = f.potential;
+    (s.friction, s.slip, s.slide) = (0.0, 0.0, 0.0);
 }
 
 /// One contact of one wall: a row of the impact table (docs/conventions.md).

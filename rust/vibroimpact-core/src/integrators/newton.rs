@@ -166,7 +166,8 @@ impl GapNewton {
     /// arithmetic of [`Self::solve_general`] on one coordinate in the same order, its iterate
     /// held in registers rather than in the work vectors (they get `Δu`, `u`, `u̇` on return)
     /// and the gap's walls evaluated without [`System::evaluate_contacts`]' tests of the
-    /// model's shape per iteration.
+    /// model's shape per iteration. An open wall's state is written at the last iterate only
+    /// (the iterates before it need the closed walls' forces alone).
     #[inline(always)]
     fn solve_one(
         &mut self,
@@ -182,30 +183,25 @@ impl GapNewton {
         let mut du = self.du[0];
         let mut iterations = 0;
         let mut increment_large = true;
-        loop {
+        // `None`: converged; `Some(exhausted)`: stopped (see `Self::failure`)
+        let (stopped, u, u_rate, force, r) = loop {
             let u = u0 + du;
             let u_rate = c_v * du + rate_lin;
-            let [force, d_u, d_rate] = sys.one_gap_walls(law, p.start, u, u_rate, p.h, walls);
+            let [force, d_u, d_rate] =
+                sys.one_gap_walls::<false>(law, p.start, u, u_rate, p.h, walls);
             // `W φ` as the one term of `Iterator::sum` (which starts at −0.0: the term itself)
             let r = du - du_lin + w * force;
             let stiffness = d_u + c_v * d_rate;
             let residual_large = r.abs() > settings.rtol * u.abs() + settings.atol;
             let done = !residual_large && (iterations == 0 || !increment_large);
             if done || iterations >= settings.max_iterations {
-                (self.du[0], self.u[0], self.u_rate[0], phi[0]) = (du, u, u_rate, force);
-                if done {
-                    return Ok(iterations);
-                }
-                self.residual[0] = r;
-                return Err(self.failure(sys, settings, walls, iterations, true));
+                break ((!done).then_some(true), u, u_rate, force, r);
             }
             // `(1 + W K) d = −r` when the coordinate is active, else `d = −(the empty sum)`
             let d = if r != 0.0 || stiffness != 0.0 {
                 let j = w * stiffness + 1.0;
                 if j == 0.0 {
-                    (self.du[0], self.u[0], self.u_rate[0], phi[0]) = (du, u, u_rate, force);
-                    self.residual[0] = r;
-                    return Err(self.failure(sys, settings, walls, iterations, false));
+                    break (Some(false), u, u_rate, force, r);
                 }
                 -r / j
             } else {
@@ -214,7 +210,14 @@ impl GapNewton {
             iterations += 1;
             du += d;
             increment_large = d.abs() > settings.rtol * (u0 + du).abs() + settings.atol;
-        }
+        };
+        sys.open_gap_walls(u, u_rate, walls);
+        (self.du[0], self.u[0], self.u_rate[0], phi[0]) = (du, u, u_rate, force);
+        let Some(exhausted) = stopped else {
+            return Ok(iterations);
+        };
+        self.residual[0] = r;
+        Err(self.failure(sys, settings, walls, iterations, exhausted))
     }
 
     /// [`Self::solve`] on any number of gap coordinates.
