@@ -212,6 +212,9 @@ impl GapNewton {
             h,
         } = *g;
         let law = &sys.gaps[0].law;
+        // cut to the walls' count once: each pass over the walls then has one length
+        let n_walls = sys.walls.len();
+        let (start, walls) = (&start[..n_walls], &mut walls[..n_walls]);
         let mut iterations = 0;
         let mut increment_large = true;
         // `None`: converged; `Some(exhausted)`: stopped (see `Self::failure`)
