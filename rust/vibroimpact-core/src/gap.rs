@@ -591,14 +591,15 @@ impl ImpactLog {
                         friction_max: 0.0,
                         impulse: known.map_or(0.5 * (1.0 - theta) * h * s1.force, |k| k.impulse),
                     });
-                    self.update_peaks(j, &seg, s0, s1, t + h, known);
+                    let rec = self.records.last_mut().expect("the record just opened");
+                    update_peaks(rec, &mut self.history[j], &seg, s0, s1, t + h, known);
                 }
                 (true, true) => {
                     if let Some(r) = self.open[j] {
-                        self.records[r].impulse +=
-                            known.map_or(0.5 * h * (s0.force + s1.force), |k| k.impulse);
+                        let rec = &mut self.records[r];
+                        rec.impulse += known.map_or(0.5 * h * (s0.force + s1.force), |k| k.impulse);
+                        update_peaks(rec, &mut self.history[j], &seg, s0, s1, t + h, known);
                     }
-                    self.update_peaks(j, &seg, s0, s1, t + h, known);
                 }
                 (true, false) => {
                     let theta = seg.crossing();
@@ -618,42 +619,42 @@ impl ImpactLog {
             }
         }
     }
+}
 
-    // (in line in `commit`: its call, and the tests of `open[j]` and of the record's index
-    // that `commit` made already, cost a closed wall's step ~25 instructions)
-    #[allow(clippy::too_many_arguments)]
-    #[inline(always)]
-    fn update_peaks(
-        &mut self,
-        j: usize,
-        seg: &HermiteSegment,
-        s0: &WallState,
-        s1: &WallState,
-        t1: f64,
-        known: Option<Known>,
-    ) {
-        let Some(r) = self.open[j] else { return };
-        let rec = &mut self.records[r];
-        // Penetration peaks where δ̇ changes sign: known inside the step, or the maximum of
-        // the Hermite interpolant there.
-        let mut delta = s1.penetration;
-        if let Some(k) = known {
-            delta = delta.max(k.delta_max);
-        } else if s0.rate > 0.0 && s1.rate <= 0.0 {
-            let s = (s0.rate / (s0.rate - s1.rate)).clamp(0.0, 1.0);
-            let s = refine_stationary(seg, s);
-            delta = delta.max(seg.value(s));
-        }
-        rec.delta_max = rec.delta_max.max(delta);
-        rec.friction_max = rec.friction_max.max(s1.friction.abs());
-        // Force peaks: known inside the step, or the parabola through the last three samples.
-        let [(ta, fa), (tb, fb)] = self.history[j];
-        rec.force_max = rec.force_max.max(s1.force).max(known.map_or_else(
-            || parabola_peak([ta, tb, t1], [fa, fb, s1.force]),
-            |k| k.force_max,
-        ));
-        self.history[j] = [(tb, fb), (t1, s1.force)];
+/// A closed wall's step `[t1 − h, t1]` in its open record `rec`, with the wall's last two
+/// force samples `history`: the penetration's and the forces' peaks. In line in
+/// [`ImpactLog::commit`], with the record it found (called with the log, the call and the
+/// tests of the wall's open record and of its index, made again, cost a closed wall's step
+/// ~25 instructions).
+#[inline(always)]
+fn update_peaks(
+    rec: &mut ImpactRecord,
+    history: &mut [(f64, f64); 2],
+    seg: &HermiteSegment,
+    s0: &WallState,
+    s1: &WallState,
+    t1: f64,
+    known: Option<Known>,
+) {
+    // Penetration peaks where δ̇ changes sign: known inside the step, or the maximum of
+    // the Hermite interpolant there.
+    let mut delta = s1.penetration;
+    if let Some(k) = known {
+        delta = delta.max(k.delta_max);
+    } else if s0.rate > 0.0 && s1.rate <= 0.0 {
+        let s = (s0.rate / (s0.rate - s1.rate)).clamp(0.0, 1.0);
+        let s = refine_stationary(seg, s);
+        delta = delta.max(seg.value(s));
     }
+    rec.delta_max = rec.delta_max.max(delta);
+    rec.friction_max = rec.friction_max.max(s1.friction.abs());
+    // Force peaks: known inside the step, or the parabola through the last three samples.
+    let [(ta, fa), (tb, fb)] = *history;
+    rec.force_max = rec.force_max.max(s1.force).max(known.map_or_else(
+        || parabola_peak([ta, tb, t1], [fa, fb, s1.force]),
+        |k| k.force_max,
+    ));
+    *history = [(tb, fb), (t1, s1.force)];
 }
 
 /// The force at a contact's first instant, N: the law at the smallest positive penetration
