@@ -284,10 +284,18 @@ impl<'o> Run<'o> {
         if free {
             self.commit_step::<true>(sys, h, 0, None, None)?;
         } else {
-            self.commit_trial(sys, h, iterations, None)?;
+            self.commit_ends(sys, h, iterations)?;
         }
         stepper.accept(sys, &self.cur);
         Ok(())
+    }
+
+    /// [`Self::commit`] of a step that the integrator knows by its ends only (no integrals, no
+    /// turns: every stepper's accepted attempt), compiled apart so that the tests of what it
+    /// knew inside the step fold away.
+    #[inline(never)]
+    fn commit_ends(&mut self, sys: &System, h: f64, iterations: usize) -> Result<(), SimError> {
+        self.commit_step::<false>(sys, h, iterations, None, None)
     }
 
     /// [`Self::accept`] for any integrator: `integrals` holds what the integrator computed

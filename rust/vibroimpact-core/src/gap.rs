@@ -359,14 +359,17 @@ pub fn evaluate_wall(
     h: f64,
     out: &mut WallState,
 ) {
-    write_contact_state(
-        out,
-        law,
-        start,
-        wall.sign * u - wall.clearance,
-        wall.sign * u_rate,
-        h,
-    );
+    let (penetration, rate) = wall.motion(u, u_rate);
+    write_contact_state(out, law, start, penetration, rate, h);
+}
+
+impl Wall {
+    /// A 1-D wall's penetration `δ = s u − c` and rate `δ̇ = s u̇` at its gap's coordinate `u`
+    /// and rate `u̇`.
+    #[inline(always)]
+    pub(crate) fn motion(&self, u: f64, u_rate: f64) -> (f64, f64) {
+        (self.sign * u - self.clearance, self.sign * u_rate)
+    }
 }
 
 /// A wall's state at penetration `δ` and rate `δ̇` at the end of a step of length `h` from
@@ -397,25 +400,31 @@ fn write_contact_state(
     h: f64,
 ) {
     if penetration > 0.0 {
-        *s = WallState {
-            penetration,
-            rate,
-            ..WallState::default()
-        };
-        write_closed_state(s, law, start, h);
+        write_closed_state(s, law, start, penetration, rate, h);
     } else {
         s.set_open(penetration, rate);
     }
 }
 
-/// The rest of a closed wall's state, `s` holding its penetration and rate. In line (a
-/// closed wall is evaluated at each Newton iterate of a contact step): called, it cost the
-/// call, the spills of the caller's registers around it and the state's whole write before
-/// it (callgrind: the paper's case −18 instructions a step in line, the rotor's Newmark run
-/// −0.6 %).
+/// A closed wall's whole state at penetration `δ > 0` and rate `δ̇`, each field stored once:
+/// those known before the law's call first (the call then keeps none of them in a register:
+/// no register preserves a float across it), the law's after it. (Zeroed whole first and
+/// then set, the state cost five stores more; built as a value and stored after the call, its
+/// fields were spilled and copied.) In line (a closed wall is evaluated at each Newton
+/// iterate of a contact step): called, it cost the call and the spills of the caller's
+/// registers around it (callgrind: the paper's case −18 instructions a step in line, the
+/// rotor's Newmark run −0.6 %).
 #[inline(always)]
-fn write_closed_state(s: &mut WallState, law: &Law, start: &WallState, h: f64) {
-    let (penetration, rate) = (s.penetration, s.rate);
+pub(crate) fn write_closed_state(
+    s: &mut WallState,
+    law: &Law,
+    start: &WallState,
+    penetration: f64,
+    rate: f64,
+    h: f64,
+) {
+    s.penetration = penetration;
+    s.rate = rate;
     s.impact_speed = if start.closed() {
         start.impact_speed
     } else if law.uses_impact_speed() {
@@ -441,6 +450,7 @@ fn write_closed_state(s: &mut WallState, law: &Law, start: &WallState, h: f64) {
     s.d_rate = f.d_rate;
     s.elastic_force = f.elastic;
     s.potential = f.potential;
+    (s.friction, s.slip, s.slide) = (0.0, 0.0, 0.0);
 }
 
 /// One contact of one wall: a row of the impact table (docs/conventions.md).
@@ -581,14 +591,15 @@ impl ImpactLog {
                         friction_max: 0.0,
                         impulse: known.map_or(0.5 * (1.0 - theta) * h * s1.force, |k| k.impulse),
                     });
-                    self.update_peaks(j, &seg, s0, s1, t + h, known);
+                    let rec = self.records.last_mut().expect("the record just opened");
+                    update_peaks(rec, &mut self.history[j], &seg, s0, s1, t + h, known);
                 }
                 (true, true) => {
                     if let Some(r) = self.open[j] {
-                        self.records[r].impulse +=
-                            known.map_or(0.5 * h * (s0.force + s1.force), |k| k.impulse);
+                        let rec = &mut self.records[r];
+                        rec.impulse += known.map_or(0.5 * h * (s0.force + s1.force), |k| k.impulse);
+                        update_peaks(rec, &mut self.history[j], &seg, s0, s1, t + h, known);
                     }
-                    self.update_peaks(j, &seg, s0, s1, t + h, known);
                 }
                 (true, false) => {
                     let theta = seg.crossing();
@@ -608,39 +619,42 @@ impl ImpactLog {
             }
         }
     }
+}
 
-    #[allow(clippy::too_many_arguments)]
-    fn update_peaks(
-        &mut self,
-        j: usize,
-        seg: &HermiteSegment,
-        s0: &WallState,
-        s1: &WallState,
-        t1: f64,
-        known: Option<Known>,
-    ) {
-        let Some(r) = self.open[j] else { return };
-        let rec = &mut self.records[r];
-        // Penetration peaks where δ̇ changes sign: known inside the step, or the maximum of
-        // the Hermite interpolant there.
-        let mut delta = s1.penetration;
-        if let Some(k) = known {
-            delta = delta.max(k.delta_max);
-        } else if s0.rate > 0.0 && s1.rate <= 0.0 {
-            let s = (s0.rate / (s0.rate - s1.rate)).clamp(0.0, 1.0);
-            let s = refine_stationary(seg, s);
-            delta = delta.max(seg.value(s));
-        }
-        rec.delta_max = rec.delta_max.max(delta);
-        rec.friction_max = rec.friction_max.max(s1.friction.abs());
-        // Force peaks: known inside the step, or the parabola through the last three samples.
-        let [(ta, fa), (tb, fb)] = self.history[j];
-        rec.force_max = rec.force_max.max(s1.force).max(known.map_or_else(
-            || parabola_peak([ta, tb, t1], [fa, fb, s1.force]),
-            |k| k.force_max,
-        ));
-        self.history[j] = [(tb, fb), (t1, s1.force)];
+/// A closed wall's step `[t1 − h, t1]` in its open record `rec`, with the wall's last two
+/// force samples `history`: the penetration's and the forces' peaks. In line in
+/// [`ImpactLog::commit`], with the record it found (called with the log, the call and the
+/// tests of the wall's open record and of its index, made again, cost a closed wall's step
+/// ~25 instructions).
+#[inline(always)]
+fn update_peaks(
+    rec: &mut ImpactRecord,
+    history: &mut [(f64, f64); 2],
+    seg: &HermiteSegment,
+    s0: &WallState,
+    s1: &WallState,
+    t1: f64,
+    known: Option<Known>,
+) {
+    // Penetration peaks where δ̇ changes sign: known inside the step, or the maximum of
+    // the Hermite interpolant there.
+    let mut delta = s1.penetration;
+    if let Some(k) = known {
+        delta = delta.max(k.delta_max);
+    } else if s0.rate > 0.0 && s1.rate <= 0.0 {
+        let s = (s0.rate / (s0.rate - s1.rate)).clamp(0.0, 1.0);
+        let s = refine_stationary(seg, s);
+        delta = delta.max(seg.value(s));
     }
+    rec.delta_max = rec.delta_max.max(delta);
+    rec.friction_max = rec.friction_max.max(s1.friction.abs());
+    // Force peaks: known inside the step, or the parabola through the last three samples.
+    let [(ta, fa), (tb, fb)] = *history;
+    rec.force_max = rec.force_max.max(s1.force).max(known.map_or_else(
+        || parabola_peak([ta, tb, t1], [fa, fb, s1.force]),
+        |k| k.force_max,
+    ));
+    *history = [(tb, fb), (t1, s1.force)];
 }
 
 /// The force at a contact's first instant, N: the law at the smallest positive penetration

@@ -6,8 +6,8 @@ use nalgebra::DVector;
 use crate::contact::{Law, MIN_IMPACT_SPEED};
 use crate::error::{invalid, SimError};
 use crate::gap::{
-    contact_state, evaluate_wall, radial_contact, Gap, Radial, RadialKinematics, Side, Wall,
-    WallState,
+    contact_state, evaluate_wall, radial_contact, write_closed_state, Gap, Radial,
+    RadialKinematics, Side, Wall, WallState,
 };
 use crate::structure::{LinearStructure, Load};
 
@@ -276,7 +276,8 @@ impl System {
                 tangent.d_u.as_mut_slice(),
                 tangent.d_rate.as_mut_slice(),
             ) {
-                [*phi, *d_u, *d_rate] = self.one_gap_walls(&gap.law, start, *u, *u_rate, h, walls);
+                [*phi, *d_u, *d_rate] =
+                    self.one_gap_walls::<true>(&gap.law, start, *u, *u_rate, h, walls);
                 return;
             }
             // Every gap has one or two walls, adjacent in `walls` and in the gaps' order: one
@@ -290,7 +291,7 @@ impl System {
             let gaps = self.gaps.iter().zip(u).zip(u_rate).zip(sums);
             for (g, (((gap, &u), &u_rate), ((phi, d_u), d_rate))) in gaps.enumerate() {
                 let walls = std::iter::from_fn(|| states.next_if(|((w, _), _)| w.gap == g));
-                [*phi, *d_u, *d_rate] = gap_walls(&gap.law, walls, u, u_rate, h);
+                [*phi, *d_u, *d_rate] = gap_walls::<true>(&gap.law, walls, u, u_rate, h);
             }
             return;
         }
@@ -316,9 +317,11 @@ impl System {
     /// The walls of a model's one gap (no radial gap), `law` its law, evaluated at its
     /// coordinate `u` and rate `u_rate` (as [`Self::evaluate_contacts`]): its generalized force
     /// `φ` and `∂φ/∂u`, `∂φ/∂u̇`. Every wall is the gap's: no pass over the gaps and no test of
-    /// each wall's gap.
+    /// each wall's gap. `OPEN`: the open walls' states are written too; without it only the
+    /// closed walls' are (a Newton iterate that is not the last: the caller writes the open
+    /// ones at its last iterate by [`Self::open_gap_walls`]).
     #[inline(always)]
-    pub(crate) fn one_gap_walls(
+    pub(crate) fn one_gap_walls<const OPEN: bool>(
         &self,
         law: &Law,
         start: &[WallState],
@@ -328,7 +331,20 @@ impl System {
         walls: &mut [WallState],
     ) -> [f64; 3] {
         let states = self.walls.iter().zip(start).zip(walls.iter_mut());
-        gap_walls(law, states, u, u_rate, h)
+        gap_walls::<OPEN>(law, states, u, u_rate, h)
+    }
+
+    /// The open walls' states of a model's one gap (no radial gap) at its coordinate `u` and
+    /// rate `u_rate`: what [`Self::one_gap_walls`] without `OPEN` left out.
+    #[inline(always)]
+    pub(crate) fn open_gap_walls(&self, u: f64, u_rate: f64, walls: &mut [WallState]) {
+        for (wall, s) in self.walls.iter().zip(walls) {
+            let (penetration, rate) = wall.motion(u, u_rate);
+            if penetration > 0.0 {
+                continue; // closed: written at this iterate by `one_gap_walls`
+            }
+            s.set_open(penetration, rate);
+        }
     }
 
     /// A radial wall's state, its force added to `φ` and its 2×2 tangent to `tangent`.
@@ -371,10 +387,13 @@ impl System {
 }
 
 /// One gap's walls evaluated in turn at its coordinate `u` and rate `u_rate` into their
-/// states, and the gap's generalized force `φ = Σ s F` with its derivatives `Σ ∂F/∂δ`,
-/// `Σ ∂F/∂δ̇`, the sums from 0.0 at its first wall (the same values as zeroing them first).
+/// states (an open wall's only with `OPEN`), and the gap's generalized force `φ = Σ s F` with
+/// its derivatives `Σ ∂F/∂δ`, `Σ ∂F/∂δ̇`, the sums from 0.0 at its first wall (the same values
+/// as zeroing them first). An open wall's terms are left out: they are +0.0 (an open 1-D
+/// wall's state has its other fields zero), and a sum from 0.0 of terms that are not −0.0 is
+/// never −0.0, so adding ±0.0 to it leaves it as it is.
 #[inline(always)]
-fn gap_walls<'s>(
+fn gap_walls<'s, const OPEN: bool>(
     law: &Law,
     walls: impl Iterator<Item = ((&'s Wall, &'s WallState), &'s mut WallState)>,
     u: f64,
@@ -383,10 +402,15 @@ fn gap_walls<'s>(
 ) -> [f64; 3] {
     let (mut force, mut d_penetration, mut d_rate) = (0.0, 0.0, 0.0);
     for ((wall, start), s) in walls {
-        evaluate_wall(law, wall, start, u, u_rate, h, s);
-        force += wall.sign * s.force;
-        d_penetration += s.d_penetration;
-        d_rate += s.d_rate;
+        let (penetration, rate) = wall.motion(u, u_rate);
+        if penetration > 0.0 {
+            write_closed_state(s, law, start, penetration, rate, h);
+            force += wall.sign * s.force;
+            d_penetration += s.d_penetration;
+            d_rate += s.d_rate;
+        } else if OPEN {
+            s.set_open(penetration, rate);
+        }
     }
     [force, d_penetration, d_rate]
 }

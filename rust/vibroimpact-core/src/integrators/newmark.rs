@@ -13,7 +13,7 @@ use std::sync::OnceLock;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use nalgebra::DMatrix;
 
-use super::newton::{GapNewton, GapProblem, NewtonSettings, RateMap};
+use super::newton::{GapNewton, GapProblem, NewtonSettings, OneGap, RateMap};
 use super::sized::{by_size, dofs, sized_step_path, Inline};
 use super::{OperatorCache, StepFailure, Stepper};
 use crate::error::{invalid, SimError};
@@ -834,16 +834,35 @@ impl NewmarkStepper {
         let op = self.operators.get(level);
         let [_, a1, _, _, a4, a5] = op.a;
         let n = dofs::<N>(s0.x.len());
-        // u̇_lin = −a₄ u̇₀ − a₅ ü₀ (one gap coordinate without the loop's set-up)
+        // u̇_lin = −a₄ u̇₀ − a₅ ü₀
         let rate_lin = |r0: f64, acc0: f64| -a4 * r0 - a5 * acc0;
-        let gap_rates = (&s0.u_rate[..], &s0.u_accel[..]);
-        if let ([rate], ([r0], [acc0])) = (self.rate_lin.as_mut_slice(), gap_rates) {
-            *rate = rate_lin(*r0, *acc0);
-        } else {
-            let gap_rates = s0.u_rate.iter().zip(&s0.u_accel);
-            for (rate, (r0, acc0)) in self.rate_lin.iter_mut().zip(gap_rates) {
-                *rate = rate_lin(*r0, *acc0);
+        let one = (&op.w[..], &s0.u[..], &self.du_lin[..]);
+        let start = (&s0.u_rate[..], &s0.u_accel[..], &s0.phi[..]);
+        if let (([w], [u0], [du_lin]), ([r0], [acc0], [phi0]), [phi], false) =
+            (one, start, s1.phi.as_mut_slice(), sys.has_radial)
+        {
+            // one 1-D gap coordinate: its numbers by value, without the general path's work
+            // vectors and slices; the first iterate Δu_lin − W φ₀ (as `GapNewton::start_from`)
+            let g = OneGap {
+                w: *w,
+                u0: *u0,
+                du_lin: *du_lin,
+                rate_lin: rate_lin(*r0, *acc0),
+                c_v: a1,
+                start: &s0.walls,
+                h,
+            };
+            let du = g.du_lin - g.w * *phi0;
+            let newton = &mut self.gap_newton;
+            let iterations = newton.solve_one(sys, &self.newton, &g, du, &mut s1.walls, phi)?;
+            if *phi != 0.0 {
+                axpy(-*phi, &op.gaps[0][..n], self.dx.sized_mut::<N>());
             }
+            return Ok(iterations);
+        }
+        let gap_rates = s0.u_rate.iter().zip(&s0.u_accel);
+        for (rate, (r0, acc0)) in self.rate_lin.iter_mut().zip(gap_rates) {
+            *rate = rate_lin(*r0, *acc0);
         }
         let problem = GapProblem {
             w: &op.w,

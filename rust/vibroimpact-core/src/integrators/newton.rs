@@ -56,6 +56,19 @@ pub(crate) struct GapProblem<'a> {
     pub h: f64,
 }
 
+/// A [`GapProblem`] on one 1-D gap coordinate with `S = c_v` ([`RateMap::Diagonal`]): its
+/// numbers by value, for [`GapNewton::solve_one`].
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct OneGap<'a> {
+    pub w: f64,
+    pub u0: f64,
+    pub du_lin: f64,
+    pub rate_lin: f64,
+    pub c_v: f64,
+    pub start: &'a [WallState],
+    pub h: f64,
+}
+
 /// Newton–Raphson on the gap coordinates, with its preallocated work space.
 #[derive(Debug, Clone)]
 pub(crate) struct GapNewton {
@@ -155,7 +168,16 @@ impl GapNewton {
         match p.rate {
             // one 1-D gap coordinate (a radial gap has two)
             RateMap::Diagonal(c_v) if self.du.len() == 1 && !sys.has_radial => {
-                self.solve_one(sys, settings, p, c_v, walls, phi)
+                let g = OneGap {
+                    w: p.w[0],
+                    u0: p.u0[0],
+                    du_lin: p.du_lin[0],
+                    rate_lin: p.rate_lin[0],
+                    c_v,
+                    start: p.start,
+                    h: p.h,
+                };
+                self.solve_one(sys, settings, &g, self.du[0], walls, &mut phi[0])
             }
             _ => self.solve_general(sys, settings, p, walls, phi),
         }
@@ -166,46 +188,53 @@ impl GapNewton {
     /// arithmetic of [`Self::solve_general`] on one coordinate in the same order, its iterate
     /// held in registers rather than in the work vectors (they get `Δu`, `u`, `u̇` on return)
     /// and the gap's walls evaluated without [`System::evaluate_contacts`]' tests of the
-    /// model's shape per iteration.
+    /// model's shape per iteration. An open wall's state is written at the last iterate only
+    /// (the iterates before it need the closed walls' forces alone). `du`: the first iterate
+    /// (what [`Self::solve`] reads from `self.du`); `phi`: the gap's contact force. The
+    /// Newmark step calls it with its numbers by value, without a [`GapProblem`]'s slices.
     #[inline(always)]
-    fn solve_one(
+    pub(crate) fn solve_one(
         &mut self,
         sys: &System,
         settings: &NewtonSettings,
-        p: &GapProblem<'_>,
-        c_v: f64,
+        g: &OneGap<'_>,
+        mut du: f64,
         walls: &mut [WallState],
-        phi: &mut [f64],
+        phi: &mut f64,
     ) -> Result<usize, StepFailure> {
-        let (w, u0, du_lin, rate_lin) = (p.w[0], p.u0[0], p.du_lin[0], p.rate_lin[0]);
+        let OneGap {
+            w,
+            u0,
+            du_lin,
+            rate_lin,
+            c_v,
+            start,
+            h,
+        } = *g;
         let law = &sys.gaps[0].law;
-        let mut du = self.du[0];
+        // cut to the walls' count once: each pass over the walls then has one length
+        let n_walls = sys.walls.len();
+        let (start, walls) = (&start[..n_walls], &mut walls[..n_walls]);
         let mut iterations = 0;
         let mut increment_large = true;
-        loop {
+        // `None`: converged; `Some(exhausted)`: stopped (see `Self::failure`)
+        let (stopped, u, u_rate, force, r) = loop {
             let u = u0 + du;
             let u_rate = c_v * du + rate_lin;
-            let [force, d_u, d_rate] = sys.one_gap_walls(law, p.start, u, u_rate, p.h, walls);
+            let [force, d_u, d_rate] = sys.one_gap_walls::<false>(law, start, u, u_rate, h, walls);
             // `W φ` as the one term of `Iterator::sum` (which starts at −0.0: the term itself)
             let r = du - du_lin + w * force;
             let stiffness = d_u + c_v * d_rate;
             let residual_large = r.abs() > settings.rtol * u.abs() + settings.atol;
             let done = !residual_large && (iterations == 0 || !increment_large);
             if done || iterations >= settings.max_iterations {
-                (self.du[0], self.u[0], self.u_rate[0], phi[0]) = (du, u, u_rate, force);
-                if done {
-                    return Ok(iterations);
-                }
-                self.residual[0] = r;
-                return Err(self.failure(sys, settings, walls, iterations, true));
+                break ((!done).then_some(true), u, u_rate, force, r);
             }
             // `(1 + W K) d = −r` when the coordinate is active, else `d = −(the empty sum)`
             let d = if r != 0.0 || stiffness != 0.0 {
                 let j = w * stiffness + 1.0;
                 if j == 0.0 {
-                    (self.du[0], self.u[0], self.u_rate[0], phi[0]) = (du, u, u_rate, force);
-                    self.residual[0] = r;
-                    return Err(self.failure(sys, settings, walls, iterations, false));
+                    break (Some(false), u, u_rate, force, r);
                 }
                 -r / j
             } else {
@@ -214,7 +243,14 @@ impl GapNewton {
             iterations += 1;
             du += d;
             increment_large = d.abs() > settings.rtol * (u0 + du).abs() + settings.atol;
-        }
+        };
+        sys.open_gap_walls(u, u_rate, walls);
+        (self.du[0], self.u[0], self.u_rate[0], *phi) = (du, u, u_rate, force);
+        let Some(exhausted) = stopped else {
+            return Ok(iterations);
+        };
+        self.residual[0] = r;
+        Err(self.failure(sys, settings, walls, iterations, exhausted))
     }
 
     /// [`Self::solve`] on any number of gap coordinates.
