@@ -666,6 +666,9 @@ pub(crate) struct Recorder<'o> {
     /// strain energies are evaluated from their recorded velocities and displacements when
     /// the rows are handed on ([`Self::complete`]), not per row (the same values).
     energies_from_rows: bool,
+    /// The model has one DOF and it is recorded: a row's motion is read at constant places,
+    /// without the dispatch on the model's size (every row of the 1-DOF models).
+    one_dof: bool,
     /// The rows, written by index ([`Self::record`]): their columns' lengths lag behind
     /// `written` until [`Self::sync`].
     rows: Rows,
@@ -712,6 +715,7 @@ impl Recorder<'_> {
             kinetic,
             strain,
             energies_from_rows,
+            one_dof: sys.n_dof() == 1 && dofs == [0],
             rows: Rows::with_capacity(n_rec, dofs.len(), sys.n_gaps),
             written: 0,
             room: 0,
@@ -774,7 +778,12 @@ impl Recorder<'_> {
         self.last_time = s.t;
         // (the peaks are kept by the commits, Run::commit and Run::jumped, or taken from the
         // rows, Self::complete)
-        by_size!(s.x.len(), |N| put_motion::<N>(rows, &self.dofs, r, s));
+        if self.one_dof {
+            debug_assert_eq!(s.x.len(), 1);
+            put_motion::<1>(rows, &[0], r, s);
+        } else {
+            by_size!(s.x.len(), |N| put_motion::<N>(rows, &self.dofs, r, s));
+        }
         // Walls of one gap are adjacent: one column per gap (deepest wall, summed force).
         let mut potential = 0.0;
         if let [_] = self.gap_walls[..] {

@@ -132,6 +132,9 @@ pub struct PointSummary {
 struct Reducer<'a> {
     sampling: &'a Sampling,
     n_gaps: usize,
+    /// The model has one DOF: a step's reduction compiled for it without the dispatch on the
+    /// model's size (the 1-DOF sweeps, every step).
+    one_dof: bool,
     start: f64,
     /// Index (1-based) of the next stroboscopic sample, and its time (s; infinite when
     /// every sample is taken).
@@ -164,6 +167,7 @@ impl<'a> Reducer<'a> {
         let mut reducer = Self {
             sampling,
             n_gaps,
+            one_dof: x0.len() == 1,
             start: sampling.start(),
             interval: sampling.period / sampling.per_period as f64,
             next_sample: 1,
@@ -275,7 +279,12 @@ impl Reducer<'_> {
     /// The state at the end of the last accepted step, the run's final state.
     #[inline(always)]
     fn keep_final(&mut self, s1: &State) {
-        by_size!(s1.x.len(), |N| self.keep_final_sized::<N>(s1));
+        if self.one_dof {
+            debug_assert_eq!(s1.x.len(), 1);
+            self.keep_final_sized::<1>(s1);
+        } else {
+            by_size!(s1.x.len(), |N| self.keep_final_sized::<N>(s1));
+        }
     }
 
     /// [`Self::keep_final`] compiled for `N` DOFs ([`by_size`]): a small model's values at
