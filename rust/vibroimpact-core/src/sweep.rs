@@ -132,8 +132,8 @@ pub struct PointSummary {
 struct Reducer<'a> {
     sampling: &'a Sampling,
     n_gaps: usize,
-    /// The model has one DOF: a step's reduction compiled for it without the dispatch on the
-    /// model's size (the 1-DOF sweeps, every step).
+    /// The model has one DOF: its final state is kept at constant places without the dispatch
+    /// on the model's size (the 1-DOF sweeps, every step).
     one_dof: bool,
     start: f64,
     /// Index (1-based) of the next stroboscopic sample, and its time (s; infinite when
