@@ -20,7 +20,7 @@ use std::time::Instant;
 use nalgebra::DVector;
 
 use crate::error::{SimError, ENERGY_GROWTH_LIMIT};
-use crate::gap::{FrictionLaw, ImpactLog, ImpactRecord, Side, WallInterior};
+use crate::gap::{FrictionLaw, ImpactLog, ImpactRecord, Side, WallInterior, WallState};
 use crate::integrators::sized::by_size;
 use crate::integrators::{StepFailure, Stepper};
 use crate::interrupt;
@@ -188,6 +188,8 @@ impl<'o> Run<'o> {
         }
         self.out.chunk = sink.chunk_rows().map(|n| n.max(1));
         self.out.sink = Some(sink);
+        // the next row asks for room again, which is now also room in the block
+        self.out.room = 0;
     }
 
     /// Reports the linear solver of `stepper` for steps of `dt` (when the sink wants events).
@@ -668,12 +670,16 @@ pub(crate) struct Recorder<'o> {
     /// strain energies are evaluated from their recorded velocities and displacements when
     /// the rows are handed on ([`Self::complete`]), not per row (the same values).
     energies_from_rows: bool,
+    /// The model has one DOF and it is recorded: a row's motion is read at constant places,
+    /// without the dispatch on the model's size (every row of the 1-DOF models).
+    one_dof: bool,
     /// The rows, written by index ([`Self::record`]): their columns' lengths lag behind
     /// `written` until [`Self::sync`].
     rows: Rows,
     /// Rows written into `rows`.
     written: usize,
-    /// Rows every column of `rows` has the capacity for ([`Self::make_room`]).
+    /// Rows that fit in every column of `rows` and, when streamed, in the block
+    /// ([`Self::make_room`]).
     room: usize,
     /// The peaks (empty without them, [`Peaks::Off`]).
     max_abs: Vec<f64>,
@@ -713,6 +719,7 @@ impl Recorder<'_> {
             kinetic,
             strain,
             energies_from_rows,
+            one_dof: sys.n_dof() == 1 && dofs == [0],
             rows: Rows::with_capacity(n_rec, dofs.len(), sys.n_gaps),
             written: 0,
             room: 0,
@@ -762,23 +769,13 @@ impl Recorder<'_> {
         }
     }
 
+    /// Writes the row of `s`. In line in its callers: out of line, its frame, spills and call
+    /// were a fifth of a row's instructions.
+    #[inline(always)]
     pub fn record(&mut self, sys: &System, s: &State, account: &Account) {
-        // a full block goes before the next row is added, so the last row always stays for
-        // the RunOutput
-        if let (Some(n), true) = (self.chunk, self.sink.is_some()) {
-            if self.written >= n {
-                let fresh = Rows::with_capacity(n, self.dofs.len(), sys.n_gaps);
-                self.complete();
-                (self.peaks_taken, self.written, self.room) = (0, 0, 0);
-                let full = std::mem::replace(&mut self.rows, fresh);
-                if let Some(sink) = self.sink.as_deref_mut() {
-                    sink.rows(full);
-                }
-            }
-        }
-        // one capacity test a row, not one a value
-        if self.written == self.room {
-            self.make_room();
+        // one test a row, for the columns' capacity and the streamed block's end together
+        if self.written >= self.room {
+            self.make_room(sys);
         }
         let r = self.written;
         self.written += 1;
@@ -787,38 +784,26 @@ impl Recorder<'_> {
         self.last_time = s.t;
         // (the peaks are kept by the commits, Run::commit and Run::jumped, or taken from the
         // rows, Self::complete)
-        by_size!(s.x.len(), |N| put_motion::<N>(rows, &self.dofs, r, s));
+        if self.one_dof {
+            debug_assert_eq!(s.x.len(), 1);
+            put_motion::<1>(rows, &[0], r, s);
+        } else {
+            by_size!(s.x.len(), |N| put_motion::<N>(rows, &self.dofs, r, s));
+        }
         // Walls of one gap are adjacent: one column per gap (deepest wall, summed force).
         let mut potential = 0.0;
-        let first = r * self.gap_walls.len();
-        for (i, walls) in (first..).zip(self.gap_walls.iter().map(|w| &s.walls[w.clone()])) {
-            // a one- or two-sided gap without the loop over its walls (the same sums)
-            let (pen, force) = match walls {
-                [one] => {
-                    potential += one.potential;
-                    (one.penetration, one.force)
-                }
-                [near, far] => {
-                    potential += near.potential;
-                    potential += far.potential;
-                    (
-                        near.penetration.max(far.penetration),
-                        near.force + far.force,
-                    )
-                }
-                _ => {
-                    let (mut pen, mut force) = (walls[0].penetration, walls[0].force);
-                    potential += walls[0].potential;
-                    for other in &walls[1..] {
-                        pen = pen.max(other.penetration);
-                        force += other.force;
-                        potential += other.potential;
-                    }
-                    (pen, force)
-                }
-            };
-            put(&mut rows.gap_penetration, i, pen);
-            put(&mut rows.gap_force, i, force);
+        if let [_] = self.gap_walls[..] {
+            // one gap (its walls are all the walls): without the loop and the slicing
+            let (pen, force) = gap_columns(&s.walls, &mut potential);
+            put(&mut rows.gap_penetration, r, pen);
+            put(&mut rows.gap_force, r, force);
+        } else {
+            let first = r * self.gap_walls.len();
+            for (i, walls) in (first..).zip(self.gap_walls.iter().map(|w| &s.walls[w.clone()])) {
+                let (pen, force) = gap_columns(walls, &mut potential);
+                put(&mut rows.gap_penetration, i, pen);
+                put(&mut rows.gap_force, i, force);
+            }
         }
         let e = &mut rows.energy;
         if !self.energies_from_rows {
@@ -882,18 +867,62 @@ impl Recorder<'_> {
         }
     }
 
-    /// Room for at least one more row in every column (amortised growth, as `push`'s).
+    /// Room for at least one more row: a full streamed block goes to the sink first (before
+    /// the next row is added, so that the last row always stays for the `RunOutput`), then
+    /// every column gets room for one more (amortised growth, as `push`'s).
     #[cold]
     #[inline(never)]
-    fn make_room(&mut self) {
+    fn make_room(&mut self, sys: &System) {
+        let block = self.chunk.filter(|_| self.sink.is_some());
+        if let Some(n) = block.filter(|&n| self.written >= n) {
+            let fresh = Rows::with_capacity(n, self.dofs.len(), sys.n_gaps);
+            self.complete();
+            (self.peaks_taken, self.written) = (0, 0);
+            let full = std::mem::replace(&mut self.rows, fresh);
+            if let Some(sink) = self.sink.as_deref_mut() {
+                sink.rows(full);
+            }
+        }
         self.sync();
-        self.room = self
+        let rows = self
             .columns()
             .map(|(column, width)| {
                 column.reserve(width);
                 column.capacity() / width
             })
             .fold(usize::MAX, usize::min);
+        self.room = block.map_or(rows, |n| rows.min(n));
+    }
+}
+
+/// A gap's columns from its walls' states (adjacent in `State::walls`): the deepest wall's
+/// penetration and the summed force; their potentials added to `potential`. A one- or
+/// two-sided gap without the loop over its walls (the same sums).
+#[inline(always)]
+fn gap_columns(walls: &[WallState], potential: &mut f64) -> (f64, f64) {
+    match walls {
+        [one] => {
+            *potential += one.potential;
+            (one.penetration, one.force)
+        }
+        [near, far] => {
+            *potential += near.potential;
+            *potential += far.potential;
+            (
+                near.penetration.max(far.penetration),
+                near.force + far.force,
+            )
+        }
+        _ => {
+            let (mut pen, mut force) = (walls[0].penetration, walls[0].force);
+            *potential += walls[0].potential;
+            for other in &walls[1..] {
+                pen = pen.max(other.penetration);
+                force += other.force;
+                *potential += other.potential;
+            }
+            (pen, force)
+        }
     }
 }
 

@@ -446,14 +446,22 @@ impl Load {
         self.amplitude * self.shape(t)
     }
 
-    /// `g(t)`.
+    /// `g(t)`: a harmonic load's tested first, on its own (the sweeps' loads, every step),
+    /// so that it skips the decoding of the other variants and their frame (callgrind: 19
+    /// instructions a call besides the `sin`, before); in line in the per-size Newmark step.
     #[inline(always)]
     pub fn shape(&self, t: f64) -> f64 {
+        if let LoadHistory::Harmonic { frequency, phase } = &self.history {
+            return (2.0 * std::f64::consts::PI * frequency * t + phase).sin();
+        }
+        self.other_shape(t)
+    }
+
+    /// [`Self::shape`] of the loads that are not harmonic.
+    fn other_shape(&self, t: f64) -> f64 {
         match &self.history {
             LoadHistory::Constant => 1.0,
-            LoadHistory::Harmonic { frequency, phase } => {
-                (2.0 * std::f64::consts::PI * frequency * t + phase).sin()
-            }
+            LoadHistory::Harmonic { .. } => unreachable!("taken by Load::shape"),
             LoadHistory::Unbalance { axis, phase, spin } => {
                 let (w, dw) = (spin.speed(t), spin.acceleration(t));
                 let (sin, cos) = (spin.angle(t) + phase).sin_cos();

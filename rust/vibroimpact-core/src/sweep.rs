@@ -22,6 +22,8 @@ use nalgebra::DVector;
 use rayon::prelude::*;
 
 use crate::error::{invalid, SimError};
+use crate::gap::WallState;
+use crate::integrators::sized::by_size;
 use crate::interpolation::HermiteSegment;
 use crate::method::Method;
 use crate::observe::{StepObserver, Turn};
@@ -130,6 +132,9 @@ pub struct PointSummary {
 struct Reducer<'a> {
     sampling: &'a Sampling,
     n_gaps: usize,
+    /// The model has one DOF: its final state is kept at constant places without the dispatch
+    /// on the model's size (the 1-DOF sweeps, every step).
+    one_dof: bool,
     start: f64,
     /// Index (1-based) of the next stroboscopic sample, and its time (s; infinite when
     /// every sample is taken).
@@ -137,10 +142,21 @@ struct Reducer<'a> {
     next_time: f64,
     /// Time between samples, `T / per_period`, s.
     interval: f64,
-    /// `∫ x² dt` per sampled DOF and the time it covers.
-    square_integral: Vec<f64>,
+    /// Per sampled DOF, in [`Sampling::dofs`]' order: what its steps add up to (one array a
+    /// step walks, not four).
+    per_dof: Vec<DofReduction>,
+    /// The time the `∫ x² dt` cover, s.
     covered: f64,
     out: PointSummary,
+}
+
+/// A sampled DOF's `∫ x² dt` and its largest and smallest displacement after the transient
+/// (into [`PointSummary`]'s displacement RMS, max and min at the end, [`Reducer::finish`]).
+struct DofReduction {
+    dof: usize,
+    square_integral: f64,
+    max: f64,
+    min: f64,
 }
 
 impl<'a> Reducer<'a> {
@@ -151,18 +167,26 @@ impl<'a> Reducer<'a> {
         let mut reducer = Self {
             sampling,
             n_gaps,
+            one_dof: x0.len() == 1,
             start: sampling.start(),
             interval: sampling.period / sampling.per_period as f64,
             next_sample: 1,
             next_time: f64::INFINITY,
-            square_integral: vec![0.0; nd],
+            per_dof: (sampling.dofs.iter())
+                .map(|&dof| DofReduction {
+                    dof,
+                    square_integral: 0.0,
+                    max: f64::NEG_INFINITY,
+                    min: f64::INFINITY,
+                })
+                .collect(),
             covered: 0.0,
             out: PointSummary {
                 poincare_displacement: vec![f64::NAN; ns * nd],
                 poincare_velocity: vec![f64::NAN; ns * nd],
-                displacement_max: vec![f64::NEG_INFINITY; nd],
-                displacement_min: vec![f64::INFINITY; nd],
-                displacement_rms: vec![f64::NAN; nd],
+                displacement_max: Vec::new(),
+                displacement_min: Vec::new(),
+                displacement_rms: Vec::new(),
                 impact_count: vec![0; n_gaps],
                 impact_velocity_max: vec![f64::NAN; n_gaps],
                 impact_velocity: vec![f64::NAN; n_gaps * ni],
@@ -189,20 +213,17 @@ impl<'a> Reducer<'a> {
 
     fn finish(mut self) -> PointSummary {
         let out = &mut self.out;
-        for (j, rms) in out.displacement_rms.iter_mut().enumerate() {
+        let reached = |v: f64| if v.is_infinite() { f64::NAN } else { v };
+        let rms = |r: &DofReduction| {
             if self.covered > 0.0 {
-                *rms = (self.square_integral[j] / self.covered).sqrt();
+                (r.square_integral / self.covered).sqrt()
+            } else {
+                f64::NAN
             }
-        }
-        for v in out
-            .displacement_max
-            .iter_mut()
-            .chain(out.displacement_min.iter_mut())
-        {
-            if v.is_infinite() {
-                *v = f64::NAN;
-            }
-        }
+        };
+        out.displacement_max = self.per_dof.iter().map(|r| reached(r.max)).collect();
+        out.displacement_min = self.per_dof.iter().map(|r| reached(r.min)).collect();
+        out.displacement_rms = self.per_dof.iter().map(rms).collect();
         self.out
     }
 }
@@ -258,14 +279,26 @@ impl Reducer<'_> {
     /// The state at the end of the last accepted step, the run's final state.
     #[inline(always)]
     fn keep_final(&mut self, s1: &State) {
-        copy_state(&mut self.out.final_displacement, &s1.x);
-        copy_state(&mut self.out.final_velocity, &s1.v);
+        if self.one_dof {
+            debug_assert_eq!(s1.x.len(), 1);
+            self.keep_final_sized::<1>(s1);
+        } else {
+            by_size!(s1.x.len(), |N| self.keep_final_sized::<N>(s1));
+        }
+    }
+
+    /// [`Self::keep_final`] compiled for `N` DOFs ([`by_size`]): a small model's values at
+    /// constant places, without the state's length tests.
+    #[inline(always)]
+    fn keep_final_sized<const N: usize>(&mut self, s1: &State) {
+        copy_state(&mut self.out.final_displacement, s1.x.sized::<N>());
+        copy_state(&mut self.out.final_velocity, s1.v.sized::<N>());
         self.out.final_time = s1.t;
     }
 
     /// [`StepObserver::accepted`] for a step that ends after the transient: its samples, its
     /// part of the peaks and the RMS, its impacts. Out of line, so that a step of the
-    /// transient does not pay for its registers.
+    /// transient does not pay for its registers; compiled for the model's size ([`by_size`]).
     #[inline(never)]
     fn reduce(
         &mut self,
@@ -275,13 +308,52 @@ impl Reducer<'_> {
         h: f64,
         turns: Option<&[Option<Turn>]>,
     ) {
-        self.keep_final(s1);
+        by_size!(s1.x.len(), |N| self
+            .reduce_sized::<N>(sys, s0, s1, h, turns));
+    }
+
+    /// [`Self::reduce`] for `N` DOFs: what every step does in line, what only some steps do
+    /// (a sample, a wall that closes) out of line.
+    #[inline(always)]
+    fn reduce_sized<const N: usize>(
+        &mut self,
+        sys: &System,
+        s0: &State,
+        s1: &State,
+        h: f64,
+        turns: Option<&[Option<Turn>]>,
+    ) {
+        self.keep_final_sized::<N>(s1);
+        let (t0, t1) = (s0.t, s0.t + h);
+        let tol = STEP_END_TOLERANCE * h;
+        if self.next_time <= t1 + tol {
+            self.take_samples(s0, s1, h);
+        }
+
+        // Peaks and RMS over the part of the step after the transient, [θa, 1]: all of it
+        // but in the step that ends the transient
+        if t0 >= self.start - tol {
+            self.peaks_and_rms::<N>(s0, s1, h, turns, 0.0);
+        } else {
+            self.peaks_and_rms::<N>(s0, s1, h, turns, (self.start - t0) / h);
+        }
+
+        // Impacts: a wall that closes inside the step (a rigid wall's impacts come as such,
+        // `StepObserver::impact`).
+        for (wall, (ws0, ws1)) in s0.walls.iter().zip(&s1.walls).enumerate() {
+            if ws1.closed() && !ws0.closed() {
+                self.wall_closed(sys, wall, ws0, ws1, t0, h);
+            }
+        }
+    }
+
+    /// The stroboscopic samples inside the step `(t0, t1]`.
+    #[inline(never)]
+    fn take_samples(&mut self, s0: &State, s1: &State, h: f64) {
         let (t0, t1) = (s0.t, s0.t + h);
         let tol = STEP_END_TOLERANCE * h;
         let dofs = &self.sampling.dofs;
         let nd = dofs.len();
-
-        // Stroboscopic samples inside (t0, t1].
         while self.next_time <= t1 + tol {
             let ts = self.next_time;
             let row = (self.next_sample - 1) * nd;
@@ -308,32 +380,33 @@ impl Reducer<'_> {
             self.next_sample += 1;
             self.next_time = self.sample_time(self.next_sample);
         }
-
-        // Peaks and RMS over the part of the step after the transient, [θa, 1]: all of it
-        // but in the step that ends the transient
-        if t0 >= self.start - tol {
-            self.peaks_and_rms(s0, s1, h, turns, 0.0);
-        } else {
-            self.peaks_and_rms(s0, s1, h, turns, (self.start - t0) / h);
-        }
-
-        // Impacts: a wall that closes inside the step, at the located crossing (a rigid
-        // wall's impacts come as such, `StepObserver::impact`).
-        for (w, (ws0, ws1)) in sys.walls.iter().zip(s0.walls.iter().zip(&s1.walls)) {
-            if ws0.closed() || !ws1.closed() || sys.gaps[w.gap].law.is_rigid() {
-                continue;
-            }
-            let seg = ws0.penetration_segment(ws1, h);
-            let theta = seg.crossing();
-            self.count_impact(w.gap, t0 + theta * h, seg.rate(theta));
-        }
     }
 
-    /// The peaks and the RMS over the fraction `[theta_a, 1]` of the step. Compiled in line
-    /// for each call: with `theta_a = 0`, the case of every step but one, its interpolant's
-    /// values at `theta_a` and at the middle are folded into constants.
+    /// The wall `wall` closed inside the step from `t0`: an impact at the located crossing.
+    #[inline(never)]
+    fn wall_closed(
+        &mut self,
+        sys: &System,
+        wall: usize,
+        ws0: &WallState,
+        ws1: &WallState,
+        t0: f64,
+        h: f64,
+    ) {
+        let gap = sys.walls[wall].gap;
+        if sys.gaps[gap].law.is_rigid() {
+            return;
+        }
+        let seg = ws0.penetration_segment(ws1, h);
+        let theta = seg.crossing();
+        self.count_impact(gap, t0 + theta * h, seg.rate(theta));
+    }
+
+    /// The peaks and the RMS over the fraction `[theta_a, 1]` of the step, for `N` DOFs.
+    /// Compiled in line for each call: with `theta_a = 0`, the case of every step but one,
+    /// its interpolant's values at `theta_a` and at the middle are folded into constants.
     #[inline(always)]
-    fn peaks_and_rms(
+    fn peaks_and_rms<const N: usize>(
         &mut self,
         s0: &State,
         s1: &State,
@@ -343,54 +416,34 @@ impl Reducer<'_> {
     ) {
         let span = (1.0 - theta_a) * h;
         self.covered += span;
-        let out = &mut self.out;
-        let per_dof = (self.sampling.dofs.iter())
-            .zip(&mut self.square_integral)
-            .zip(
-                out.displacement_max
-                    .iter_mut()
-                    .zip(&mut out.displacement_min),
-            );
-        for ((&d, square_integral), (max, min)) in per_dof {
-            let seg = displacement_segment(s0, s1, d, h);
+        let (x0, v0) = (s0.x.sized::<N>(), s0.v.sized::<N>());
+        let (x1, v1) = (s1.x.sized::<N>(), s1.v.sized::<N>());
+        for r in &mut self.per_dof {
+            let d = r.dof;
+            let seg = HermiteSegment {
+                y0: x0[d],
+                dy0: v0[d],
+                y1: x1[d],
+                dy1: v1[d],
+                h,
+            };
             let xa = if theta_a == 0.0 {
-                s0.x[d]
+                seg.y0
             } else {
                 seg.value(theta_a)
             };
-            let xb = s1.x[d];
+            let xb = seg.y1;
             let xm = seg.value(0.5 * (1.0 + theta_a));
-            *square_integral += span / 6.0 * (xa * xa + 4.0 * xm * xm + xb * xb);
+            r.square_integral += span / 6.0 * (xa * xa + 4.0 * xm * xm + xb * xb);
             let (mut hi, mut lo) = (xa.max(xb), xa.min(xb));
-            if let Some(turns) = turns {
-                // the integrator's own turning point (a peak or a trough)
-                if let Some((_, x)) = turns[d].filter(|&(s, _)| s >= theta_a) {
-                    (hi, lo) = (hi.max(x), lo.min(x));
-                }
-            } else if seg.dy0 > 0.0 && seg.dy1 < 0.0 {
-                // an interior peak needs the rate to turn from + to − inside the step
-                if let Some((s, peak)) = seg.interior_peak() {
-                    if s >= theta_a {
-                        hi = hi.max(peak);
-                    }
-                }
-            } else if seg.dy0 < 0.0 && seg.dy1 > 0.0 {
-                // and a trough from − to +: the peak of −x
-                let neg = HermiteSegment {
-                    y0: -seg.y0,
-                    dy0: -seg.dy0,
-                    y1: -seg.y1,
-                    dy1: -seg.dy1,
-                    h,
-                };
-                if let Some((s, peak)) = neg.interior_peak() {
-                    if s >= theta_a {
-                        lo = lo.min(-peak);
-                    }
-                }
+            // an interior extremum: the integrator's own turning point, or the rate turning
+            // from + to − (a peak) or from − to + (a trough) inside the step
+            let turned = (seg.dy0 > 0.0 && seg.dy1 < 0.0) || (seg.dy0 < 0.0 && seg.dy1 > 0.0);
+            if turns.is_some() || turned {
+                (hi, lo) = interior_extremes(seg, turns.map(|t| t[d]), theta_a, hi, lo);
             }
-            *max = max.max(hi);
-            *min = min.min(lo);
+            r.max = r.max.max(hi);
+            r.min = r.min.min(lo);
         }
     }
 
@@ -411,6 +464,49 @@ impl Reducer<'_> {
         let vmax = &mut self.out.impact_velocity_max[gap];
         *vmax = vmax.max(speed); // NaN (no impact yet) gives way to the speed
     }
+}
+
+/// `hi` and `lo` of a step over its fraction `[theta_a, 1]` widened by its interior peak or
+/// trough: the integrator's own turning point `turn` when it locates them (`Some(turns)`:
+/// `turn` of this DOF, if any), else the interpolant's. Out of line, `seg` by value: a step
+/// in which the rate keeps its sign (most) neither pays for its registers nor writes `seg`.
+#[inline(never)]
+fn interior_extremes(
+    seg: HermiteSegment,
+    turn: Option<Option<Turn>>,
+    theta_a: f64,
+    hi: f64,
+    lo: f64,
+) -> (f64, f64) {
+    let (mut hi, mut lo) = (hi, lo);
+    if let Some(turn) = turn {
+        // the integrator's own turning point (a peak or a trough)
+        if let Some((_, x)) = turn.filter(|&(s, _)| s >= theta_a) {
+            (hi, lo) = (hi.max(x), lo.min(x));
+        }
+    } else if seg.dy0 > 0.0 && seg.dy1 < 0.0 {
+        // an interior peak needs the rate to turn from + to − inside the step
+        if let Some((s, peak)) = seg.interior_peak() {
+            if s >= theta_a {
+                hi = hi.max(peak);
+            }
+        }
+    } else if seg.dy0 < 0.0 && seg.dy1 > 0.0 {
+        // and a trough from − to +: the peak of −x
+        let neg = HermiteSegment {
+            y0: -seg.y0,
+            dy0: -seg.dy0,
+            y1: -seg.y1,
+            dy1: -seg.dy1,
+            h: seg.h,
+        };
+        if let Some((s, peak)) = neg.interior_peak() {
+            if s >= theta_a {
+                lo = lo.min(-peak);
+            }
+        }
+    }
+    (hi, lo)
 }
 
 /// Runs one point from `x0, v0` (the job's own initial state unless given).
