@@ -54,13 +54,14 @@ def impact_oscillator_sweep(points: int = 400, transient: int = 200, periods: in
 #: thread) with the time loop before issue 20's per-step changes (commit 5f02a5a), the base of
 #: issue 20's throughput target (at least twice it). A machine constant: re-measure it when the
 #: machine changes, by building 5f02a5a into a second environment and running this sweep in
-#: both, alternately, keeping each build's least CPU time. Measured so on this project's current
-#: 2-core machine (2026-12-02 16:16-17:23 UTC, load < 1, 37 runs of 5f02a5a alternated with
-#: newer builds): 0.43 s for 5f02a5a against 0.33 s for a8e908e and 0.31 s for 91b7f10 (issue
-#: 20's next changes). This VM has slow phases lasting seconds (the same build
-#: reads 0.31 or 0.50 s), so a ratio read from three runs can be off by 1.6x either way. (The
-#: first machine's 0.265 s is not comparable: it ran this per-step path about twice as fast.)
-FIXED_STEP_BASELINE_CPU_S = 0.43
+#: both, alternately, keeping each build's least CPU time. Measured so on this project's
+#: current 2-core machine (AMD EPYC host, 2026-12-04 01:44-03:02 UTC, 33 runs of 5f02a5a
+#: alternated with runs of the build of the day, the last 8 pairs pinned to one core): 0.378 s
+#: for 5f02a5a, against 0.182 s for 1ea9cc5 (ratio 2.08; the 8 pinned pairs' ratios 1.87-2.16).
+#: This VM has slow phases lasting seconds to minutes (the same build reads 0.38 or 0.58 s), so
+#: a ratio read from three runs can be off by 1.5x either way. (Earlier hosts: 0.43 s on the
+#: Intel Xeon one, 0.265 s on the first machine; not comparable with this one.)
+FIXED_STEP_BASELINE_CPU_S = 0.378
 
 
 def fixed_step_sweep_benchmark(points: int = 16, repeats: int = 3) -> dict[str, Any]:
@@ -93,10 +94,11 @@ def _worker_cpu(client: Any) -> float:
 
 
 def _timed(fn: Any) -> tuple[float, float, Any]:
-    c0, t0 = os.times(), time.perf_counter()
+    """Wall and CPU seconds of ``fn()`` (this process's, every thread; ``process_time``:
+    ``os.times`` counts in 10 ms ticks, 5 % of the fixed-step sweep), and its result."""
+    c0, t0 = time.process_time(), time.perf_counter()
     out = fn()
-    c1, wall = os.times(), time.perf_counter() - t0
-    return wall, (c1.user - c0.user) + (c1.system - c0.system), out
+    return time.perf_counter() - t0, time.process_time() - c0, out
 
 
 def sweep_benchmark(points: int = 400, transient: int = 200, periods: int = 100,
