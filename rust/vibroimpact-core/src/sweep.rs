@@ -241,14 +241,21 @@ fn copy_state(dst: &mut [f64], src: &[f64]) {
     }
 }
 
-/// Hermite interpolant of DOF `d`'s displacement over the step.
-#[inline]
-fn displacement_segment(s0: &State, s1: &State, d: usize, h: f64) -> HermiteSegment {
+/// Hermite interpolant of DOF `d`'s displacement over the step, from the displacements and
+/// velocities `(x0, v0)` at its start and `(x1, v1)` at its end (a state's, or their sized
+/// slices, [`Reducer::peaks_and_rms`]).
+#[inline(always)]
+fn displacement_segment(
+    [x0, v0]: [&[f64]; 2],
+    [x1, v1]: [&[f64]; 2],
+    d: usize,
+    h: f64,
+) -> HermiteSegment {
     HermiteSegment {
-        y0: s0.x[d],
-        dy0: s0.v[d],
-        y1: s1.x[d],
-        dy1: s1.v[d],
+        y0: x0[d],
+        dy0: v0[d],
+        y1: x1[d],
+        dy1: v1[d],
         h,
     }
 }
@@ -365,7 +372,7 @@ impl Reducer<'_> {
             } else {
                 let theta = ((ts - t0) / h).clamp(0.0, 1.0);
                 for (j, &d) in dofs.iter().enumerate() {
-                    let x = displacement_segment(s0, s1, d, h);
+                    let x = displacement_segment([&s0.x, &s0.v], [&s1.x, &s1.v], d, h);
                     let v = HermiteSegment {
                         y0: s0.v[d],
                         dy0: s0.a[d],
@@ -416,17 +423,10 @@ impl Reducer<'_> {
     ) {
         let span = (1.0 - theta_a) * h;
         self.covered += span;
-        let (x0, v0) = (s0.x.sized::<N>(), s0.v.sized::<N>());
-        let (x1, v1) = (s1.x.sized::<N>(), s1.v.sized::<N>());
+        let start: [&[f64]; 2] = [s0.x.sized::<N>(), s0.v.sized::<N>()];
+        let end: [&[f64]; 2] = [s1.x.sized::<N>(), s1.v.sized::<N>()];
         for r in &mut self.per_dof {
-            let d = r.dof;
-            let seg = HermiteSegment {
-                y0: x0[d],
-                dy0: v0[d],
-                y1: x1[d],
-                dy1: v1[d],
-                h,
-            };
+            let seg = displacement_segment(start, end, r.dof, h);
             let xa = if theta_a == 0.0 {
                 seg.y0
             } else {
@@ -440,7 +440,7 @@ impl Reducer<'_> {
             // from + to − (a peak) or from − to + (a trough) inside the step
             let turned = (seg.dy0 > 0.0 && seg.dy1 < 0.0) || (seg.dy0 < 0.0 && seg.dy1 > 0.0);
             if turns.is_some() || turned {
-                (hi, lo) = interior_extremes(seg, turns.map(|t| t[d]), theta_a, hi, lo);
+                (hi, lo) = interior_extremes(seg, turns.map(|t| t[r.dof]), theta_a, hi, lo);
             }
             r.max = r.max.max(hi);
             r.min = r.min.min(lo);
