@@ -545,85 +545,83 @@ impl ImpactLog {
         }
     }
 
-    /// Updates the table for a committed step `[t, t + h]`. `interior`: what the integrator
-    /// knows of each wall inside the step (else the trapezoidal rule, the parabola through the
-    /// last force samples and the cubic Hermite interpolant of the penetration). The force at
-    /// a contact's first instant is always a candidate for its peak (see [`onset_force`]).
-    // (in line in `Run::commit`, its one caller, as it was before the commit had a
-    // free-flight variant)
+    /// Updates the table for a committed step `[t, t + h]` at wall `j` (`wall`), closed at
+    /// either end of it (`s0` to `s1`). `interior`: what the integrator knows of each wall
+    /// inside the step (else the trapezoidal rule, the parabola through the last force
+    /// samples and the cubic Hermite interpolant of the penetration). The force at a
+    /// contact's first instant is always a candidate for its peak (see [`onset_force`]).
+    // (in line in `Run::commit_step`'s one pass over the walls closed in the step)
     #[inline(always)]
-    pub(crate) fn commit(
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn commit_wall(
         &mut self,
         sys: &System,
-        before: &[WallState],
-        after: &[WallState],
+        j: usize,
+        wall: &Wall,
+        s0: &WallState,
+        s1: &WallState,
         t: f64,
         h: f64,
         interior: Option<&WallInterior>,
     ) {
-        for (j, ((wall, s0), s1)) in sys.walls.iter().zip(before).zip(after).enumerate() {
-            if !s0.closed() && !s1.closed() {
-                continue;
+        let seg = s0.penetration_segment(s1, h);
+        let known = interior.map(|i| Known {
+            impulse: i.impulse[j],
+            force_max: i.force_max[j],
+            delta_max: i.delta_max[j],
+        });
+        match (s0.closed(), s1.closed()) {
+            (false, true) => {
+                let theta = seg.crossing();
+                let t_start = t + theta * h;
+                let v_in = seg.rate(theta);
+                let onset = onset_force(&sys.gaps[wall.gap].law, v_in, s1.impact_speed);
+                self.open[j] = Some(self.records.len());
+                self.history[j] = [(t_start, onset), (t_start, onset)];
+                self.records.push(ImpactRecord {
+                    gap: wall.gap,
+                    side: wall.sign,
+                    t_start,
+                    t_end: f64::NAN,
+                    v_in,
+                    v_out: f64::NAN,
+                    delta_max: 0.0,
+                    force_max: onset,
+                    friction_max: 0.0,
+                    impulse: known.map_or(0.5 * (1.0 - theta) * h * s1.force, |k| k.impulse),
+                });
+                let rec = self.records.last_mut().expect("the record just opened");
+                update_peaks(rec, &mut self.history[j], &seg, s0, s1, t + h, known);
             }
-            let seg = s0.penetration_segment(s1, h);
-            let known = interior.map(|i| Known {
-                impulse: i.impulse[j],
-                force_max: i.force_max[j],
-                delta_max: i.delta_max[j],
-            });
-            match (s0.closed(), s1.closed()) {
-                (false, true) => {
-                    let theta = seg.crossing();
-                    let t_start = t + theta * h;
-                    let v_in = seg.rate(theta);
-                    let onset = onset_force(&sys.gaps[wall.gap].law, v_in, s1.impact_speed);
-                    self.open[j] = Some(self.records.len());
-                    self.history[j] = [(t_start, onset), (t_start, onset)];
-                    self.records.push(ImpactRecord {
-                        gap: wall.gap,
-                        side: wall.sign,
-                        t_start,
-                        t_end: f64::NAN,
-                        v_in,
-                        v_out: f64::NAN,
-                        delta_max: 0.0,
-                        force_max: onset,
-                        friction_max: 0.0,
-                        impulse: known.map_or(0.5 * (1.0 - theta) * h * s1.force, |k| k.impulse),
-                    });
-                    let rec = self.records.last_mut().expect("the record just opened");
+            (true, true) => {
+                if let Some(r) = self.open[j] {
+                    let rec = &mut self.records[r];
+                    rec.impulse += known.map_or(0.5 * h * (s0.force + s1.force), |k| k.impulse);
                     update_peaks(rec, &mut self.history[j], &seg, s0, s1, t + h, known);
                 }
-                (true, true) => {
-                    if let Some(r) = self.open[j] {
-                        let rec = &mut self.records[r];
-                        rec.impulse += known.map_or(0.5 * h * (s0.force + s1.force), |k| k.impulse);
-                        update_peaks(rec, &mut self.history[j], &seg, s0, s1, t + h, known);
-                    }
-                }
-                (true, false) => {
-                    let theta = seg.crossing();
-                    if let Some(r) = self.open[j].take() {
-                        let rec = &mut self.records[r];
-                        rec.impulse += known.map_or(0.5 * theta * h * s0.force, |k| k.impulse);
-                        rec.t_end = t + theta * h;
-                        rec.v_out = -seg.rate(theta);
-                        let [(ta, fa), (tb, fb)] = self.history[j];
-                        rec.force_max = rec.force_max.max(known.map_or_else(
-                            || parabola_peak([ta, tb, rec.t_end], [fa, fb, 0.0]),
-                            |k| k.force_max,
-                        ));
-                    }
-                }
-                (false, false) => unreachable!(),
             }
+            (true, false) => {
+                let theta = seg.crossing();
+                if let Some(r) = self.open[j].take() {
+                    let rec = &mut self.records[r];
+                    rec.impulse += known.map_or(0.5 * theta * h * s0.force, |k| k.impulse);
+                    rec.t_end = t + theta * h;
+                    rec.v_out = -seg.rate(theta);
+                    let [(ta, fa), (tb, fb)] = self.history[j];
+                    rec.force_max = rec.force_max.max(known.map_or_else(
+                        || parabola_peak([ta, tb, rec.t_end], [fa, fb, 0.0]),
+                        |k| k.force_max,
+                    ));
+                }
+            }
+            (false, false) => unreachable!(),
         }
     }
 }
 
 /// A closed wall's step `[t1 − h, t1]` in its open record `rec`, with the wall's last two
 /// force samples `history`: the penetration's and the forces' peaks. In line in
-/// [`ImpactLog::commit`], with the record it found (called with the log, the call and the
+/// [`ImpactLog::commit_wall`], with the record it found (called with the log, the call and the
 /// tests of the wall's open record and of its index, made again, cost a closed wall's step
 /// ~25 instructions).
 #[inline(always)]
