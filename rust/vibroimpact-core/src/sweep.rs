@@ -270,11 +270,22 @@ impl StepObserver for Reducer<'_> {
         turns: Option<&[Option<Turn>]>,
     ) {
         if s0.t + h <= self.start + STEP_END_TOLERANCE * h {
-            // nothing but the final state is kept of the transient
+            // nothing but the final state is kept of the transient (the steps that end by
+            // `start` do not come here, Self::quiet_until)
             self.keep_final(s1);
             return;
         }
         self.reduce(sys, s0, s1, h, turns);
+    }
+
+    /// The transient: nothing but the final state is kept of its steps.
+    fn quiet_until(&self) -> f64 {
+        self.start
+    }
+
+    fn final_state(&mut self, s: &State, t: f64) {
+        self.keep_final(s);
+        self.out.final_time = t;
     }
 
     fn impact(&mut self, sys: &System, wall: usize, t: f64, speed: f64) {
@@ -849,6 +860,78 @@ mod tests {
                 full.rows.energy.external_work,
                 reduced.rows.energy.external_work
             );
+        }
+    }
+
+    /// The reducer handed every step, the transient's too (no `quiet_until`).
+    struct EveryStep<'r, 'a>(&'r mut Reducer<'a>);
+
+    impl StepObserver for EveryStep<'_, '_> {
+        fn accepted(
+            &mut self,
+            sys: &System,
+            s0: &State,
+            s1: &State,
+            h: f64,
+            turns: Option<&[Option<Turn>]>,
+        ) {
+            self.0.accepted(sys, s0, s1, h, turns);
+        }
+
+        fn impact(&mut self, sys: &System, wall: usize, t: f64, speed: f64) {
+            self.0.impact(sys, wall, t, speed);
+        }
+    }
+
+    #[test]
+    fn a_quiet_transient_gives_the_same_summary() {
+        // the benchmark's oscillator with damping `c` and a wall of `law`: event-driven for a
+        // rigid one; negative damping: a run the energy check stops inside the transient
+        let point = |c: f64, law: Law| {
+            let mut j = job(0.8, 0.02);
+            let w = 2.0 * std::f64::consts::PI;
+            let one = |v: f64| DMatrix::from_element(1, 1, v);
+            let structure = LinearStructure::new(one(1.0), one(c), one(w * w)).unwrap();
+            let mut sys = oscillator(0.8, 0.02);
+            if matches!(law, Law::Rigid(_)) {
+                j.method = Method::EventDriven(crate::impulsive::EventDriven::default());
+            }
+            sys.gaps[0].law = law;
+            j.system = Arc::new(System::new(structure, sys.gaps, sys.loads).unwrap());
+            j.sampling.transient = if c < 0.0 { 50 } else { 5 };
+            j
+        };
+        let kelvin_voigt = || Law::KelvinVoigt(KelvinVoigt::new(1e5, 20.0).unwrap());
+        let rigid = || Law::Rigid(crate::contact::Rigid::new(0.8).unwrap());
+        for (j, fails) in [
+            (point(0.63, kelvin_voigt()), false),
+            (point(0.63, rigid()), false),
+            (point(-3.0, kelvin_voigt()), true),
+            (point(-3.0, rigid()), true),
+        ] {
+            let quiet = run_point(&j, None);
+            assert_eq!(quiet.error.is_some(), fails, "{:?}", quiet.error);
+            let sampling = &j.sampling;
+            let mut settings = j.settings.clone();
+            settings.t_end = sampling.t_end();
+            settings.every = usize::MAX;
+            settings.dt = sampling.period / (sampling.period / settings.dt - 1e-9).ceil();
+            let mut reducer = Reducer::new(sampling, 1, j.x0.as_slice(), j.v0.as_slice());
+            let (sys, x0, v0) = (&j.system, j.x0.clone(), j.v0.clone());
+            let mut every = EveryStep(&mut reducer);
+            let out = simulate_observed(
+                sys,
+                j.method,
+                &settings,
+                x0,
+                v0,
+                Some(&mut every),
+                Outputs::Observed,
+            )
+            .unwrap();
+            let mut summary = reducer.finish();
+            (summary.stats, summary.error) = (out.stats, out.error);
+            assert!(same(&quiet, &summary));
         }
     }
 
