@@ -275,7 +275,14 @@ impl StepObserver for Reducer<'_> {
             self.keep_final(s1);
             return;
         }
-        self.reduce(sys, s0, s1, h, turns);
+        if self.one_dof {
+            // (a 1-DOF sweep's every step after the transient: in line, without the dispatch
+            // on the model's size)
+            debug_assert_eq!(s1.x.len(), 1);
+            self.reduce_sized::<1>(sys, s0, s1, h, turns);
+        } else {
+            self.reduce(sys, s0, s1, h, turns);
+        }
     }
 
     /// The transient: nothing but the final state is kept of its steps.
@@ -315,8 +322,8 @@ impl Reducer<'_> {
     }
 
     /// [`StepObserver::accepted`] for a step that ends after the transient: its samples, its
-    /// part of the peaks and the RMS, its impacts. Out of line, so that a step of the
-    /// transient does not pay for its registers; compiled for the model's size ([`by_size`]).
+    /// part of the peaks and the RMS, its impacts; compiled for the model's size
+    /// ([`by_size`]), out of line (a 1-DOF model's in line, [`Self::reduce_sized`]).
     #[inline(never)]
     fn reduce(
         &mut self,
