@@ -80,9 +80,9 @@ pub(crate) struct Run<'o> {
     observer: Option<&'o mut dyn StepObserver>,
     /// The observer's [`StepObserver::quiet_until`].
     quiet_until: f64,
-    /// The end time of the last committed step when it was not handed to the observer
-    /// (quiet): its state is `cur`'s until an impact's jump changes it.
-    quiet_end: Option<f64>,
+    /// The end time of the last committed step when the observer has not had its state
+    /// ([`StepObserver::final_state`]): its state is `cur`'s until an impact's jump changes it.
+    observed_end: Option<f64>,
     /// Accepted steps since the last poll of the interrupt flag and check of the energy.
     since_check: usize,
     /// Mechanical energy at t = 0, J.
@@ -132,7 +132,7 @@ impl<'o> Run<'o> {
             stats: Stats::default(),
             observer: None,
             quiet_until: f64::NEG_INFINITY,
-            quiet_end: None,
+            observed_end: None,
             contact: None,
             events: false,
             wants_sensitivity: false,
@@ -185,10 +185,11 @@ impl<'o> Run<'o> {
         self.observer = Some(observer);
     }
 
-    /// Hands the observer the state of the last committed step if that step was quiet
+    /// Hands the observer the state of the last committed step, if it has not had it
     /// ([`StepObserver::final_state`]), while `cur` is still that state.
     fn settle_observer(&mut self) {
-        if let (Some(t), Some(observer)) = (self.quiet_end.take(), self.observer.as_deref_mut()) {
+        if let (Some(t), Some(observer)) = (self.observed_end.take(), self.observer.as_deref_mut())
+        {
             observer.final_state(&self.cur, t);
         }
     }
@@ -429,12 +430,10 @@ impl<'o> Run<'o> {
         if let Some(observer) = self.observer.as_deref_mut() {
             // (the complement of `>`: a NaN time is handed to the observer)
             let quiet = self.cur.t + h <= self.quiet_until;
-            if quiet {
-                self.quiet_end = Some(self.trial.t);
-            } else {
-                self.quiet_end = None;
+            if !quiet {
                 observer.accepted(sys, &self.cur, &self.trial, h, turns);
             }
+            self.observed_end = Some(self.trial.t);
         }
         std::mem::swap(&mut self.cur, &mut self.trial);
         self.since_check += 1;
@@ -546,8 +545,8 @@ impl<'o> Run<'o> {
     }
 
     /// A located event changes `cur` in place by `jump` (an impact's velocity jump,
-    /// dissipating `dissipated` J): to the energy account and the peaks; a quiet observer
-    /// is handed the state before it.
+    /// dissipating `dissipated` J): to the energy account and the peaks; the observer is
+    /// handed the state before it.
     pub(crate) fn jump(&mut self, dissipated: f64, jump: impl FnOnce(&mut State)) {
         self.settle_observer();
         jump(&mut self.cur);

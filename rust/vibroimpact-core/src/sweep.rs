@@ -132,8 +132,8 @@ pub struct PointSummary {
 struct Reducer<'a> {
     sampling: &'a Sampling,
     n_gaps: usize,
-    /// The model has one DOF: its final state is kept at constant places without the dispatch
-    /// on the model's size (the 1-DOF sweeps, every step).
+    /// The model has one DOF: its steps are reduced without the dispatch on the model's
+    /// size (the 1-DOF sweeps, every step after the transient).
     one_dof: bool,
     start: f64,
     /// Index (1-based) of the next stroboscopic sample, and its time (s; infinite when
@@ -231,16 +231,6 @@ impl<'a> Reducer<'a> {
 /// Step ends closer than this fraction of the step to an instant are taken as landing on it.
 const STEP_END_TOLERANCE: f64 = 1e-6;
 
-/// `dst = src` for a state's per-DOF values: one value (a 1-DOF sweep, every step) without
-/// the call of a `memcpy`.
-#[inline(always)]
-fn copy_state(dst: &mut [f64], src: &[f64]) {
-    match (dst, src) {
-        ([d], [s]) => *d = *s,
-        (dst, src) => dst.copy_from_slice(src),
-    }
-}
-
 /// Hermite interpolant of DOF `d`'s displacement over the step, from the displacements and
 /// velocities `(x0, v0)` at its start and `(x1, v1)` at its end (a state's, or their sized
 /// slices, [`Reducer::peaks_and_rms`]).
@@ -270,9 +260,8 @@ impl StepObserver for Reducer<'_> {
         turns: Option<&[Option<Turn>]>,
     ) {
         if s0.t + h <= self.start + STEP_END_TOLERANCE * h {
-            // nothing but the final state is kept of the transient (the steps that end by
-            // `start` do not come here, Self::quiet_until)
-            self.keep_final(s1);
+            // nothing is kept of the transient (the steps that end by `start` do not come
+            // here, Self::quiet_until; the final state comes through Self::final_state)
             return;
         }
         if self.one_dof {
@@ -285,13 +274,15 @@ impl StepObserver for Reducer<'_> {
         }
     }
 
-    /// The transient: nothing but the final state is kept of its steps.
+    /// The transient: nothing is kept of its steps.
     fn quiet_until(&self) -> f64 {
         self.start
     }
 
+    /// The run's final state (once, at its end: not copied every step).
     fn final_state(&mut self, s: &State, t: f64) {
-        self.keep_final(s);
+        self.out.final_displacement.copy_from_slice(&s.x);
+        self.out.final_velocity.copy_from_slice(&s.v);
         self.out.final_time = t;
     }
 
@@ -301,26 +292,6 @@ impl StepObserver for Reducer<'_> {
 }
 
 impl Reducer<'_> {
-    /// The state at the end of the last accepted step, the run's final state.
-    #[inline(always)]
-    fn keep_final(&mut self, s1: &State) {
-        if self.one_dof {
-            debug_assert_eq!(s1.x.len(), 1);
-            self.keep_final_sized::<1>(s1);
-        } else {
-            by_size!(s1.x.len(), |N| self.keep_final_sized::<N>(s1));
-        }
-    }
-
-    /// [`Self::keep_final`] compiled for `N` DOFs ([`by_size`]): a small model's values at
-    /// constant places, without the state's length tests.
-    #[inline(always)]
-    fn keep_final_sized<const N: usize>(&mut self, s1: &State) {
-        copy_state(&mut self.out.final_displacement, s1.x.sized::<N>());
-        copy_state(&mut self.out.final_velocity, s1.v.sized::<N>());
-        self.out.final_time = s1.t;
-    }
-
     /// [`StepObserver::accepted`] for a step that ends after the transient: its samples, its
     /// part of the peaks and the RMS, its impacts; compiled for the model's size
     /// ([`by_size`]), out of line (a 1-DOF model's in line, [`Self::reduce_sized`]).
@@ -348,7 +319,6 @@ impl Reducer<'_> {
         h: f64,
         turns: Option<&[Option<Turn>]>,
     ) {
-        self.keep_final_sized::<N>(s1);
         let (t0, t1) = (s0.t, s0.t + h);
         let tol = STEP_END_TOLERANCE * h;
         if self.next_time <= t1 + tol {
@@ -883,6 +853,10 @@ mod tests {
             turns: Option<&[Option<Turn>]>,
         ) {
             self.0.accepted(sys, s0, s1, h, turns);
+        }
+
+        fn final_state(&mut self, s: &State, t: f64) {
+            self.0.final_state(s, t);
         }
 
         fn impact(&mut self, sys: &System, wall: usize, t: f64, speed: f64) {
