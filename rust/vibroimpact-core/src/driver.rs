@@ -10,7 +10,7 @@
 //! impact table, `--verbose` events, the [`StepObserver`] (sweeps), and every
 //! [`interrupt::CHECK_EVERY`] steps the sink's progress, the interrupt flag and the energy
 //! check. A located event that changes the state in place (a rigid impact's velocity jump)
-//! is reported by [`Run::impact`] and [`Run::jumped`]. [`Run::drive`] records a row every
+//! is reported by [`Run::impact`] and [`Run::jump`]. [`Run::drive`] records a row every
 //! `every` advances of the policy and the last one; [`Run::finish`] ends the run. A policy
 //! asked for the state-transition matrix (`Run::wants_sensitivity`, `crate::sensitivity`)
 //! carries it and hands it out through [`StepPolicy::sensitivity`].
@@ -77,7 +77,12 @@ pub(crate) struct Run<'o> {
     pub out: Recorder<'o>,
     pub account: Account,
     pub stats: Stats,
-    pub observer: Option<&'o mut dyn StepObserver>,
+    observer: Option<&'o mut dyn StepObserver>,
+    /// The observer's [`StepObserver::quiet_until`].
+    quiet_until: f64,
+    /// The end time of the last committed step when the observer has not had its state
+    /// ([`StepObserver::final_state`]): its state is `cur`'s until an impact's jump changes it.
+    observed_end: Option<f64>,
     /// Accepted steps since the last poll of the interrupt flag and check of the energy.
     since_check: usize,
     /// Mechanical energy at t = 0, J.
@@ -126,6 +131,8 @@ impl<'o> Run<'o> {
             account,
             stats: Stats::default(),
             observer: None,
+            quiet_until: f64::NEG_INFINITY,
+            observed_end: None,
             contact: None,
             events: false,
             wants_sensitivity: false,
@@ -146,6 +153,7 @@ impl<'o> Run<'o> {
         started: Instant,
         impacts: Option<Vec<ImpactRecord>>,
     ) -> RunOutput {
+        self.settle_observer();
         let error = error.or_else(|| self.check_energy(sys).err());
         if error.is_some() && self.out.last_time != self.cur.t {
             self.out.record(sys, &self.cur, &self.account);
@@ -167,6 +175,22 @@ impl<'o> Run<'o> {
             dt,
             error,
             state_transition: self.state_transition,
+        }
+    }
+
+    /// Hands every accepted step from now on to `observer` but those it has no use for
+    /// ([`StepObserver::quiet_until`]).
+    pub(crate) fn observe(&mut self, observer: &'o mut dyn StepObserver) {
+        self.quiet_until = observer.quiet_until();
+        self.observer = Some(observer);
+    }
+
+    /// Hands the observer the state of the last committed step, if it has not had it
+    /// ([`StepObserver::final_state`]), while `cur` is still that state.
+    fn settle_observer(&mut self) {
+        if let (Some(t), Some(observer)) = (self.observed_end.take(), self.observer.as_deref_mut())
+        {
+            observer.final_state(&self.cur, t);
         }
     }
 
@@ -422,7 +446,12 @@ impl<'o> Run<'o> {
             self.contact_events(sys, iterations);
         }
         if let Some(observer) = self.observer.as_deref_mut() {
-            observer.accepted(sys, &self.cur, &self.trial, h, turns);
+            // (the complement of `>`: a NaN time is handed to the observer)
+            let quiet = self.cur.t + h <= self.quiet_until;
+            if !quiet {
+                observer.accepted(sys, &self.cur, &self.trial, h, turns);
+            }
+            self.observed_end = Some(self.trial.t);
         }
         std::mem::swap(&mut self.cur, &mut self.trial);
         self.since_check += 1;
@@ -533,9 +562,12 @@ impl<'o> Run<'o> {
         }
     }
 
-    /// A located event changed `cur` in place (an impact's velocity jump, dissipating
-    /// `dissipated` J): to the energy account and the peaks.
-    pub(crate) fn jumped(&mut self, dissipated: f64) {
+    /// A located event changes `cur` in place by `jump` (an impact's velocity jump,
+    /// dissipating `dissipated` J): to the energy account and the peaks; the observer is
+    /// handed the state before it.
+    pub(crate) fn jump(&mut self, dissipated: f64, jump: impl FnOnce(&mut State)) {
+        self.settle_observer();
+        jump(&mut self.cur);
         self.account.add([0.0, 0.0, dissipated]);
         for (m, &d) in self.out.max_abs.iter_mut().zip(&self.out.dofs) {
             *m = m.max(self.cur.x[d].abs());
@@ -665,7 +697,7 @@ fn busiest_gap(sys: &System, s: &State) -> Option<usize> {
 /// Where a run's peaks `max_abs` come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Peaks {
-    /// Each committed state ([`Run::commit`]) and each jump ([`Run::jumped`]).
+    /// Each committed state ([`Run::commit`]) and each jump ([`Run::jump`]).
     PerCommit,
     /// Every committed state is recorded (a row every advance of a policy that commits once
     /// per advance, [`StepPolicy::commits_once_per_advance`]): from the rows when they are
@@ -799,7 +831,7 @@ impl Recorder<'_> {
         let rows = &mut self.rows;
         put(&mut rows.time, r, s.t);
         self.last_time = s.t;
-        // (the peaks are kept by the commits, Run::commit and Run::jumped, or taken from the
+        // (the peaks are kept by the commits, Run::commit and Run::jump, or taken from the
         // rows, Self::complete)
         if self.one_dof {
             debug_assert_eq!(s.x.len(), 1);

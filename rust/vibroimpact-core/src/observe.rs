@@ -24,6 +24,18 @@ pub trait StepObserver {
         turns: Option<&[Option<Turn>]>,
     );
 
+    /// The steps from `s0` of length `h` with `s0.t + h <= quiet_until()` (a sweep's
+    /// transient) are not handed to [`Self::accepted`]. Read once, when the observer is
+    /// attached; the default hands it every step.
+    fn quiet_until(&self) -> f64 {
+        f64::NEG_INFINITY
+    }
+
+    /// The end state of the last accepted step, quiet or not: `s`'s `x` and `v` and the
+    /// step's end time `t` (the run's state may carry a grid-rounded time); called at the
+    /// run's end, and before an impact's velocity jump changes the state in place.
+    fn final_state(&mut self, _s: &State, _t: f64) {}
+
     /// An impact on the rigid wall `wall` (index into `sys.walls`) at `t` with approach
     /// speed `speed`, m/s: the impulsive methods, whose impacts are velocity jumps at an
     /// instant between two accepted steps rather than a closing inside one.

@@ -214,7 +214,7 @@ fn run_watched<'o>(
     };
     let mut run = Run::new(sys, x0, v0, record_dofs.clone(), n_rec)?;
     if let Some((observer, outputs)) = observer {
-        run.observer = Some(observer);
+        run.observe(observer);
         if outputs == Outputs::Observed {
             run.keep_only_observed(sys);
         }

@@ -132,8 +132,8 @@ pub struct PointSummary {
 struct Reducer<'a> {
     sampling: &'a Sampling,
     n_gaps: usize,
-    /// The model has one DOF: its final state is kept at constant places without the dispatch
-    /// on the model's size (the 1-DOF sweeps, every step).
+    /// The model has one DOF: its steps are reduced without the dispatch on the model's
+    /// size (the 1-DOF sweeps, every step after the transient).
     one_dof: bool,
     start: f64,
     /// Index (1-based) of the next stroboscopic sample, and its time (s; infinite when
@@ -231,16 +231,6 @@ impl<'a> Reducer<'a> {
 /// Step ends closer than this fraction of the step to an instant are taken as landing on it.
 const STEP_END_TOLERANCE: f64 = 1e-6;
 
-/// `dst = src` for a state's per-DOF values: one value (a 1-DOF sweep, every step) without
-/// the call of a `memcpy`.
-#[inline(always)]
-fn copy_state(dst: &mut [f64], src: &[f64]) {
-    match (dst, src) {
-        ([d], [s]) => *d = *s,
-        (dst, src) => dst.copy_from_slice(src),
-    }
-}
-
 /// Hermite interpolant of DOF `d`'s displacement over the step, from the displacements and
 /// velocities `(x0, v0)` at its start and `(x1, v1)` at its end (a state's, or their sized
 /// slices, [`Reducer::peaks_and_rms`]).
@@ -270,11 +260,30 @@ impl StepObserver for Reducer<'_> {
         turns: Option<&[Option<Turn>]>,
     ) {
         if s0.t + h <= self.start + STEP_END_TOLERANCE * h {
-            // nothing but the final state is kept of the transient
-            self.keep_final(s1);
+            // nothing is kept of the transient (the steps that end by `start` do not come
+            // here, Self::quiet_until; the final state comes through Self::final_state)
             return;
         }
-        self.reduce(sys, s0, s1, h, turns);
+        if self.one_dof {
+            // (a 1-DOF sweep's every step after the transient: in line, without the dispatch
+            // on the model's size)
+            debug_assert_eq!(s1.x.len(), 1);
+            self.reduce_sized::<1>(sys, s0, s1, h, turns);
+        } else {
+            self.reduce(sys, s0, s1, h, turns);
+        }
+    }
+
+    /// The transient: nothing is kept of its steps.
+    fn quiet_until(&self) -> f64 {
+        self.start
+    }
+
+    /// The run's final state (once, at its end: not copied every step).
+    fn final_state(&mut self, s: &State, t: f64) {
+        self.out.final_displacement.copy_from_slice(&s.x);
+        self.out.final_velocity.copy_from_slice(&s.v);
+        self.out.final_time = t;
     }
 
     fn impact(&mut self, sys: &System, wall: usize, t: f64, speed: f64) {
@@ -283,29 +292,9 @@ impl StepObserver for Reducer<'_> {
 }
 
 impl Reducer<'_> {
-    /// The state at the end of the last accepted step, the run's final state.
-    #[inline(always)]
-    fn keep_final(&mut self, s1: &State) {
-        if self.one_dof {
-            debug_assert_eq!(s1.x.len(), 1);
-            self.keep_final_sized::<1>(s1);
-        } else {
-            by_size!(s1.x.len(), |N| self.keep_final_sized::<N>(s1));
-        }
-    }
-
-    /// [`Self::keep_final`] compiled for `N` DOFs ([`by_size`]): a small model's values at
-    /// constant places, without the state's length tests.
-    #[inline(always)]
-    fn keep_final_sized<const N: usize>(&mut self, s1: &State) {
-        copy_state(&mut self.out.final_displacement, s1.x.sized::<N>());
-        copy_state(&mut self.out.final_velocity, s1.v.sized::<N>());
-        self.out.final_time = s1.t;
-    }
-
     /// [`StepObserver::accepted`] for a step that ends after the transient: its samples, its
-    /// part of the peaks and the RMS, its impacts. Out of line, so that a step of the
-    /// transient does not pay for its registers; compiled for the model's size ([`by_size`]).
+    /// part of the peaks and the RMS, its impacts; compiled for the model's size
+    /// ([`by_size`]), out of line (a 1-DOF model's in line, [`Self::reduce_sized`]).
     #[inline(never)]
     fn reduce(
         &mut self,
@@ -330,7 +319,6 @@ impl Reducer<'_> {
         h: f64,
         turns: Option<&[Option<Turn>]>,
     ) {
-        self.keep_final_sized::<N>(s1);
         let (t0, t1) = (s0.t, s0.t + h);
         let tol = STEP_END_TOLERANCE * h;
         if self.next_time <= t1 + tol {
@@ -849,6 +837,82 @@ mod tests {
                 full.rows.energy.external_work,
                 reduced.rows.energy.external_work
             );
+        }
+    }
+
+    /// The reducer handed every step, the transient's too (no `quiet_until`).
+    struct EveryStep<'r, 'a>(&'r mut Reducer<'a>);
+
+    impl StepObserver for EveryStep<'_, '_> {
+        fn accepted(
+            &mut self,
+            sys: &System,
+            s0: &State,
+            s1: &State,
+            h: f64,
+            turns: Option<&[Option<Turn>]>,
+        ) {
+            self.0.accepted(sys, s0, s1, h, turns);
+        }
+
+        fn final_state(&mut self, s: &State, t: f64) {
+            self.0.final_state(s, t);
+        }
+
+        fn impact(&mut self, sys: &System, wall: usize, t: f64, speed: f64) {
+            self.0.impact(sys, wall, t, speed);
+        }
+    }
+
+    #[test]
+    fn a_quiet_transient_gives_the_same_summary() {
+        // the benchmark's oscillator with damping `c` and a wall of `law`: event-driven for a
+        // rigid one; negative damping: a run the energy check stops inside the transient
+        let point = |c: f64, law: Law| {
+            let mut j = job(0.8, 0.02);
+            let w = 2.0 * std::f64::consts::PI;
+            let one = |v: f64| DMatrix::from_element(1, 1, v);
+            let structure = LinearStructure::new(one(1.0), one(c), one(w * w)).unwrap();
+            let mut sys = oscillator(0.8, 0.02);
+            if matches!(law, Law::Rigid(_)) {
+                j.method = Method::EventDriven(crate::impulsive::EventDriven::default());
+            }
+            sys.gaps[0].law = law;
+            j.system = Arc::new(System::new(structure, sys.gaps, sys.loads).unwrap());
+            j.sampling.transient = if c < 0.0 { 50 } else { 5 };
+            j
+        };
+        let kelvin_voigt = || Law::KelvinVoigt(KelvinVoigt::new(1e5, 20.0).unwrap());
+        let rigid = || Law::Rigid(crate::contact::Rigid::new(0.8).unwrap());
+        for (j, fails) in [
+            (point(0.63, kelvin_voigt()), false),
+            (point(0.63, rigid()), false),
+            (point(-3.0, kelvin_voigt()), true),
+            (point(-3.0, rigid()), true),
+        ] {
+            let quiet = run_point(&j, None);
+            assert_eq!(quiet.error.is_some(), fails, "{:?}", quiet.error);
+            let sampling = &j.sampling;
+            let mut settings = j.settings.clone();
+            settings.t_end = sampling.t_end();
+            settings.every = usize::MAX;
+            settings.dt = sampling.period / (sampling.period / settings.dt - 1e-9).ceil();
+            let mut reducer = Reducer::new(sampling, 1, j.x0.as_slice(), j.v0.as_slice());
+            let (sys, x0, v0) = (&j.system, j.x0.clone(), j.v0.clone());
+            let mut every = EveryStep(&mut reducer);
+            let out = simulate_observed(
+                sys,
+                j.method,
+                &settings,
+                x0,
+                v0,
+                Some(&mut every),
+                Outputs::Observed,
+            )
+            .unwrap();
+            let mut summary = reducer.finish();
+            (summary.stats, summary.error) = (out.stats, out.error);
+            assert!(same(&quiet, &summary));
         }
     }
 

@@ -895,7 +895,7 @@ impl Driver<'_> {
 
     /// Writes `p` into the run's state `s`: the acceleration and the contact forces `λ` of
     /// the stuck walls (all of it elastic, so that the run's energy account adds no contact
-    /// work: the impacts' dissipation goes to it through [`Run::jumped`]).
+    /// work: the impacts' dissipation goes to it through [`Run::jump`]).
     fn fill(&mut self, p: &Point, s: &mut State) {
         let sys = self.sys;
         let l = &p.lambda;
@@ -927,7 +927,7 @@ fn bisect(f: impl Fn(f64) -> f64, mut a: f64, mut b: f64) -> f64 {
 
 /// The event-driven method as the run's step policy: each step of the grid `k·dt` is the
 /// flights between the events inside it, each committed to the run, with the state changed
-/// in place at each event ([`Run::jumped`]).
+/// in place at each event ([`Run::jump`]).
 pub(crate) struct EventDrivenSteps<'s> {
     d: Driver<'s>,
     p: Point,
@@ -1028,8 +1028,7 @@ impl<'s> EventDrivenSteps<'s> {
     /// the walls that took an impulse.
     fn resolve(&mut self, run: &mut Run, released: Option<usize>, plastic: bool) -> Vec<usize> {
         let (dissipated, impacts) = self.d.resolve(&mut self.p, released, plastic);
-        self.d.fill(&self.p, &mut run.cur);
-        run.jumped(dissipated);
+        run.jump(dissipated, |cur| self.d.fill(&self.p, cur));
         impacts
             .into_iter()
             .map(|(j, v_in, v_out)| {
