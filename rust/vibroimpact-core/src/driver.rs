@@ -64,6 +64,11 @@ pub(crate) trait StepPolicy {
     fn commits_once_per_advance(&self) -> bool {
         false
     }
+
+    /// Takes up to `max` steps in free flight before the next advance, each committed and
+    /// recorded ([`Stepper::free_run`]: the fixed grid's Newmark steps). Called by
+    /// [`Run::drive`] only where nothing watches a step: see there. None by default.
+    fn free_run(&mut self, _run: &mut Run, _sys: &System, _max: usize) {}
 }
 
 /// The state of a run and everything accumulated from its accepted steps.
@@ -460,6 +465,20 @@ impl<'o> Run<'o> {
     ) -> Option<SimError> {
         // advances left until the next row (a countdown: no division per step)
         let mut until_row = every;
+        // Free runs (StepPolicy::free_run) take the steps in free flight in one tight loop,
+        // where nothing is watched per step: a row every step, no observer (sweeps, orbits),
+        // no state-transition matrix, no radial gap (its slide is checked per step), the rows'
+        // energies from the rows, and nothing for the account per free step (no loads, no
+        // damping's work); the peaks from the rows or off (Self::free_room). A run ends at the
+        // next check of the interrupt and the energy and at the rows' room (a full streamed
+        // block), which the general step then takes.
+        let free_runs = every == 1
+            && self.observer.is_none()
+            && !self.wants_sensitivity
+            && !sys.has_radial
+            && self.out.energies_from_rows
+            && sys.loads.is_empty()
+            && !self.account.damping_work;
         if self.out.peaks != Peaks::Off {
             self.out.peaks = if every == 1 && policy.commits_once_per_advance() {
                 Peaks::FromRows
@@ -468,6 +487,12 @@ impl<'o> Run<'o> {
             };
         }
         loop {
+            if free_runs {
+                let room = self.free_room();
+                if room > 0 {
+                    policy.free_run(self, sys, room);
+                }
+            }
             match policy.advance(self, sys) {
                 Ok(true) => {
                     if let Some(observer) = self.observer.as_deref_mut() {
@@ -494,6 +519,34 @@ impl<'o> Run<'o> {
                 }
             }
         }
+    }
+
+    /// The steps a free run may take from here ([`Self::drive`]): up to the next check of the
+    /// interrupt and the energy, and the rows that fit; none while the peaks are kept per
+    /// commit (after a cut step).
+    fn free_room(&self) -> usize {
+        if self.out.peaks == Peaks::PerCommit {
+            return 0;
+        }
+        let to_check = (interrupt::CHECK_EVERY - 1).saturating_sub(self.since_check);
+        to_check.min(self.out.room.saturating_sub(self.out.written))
+    }
+
+    /// Whether a free run may start from `cur` ([`Stepper::free_run`]): no contact force and
+    /// every wall open, without force or potential, as in the state the trial becomes after a
+    /// free step (an open wall keeps them, a closed one is reset: `WallState::set_open`), so
+    /// that the rows' forces and potentials are +0.
+    pub(crate) fn free_run_starts(&self) -> bool {
+        let unloaded = |w: &WallState| w.force.to_bits() == 0 && w.potential.to_bits() == 0;
+        self.cur.phi.iter().all(|&p| p == 0.0)
+            && self.cur.walls.iter().all(|w| !w.closed() && unloaded(w))
+            && self.trial.walls.iter().all(|w| w.closed() || unloaded(w))
+    }
+
+    /// A free run committed `steps` steps, and recorded them (what their commits count).
+    pub(crate) fn took_free_steps(&mut self, steps: usize) {
+        self.stats.steps += steps;
+        self.since_check += steps;
     }
 
     /// A rigid wall's impact at `t` with approach speed `v_in` and separation speed `v_out`,
@@ -819,6 +872,51 @@ impl Recorder<'_> {
             );
         }
         put(&mut e.contact_potential, r, potential);
+        put(&mut e.external_work, r, account.external_work);
+        put(&mut e.damping_dissipated, r, account.damping_dissipated);
+        put(&mut e.contact_dissipated, r, account.contact_dissipated);
+    }
+
+    /// [`Self::record`] of a free run's state of `N` DOFs at `t` (the conditions of
+    /// [`Run::drive`]'s free runs: every DOF recorded, in order, the energies from the rows,
+    /// and room for the row, [`Run::free_room`]): `motion` its `x`, `v` and `a`, `u` its gap
+    /// coordinates; every wall open, without force or potential ([`Run::free_run_starts`]).
+    #[inline(always)]
+    pub(crate) fn record_free<const N: usize>(
+        &mut self,
+        sys: &System,
+        account: &Account,
+        t: f64,
+        motion: [&[f64; N]; 3],
+        u: &[f64],
+    ) {
+        debug_assert!(self.written < self.room && self.energies_from_rows);
+        debug_assert!(self.dofs.len() == N);
+        let r = self.written;
+        self.written += 1;
+        self.last_time = t;
+        let rows = &mut self.rows;
+        put(&mut rows.time, r, t);
+        for i in 0..N {
+            put(&mut rows.displacement, r * N + i, motion[0][i]);
+            put(&mut rows.velocity, r * N + i, motion[1][i]);
+            put(&mut rows.acceleration, r * N + i, motion[2][i]);
+        }
+        // each gap's deepest wall (as `gap_columns` of the walls `State::finish_free_flight`
+        // opens), no force
+        let depth = |j: usize| {
+            let wall = &sys.walls[j];
+            wall.sign * u[wall.gap] - wall.clearance
+        };
+        let first = r * self.gap_walls.len();
+        for (i, walls) in (first..).zip(&self.gap_walls) {
+            let deepest =
+                (walls.start + 1..walls.end).fold(depth(walls.start), |m, j| m.max(depth(j)));
+            put(&mut rows.gap_penetration, i, deepest);
+            put(&mut rows.gap_force, i, 0.0);
+        }
+        let e = &mut rows.energy;
+        put(&mut e.contact_potential, r, 0.0);
         put(&mut e.external_work, r, account.external_work);
         put(&mut e.damping_dissipated, r, account.damping_dissipated);
         put(&mut e.contact_dissipated, r, account.contact_dissipated);

@@ -112,6 +112,14 @@ impl<S: Stepper + ?Sized, D: StepDerivative> StepPolicy for FixedSteps<'_, S, D>
         true
     }
 
+    /// The stepper's free run ([`Stepper::free_run`]) on the grid, up to its end.
+    fn free_run(&mut self, run: &mut Run, sys: &System, max: usize) {
+        let max = max.min(self.n_steps - self.step);
+        if max > 0 {
+            self.step += self.stepper.free_run(sys, run, self.h0, self.step, max);
+        }
+    }
+
     fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError> {
         if self.step == self.n_steps {
             return Ok(false);
