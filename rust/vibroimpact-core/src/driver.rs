@@ -67,8 +67,11 @@ pub(crate) trait StepPolicy {
 
     /// Takes up to `max` steps in free flight before the next advance, each committed and
     /// recorded ([`Stepper::free_run`]: the fixed grid's Newmark steps). Called by
-    /// [`Run::drive`] only where nothing watches a step: see there. None by default.
-    fn free_run(&mut self, _run: &mut Run, _sys: &System, _max: usize) {}
+    /// [`Run::drive`] only where nothing watches a step: see there. `false`: it never takes
+    /// any (the default), and is not asked again.
+    fn free_run(&mut self, _run: &mut Run, _sys: &System, _max: usize) -> bool {
+        false
+    }
 }
 
 /// The state of a run and everything accumulated from its accepted steps.
@@ -472,7 +475,7 @@ impl<'o> Run<'o> {
         // damping's work); the peaks from the rows or off (Self::free_room). A run ends at the
         // next check of the interrupt and the energy and at the rows' room (a full streamed
         // block), which the general step then takes.
-        let free_runs = every == 1
+        let mut free_runs = every == 1
             && self.observer.is_none()
             && !self.wants_sensitivity
             && !sys.has_radial
@@ -490,7 +493,7 @@ impl<'o> Run<'o> {
             if free_runs {
                 let room = self.free_room();
                 if room > 0 {
-                    policy.free_run(self, sys, room);
+                    free_runs = policy.free_run(self, sys, room);
                 }
             }
             match policy.advance(self, sys) {
@@ -877,49 +880,51 @@ impl Recorder<'_> {
         put(&mut e.contact_dissipated, r, account.contact_dissipated);
     }
 
-    /// [`Self::record`] of a free run's state of `N` DOFs at `t` (the conditions of
-    /// [`Run::drive`]'s free runs: every DOF recorded, in order, the energies from the rows,
-    /// and room for the row, [`Run::free_room`]): `motion` its `x`, `v` and `a`, `u` its gap
-    /// coordinates; every wall open, without force or potential ([`Run::free_run_starts`]).
-    #[inline(always)]
-    pub(crate) fn record_free<const N: usize>(
-        &mut self,
-        sys: &System,
-        account: &Account,
-        t: f64,
-        motion: [&[f64; N]; 3],
-        u: &[f64],
-    ) {
-        debug_assert!(self.written < self.room && self.energies_from_rows);
-        debug_assert!(self.dofs.len() == N);
-        let r = self.written;
-        self.written += 1;
-        self.last_time = t;
+    /// The columns of a free run's rows from the next row on ([`FreeRows`]; the conditions of
+    /// [`Run::drive`]'s free runs: every DOF recorded, in order, the energies from the rows;
+    /// its rows within the room, [`Run::free_room`]), the account's values fixed over it.
+    pub(crate) fn free_rows<const N: usize>(&mut self, account: &Account) -> FreeRows<N> {
+        debug_assert!(self.energies_from_rows && self.dofs.len() == N);
+        let (r, gaps) = (self.written, self.gap_walls.len());
         let rows = &mut self.rows;
-        put(&mut rows.time, r, t);
-        for i in 0..N {
-            put(&mut rows.displacement, r * N + i, motion[0][i]);
-            put(&mut rows.velocity, r * N + i, motion[1][i]);
-            put(&mut rows.acceleration, r * N + i, motion[2][i]);
-        }
-        // each gap's deepest wall (as `gap_columns` of the walls `State::finish_free_flight`
-        // opens), no force
-        let depth = |j: usize| {
-            let wall = &sys.walls[j];
-            wall.sign * u[wall.gap] - wall.clearance
-        };
-        let first = r * self.gap_walls.len();
-        for (i, walls) in (first..).zip(&self.gap_walls) {
-            let deepest =
-                (walls.start + 1..walls.end).fold(depth(walls.start), |m, j| m.max(depth(j)));
-            put(&mut rows.gap_penetration, i, deepest);
-            put(&mut rows.gap_force, i, 0.0);
-        }
         let e = &mut rows.energy;
-        put(&mut e.contact_potential, r, 0.0);
-        put(&mut e.external_work, r, account.external_work);
-        put(&mut e.damping_dissipated, r, account.damping_dissipated);
-        put(&mut e.contact_dissipated, r, account.contact_dissipated);
+        let at = |column: &mut Vec<f64>, width: usize| {
+            debug_assert!(self.room * width <= column.capacity());
+            // SAFETY: within the allocation: `make_room` made every column's capacity at
+            // least `room > r` rows (asserted above in debug builds).
+            unsafe { column.as_mut_ptr().add(r * width) }
+        };
+        FreeRows {
+            time: at(&mut rows.time, 1),
+            motion: [
+                at(&mut rows.displacement, N),
+                at(&mut rows.velocity, N),
+                at(&mut rows.acceleration, N),
+            ],
+            gap_penetration: at(&mut rows.gap_penetration, gaps),
+            gap_force: at(&mut rows.gap_force, gaps),
+            energy: [
+                at(&mut e.contact_potential, 1),
+                at(&mut e.external_work, 1),
+                at(&mut e.damping_dissipated, 1),
+                at(&mut e.contact_dissipated, 1),
+            ],
+            account: [
+                account.external_work,
+                account.damping_dissipated,
+                account.contact_dissipated,
+            ],
+            gaps,
+            written: 0,
+            room: self.room - r,
+            last_time: self.last_time,
+        }
+    }
+
+    /// The rows a free run wrote ([`Self::free_rows`]) are the recorder's.
+    pub(crate) fn wrote_free<const N: usize>(&mut self, rows: FreeRows<N>) {
+        self.written += rows.written;
+        self.last_time = rows.last_time;
     }
 
     /// The columns [`Self::record`] writes, each with its values a row (the kinetic and
@@ -990,6 +995,75 @@ impl Recorder<'_> {
             })
             .fold(usize::MAX, usize::min);
         self.room = block.map_or(rows, |n| rows.min(n));
+    }
+}
+
+/// The columns a free run writes its rows into ([`Recorder::free_rows`]), as pointers to its
+/// first row held in locals: the run's values do not get reloaded after each write, which
+/// could alias them for all the compiler knows, and the columns are not looked up per row.
+pub(crate) struct FreeRows<const N: usize> {
+    time: *mut f64,
+    /// Displacement, velocity, acceleration.
+    motion: [*mut f64; 3],
+    gap_penetration: *mut f64,
+    gap_force: *mut f64,
+    /// Contact potential, external work, damping and contact dissipation.
+    energy: [*mut f64; 4],
+    /// The account's values (no work in free flight without loads or damping's work).
+    account: [f64; 3],
+    gaps: usize,
+    /// Rows written, and that fit.
+    written: usize,
+    room: usize,
+    last_time: f64,
+}
+
+impl<const N: usize> FreeRows<N> {
+    /// [`Recorder::record`] of a free-flight state at `t`: `motion` its `x`, `v` and `a`,
+    /// `walls` each wall's gap, sign and clearance (walls of a gap adjacent) and `depth` its
+    /// penetration; every wall open, without force or potential ([`Run::free_run_starts`]):
+    /// each gap's column the deepest of its walls (as [`gap_columns`] of the walls
+    /// `State::finish_free_flight` opens), no force.
+    #[inline(always)]
+    pub(crate) fn write(
+        &mut self,
+        t: f64,
+        motion: [&[f64; N]; 3],
+        walls: &[(usize, f64, f64)],
+        depth: &[f64],
+    ) {
+        assert!(self.written < self.room);
+        let r = self.written;
+        self.written += 1;
+        self.last_time = t;
+        // SAFETY: row `r` is below the room of every column (asserted; `Recorder::free_rows`)
+        // and each writes its `width` values of the row from `r * width`.
+        unsafe {
+            self.time.add(r).write(t);
+            for (column, values) in self.motion.into_iter().zip(motion) {
+                for (i, &value) in values.iter().enumerate() {
+                    column.add(r * N + i).write(value);
+                }
+            }
+            let first = r * self.gaps;
+            let mut previous = usize::MAX;
+            let mut deepest = 0.0;
+            for (&(g, ..), &depth) in walls.iter().zip(depth) {
+                deepest = if g == previous {
+                    f64::max(deepest, depth)
+                } else {
+                    depth
+                };
+                previous = g;
+                self.gap_penetration.add(first + g).write(deepest);
+                self.gap_force.add(first + g).write(0.0);
+            }
+            let [potential, work @ ..] = self.energy;
+            potential.add(r).write(0.0);
+            for (column, value) in work.into_iter().zip(self.account) {
+                column.add(r).write(value);
+            }
+        }
     }
 }
 

@@ -14,7 +14,7 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use nalgebra::DMatrix;
 
 use super::newton::{GapNewton, GapProblem, NewtonSettings, OneGap, RateMap};
-use super::sized::{by_size, dofs, sized_step_path, Inline};
+use super::sized::{by_size, dofs, sized_step_path, Inline, MAX_SIZED};
 use super::{OperatorCache, StepFailure, Stepper};
 use crate::driver::Run;
 use crate::error::{invalid, SimError};
@@ -388,16 +388,21 @@ fn mat_vec_sub_sized<const N: usize>(a: &[f64], x: &[f64], y: &mut [f64]) {
     }
 }
 
+/// The most walls (and so gaps) of a model whose free flight runs in one loop
+/// ([`NewmarkStepper::free_run`]): its walls and gap coordinates are held in local arrays.
+pub(crate) const FREE_RUN_WALLS: usize = 8;
+
 /// `d −= Σ_k A_k y_k`: the dense predictor's operators applied to the vectors `inputs` they
 /// multiply (`x̃ + c_f x₀`, `ṽ + c_f v₀`, `a₀`), at a small model's size `N` below four.
 #[inline(always)]
-fn dense_correction<const N: usize>(
+fn dense_correction<const N: usize, O: AsRef<[f64]>>(
     mat_vec: &DenseMatVec,
-    operators: &[Vec<f64>],
+    operators: &[O],
     inputs: [&[f64]; 3],
     d: &mut [f64],
 ) {
     for (operator, input) in operators.iter().zip(inputs) {
+        let operator = operator.as_ref();
         if N > 0 && N < 4 {
             mat_vec_sub_sized::<N>(operator, input, d);
         } else {
@@ -537,8 +542,6 @@ pub struct NewmarkStepper {
     gap_newton: GapNewton,
     /// The last step was in free flight ([`Stepper::last_step_free`]).
     free: bool,
-    /// The gap coordinates at the end of a step of the free run (swapped with the state's).
-    u_next: Vec<f64>,
 }
 
 impl NewmarkStepper {
@@ -568,7 +571,6 @@ impl NewmarkStepper {
             rate_lin: vec![0.0; ng],
             gap_newton: GapNewton::new(ng),
             free: false,
-            u_next: vec![0.0; ng],
         })
     }
 
@@ -726,11 +728,18 @@ impl<const N: usize> Stepper for SizedNewmark<'_, N> {
     }
 
     /// [`NewmarkStepper::free_run`] for a model of one to four DOFs (none for the others).
-    fn free_run(&mut self, sys: &System, run: &mut Run, h: f64, step: usize, max: usize) -> usize {
+    fn free_run(
+        &mut self,
+        sys: &System,
+        run: &mut Run,
+        h: f64,
+        step: usize,
+        max: usize,
+    ) -> Option<usize> {
         if N > 0 {
             self.0.free_run::<N>(sys, run, h, step, max)
         } else {
-            0
+            None
         }
     }
 }
@@ -808,7 +817,7 @@ impl NewmarkStepper {
         let inputs: [&[f64]; 3] = [xt, vt, a_old];
         match &op.predictor {
             Predictor::Dense { operators, loads } => {
-                dense_correction::<N>(&self.mat_vec, operators, inputs, d);
+                dense_correction::<N, _>(&self.mat_vec, operators, inputs, d);
                 for (l, col) in loads.iter().enumerate() {
                     let coef = s1.load[l] + c_f * s0.load[l];
                     if coef != 0.0 {
@@ -905,12 +914,14 @@ impl NewmarkStepper {
 
     /// Up to `max` steps of `h` of the fixed grid from its step `step` in free flight
     /// ([`Stepper::free_run`]), each committed and recorded: the general step's arithmetic
-    /// ([`StepFormulas`], [`dense_correction`]) with the motion of the model's `N` DOFs in local
-    /// arrays and nothing else, while what the general step would do besides is nothing (the
-    /// driver's conditions, `Run::drive`): no loads (their values and work), the dense
-    /// predictor, no contact force at the start (so no `φ` term), every wall open. Ends, before
-    /// taking it, at the first step whose linear predictor closes a wall or whose motion is
-    /// not finite: the general step then takes it as before. Returns the steps taken.
+    /// ([`StepFormulas`], [`dense_correction`]) with the motion of the model's `N` DOFs, the
+    /// operators, the walls and the gap coordinates in local arrays and nothing else, while
+    /// what the general step would do besides is nothing (the driver's conditions,
+    /// `Run::drive`): no loads (their values and work), the dense predictor, no contact force
+    /// at the start (so no `φ` term), every wall open. Ends, before taking it, at the first
+    /// step whose linear predictor closes a wall or whose motion is not finite: the general
+    /// step then takes it as before. Returns the steps taken; `None`: never any for this
+    /// model (loads, the sparse predictor, more than [`FREE_RUN_WALLS`] walls).
     #[inline(never)]
     fn free_run<const N: usize>(
         &mut self,
@@ -919,17 +930,36 @@ impl NewmarkStepper {
         h: f64,
         step: usize,
         max: usize,
-    ) -> usize {
-        let Some(op) = self.operators.largest() else {
-            return 0;
-        };
+    ) -> Option<usize> {
+        let op = self.operators.largest()?;
         let Predictor::Dense { operators, loads } = &op.predictor else {
-            return 0;
+            return None;
         };
-        if !loads.is_empty() || !run.free_run_starts() {
-            return 0;
+        let (ng, nw) = (sys.gaps.len(), sys.walls.len());
+        if !loads.is_empty() || nw > FREE_RUN_WALLS || operators.len() > 3 {
+            return None;
         }
+        if !run.free_run_starts() {
+            return Some(0);
+        }
+        // Everything a step reads, in locals: the rows' writes cannot alias them, so they
+        // are not reloaded from the stepper and the model every step.
         let f = StepFormulas::new(&self.constants, self.scheme.gamma, op.a[0], h);
+        let mut ops = [[0.0; MAX_SIZED * MAX_SIZED]; 3];
+        for (local, operator) in ops.iter_mut().zip(operators) {
+            local[..N * N].copy_from_slice(&operator[..N * N]);
+        }
+        let ops = &ops[..operators.len()];
+        let mut walls = [(0, 0.0, 0.0); FREE_RUN_WALLS];
+        for (local, wall) in walls.iter_mut().zip(&sys.walls) {
+            *local = (wall.gap, wall.sign, wall.clearance);
+        }
+        let walls = &walls[..nw];
+        let mut unit = [0; FREE_RUN_WALLS];
+        let unit_gaps = sys.unit_dofs.is_some();
+        if let Some(dofs) = &sys.unit_dofs {
+            unit[..ng].copy_from_slice(dofs);
+        }
         let motion = |values: &[f64]| -> [f64; N] { std::array::from_fn(|i| values[i]) };
         let cur = &*run.cur;
         let (mut x, mut v, mut a) = (
@@ -937,29 +967,37 @@ impl NewmarkStepper {
             motion(cur.v.sized::<N>()),
             motion(cur.a.sized::<N>()),
         );
+        let mut u = [0.0; FREE_RUN_WALLS];
+        u[..ng].copy_from_slice(&cur.u);
+        let mut rows = run.out.free_rows::<N>(&run.account);
+        // (the gaps' increments and the walls' penetrations of a step: only the first `ng`
+        // and `nw` are read, so they are not cleared per step)
+        let (mut du, mut depth) = ([0.0; FREE_RUN_WALLS], [0.0; FREE_RUN_WALLS]);
         let mut taken = 0;
         while taken < max {
             let (mut d_tilde, mut xt, mut vt, mut e) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
             for i in 0..N {
                 [d_tilde[i], xt[i], vt[i]] = f.predictors(x[i], v[i], a[i]);
             }
-            dense_correction::<N>(&self.mat_vec, operators, [&xt, &vt, &a], &mut e);
-            // the end's gap coordinates (into the spare vector) and the walls' test
-            // (`GapNewton::free_flight` with every wall open at the start)
-            let (u0, u) = (&run.cur.u, &mut self.u_next);
-            match &sys.unit_dofs {
-                Some(dofs) => {
-                    for ((u, &u0), &d) in u.iter_mut().zip(u0).zip(dofs) {
-                        *u = u0 + unit_increment(d, &e, &d_tilde);
-                    }
+            dense_correction::<N, _>(&self.mat_vec, ops, [&xt, &vt, &a], &mut e);
+            // the gap coordinates' increments, and the walls' penetrations at the end: any
+            // wall closing ends the run (`GapNewton::free_flight` with every wall open at the
+            // start: `s u <= c` is `s u − c <= 0`, the difference of two floats being 0 only
+            // when they are equal)
+            if unit_gaps {
+                for (du, &d) in du[..ng].iter_mut().zip(&unit) {
+                    *du = unit_increment(d, &e, &d_tilde);
                 }
-                None => {
-                    for ((u, &u0), gap) in u.iter_mut().zip(u0).zip(&sys.gaps) {
-                        *u = u0 + gap_increment(gap, &e, &d_tilde);
-                    }
+            } else {
+                for (du, gap) in du[..ng].iter_mut().zip(&sys.gaps) {
+                    *du = gap_increment(gap, &e, &d_tilde);
                 }
             }
-            if !sys.walls.iter().all(|w| w.sign * u[w.gap] <= w.clearance) {
+            let closing = walls.iter().zip(&mut depth).any(|(&(g, sign, c), depth)| {
+                *depth = sign * (u[g] + du[g]) - c;
+                *depth > 0.0 || depth.is_nan()
+            });
+            if closing {
                 break;
             }
             let (mut x1, mut v1, mut a1) = ([0.0; N], [0.0; N], [0.0; N]);
@@ -970,27 +1008,28 @@ impl NewmarkStepper {
                 break;
             }
             (x, v, a) = (x1, v1, a1);
-            std::mem::swap(&mut run.cur.u, u);
+            for (u, du) in u[..ng].iter_mut().zip(&du) {
+                *u += du;
+            }
             taken += 1;
             // (the grid's time, as `FixedSteps::advance` sets it)
             let t = (step + taken) as i64 as f64 * h;
-            run.out
-                .record_free::<N>(sys, &run.account, t, [&x, &v, &a], &run.cur.u);
+            rows.write(t, [&x, &v, &a], walls, &depth);
         }
         if taken > 0 {
             // the state the general steps would have left: its gap rates, walls and forces
             // from the last step's motion and gap coordinates (State::finish_free_flight)
+            run.out.wrote_free(rows);
             let cur = &mut *run.cur;
             cur.t = (step + taken) as i64 as f64 * h;
             cur.x.sized_mut::<N>().copy_from_slice(&x);
             cur.v.sized_mut::<N>().copy_from_slice(&v);
             cur.a.sized_mut::<N>().copy_from_slice(&a);
-            std::mem::swap(&mut cur.u, &mut self.u_next);
-            let finite = cur.finish_free_flight::<N>(sys, &self.u_next);
+            let finite = cur.finish_free_flight::<N>(sys, &u[..ng]);
             debug_assert!(finite);
             run.took_free_steps(taken);
         }
-        taken
+        Some(taken)
     }
 
     /// The contact step's part of [`Self::step`] (some wall closed at an end of the step):
