@@ -923,6 +923,7 @@ impl Recorder<'_> {
 
     /// The rows a free run wrote ([`Self::free_rows`]) are the recorder's.
     pub(crate) fn wrote_free<const N: usize>(&mut self, rows: FreeRows<N>) {
+        rows.fill_constants();
         self.written += rows.written;
         self.last_time = rows.last_time;
     }
@@ -1023,7 +1024,8 @@ impl<const N: usize> FreeRows<N> {
     /// `walls` each wall's gap, sign and clearance (walls of a gap adjacent) and `depth` its
     /// penetration; every wall open, without force or potential ([`Run::free_run_starts`]):
     /// each gap's column the deepest of its walls (as [`gap_columns`] of the walls
-    /// `State::finish_free_flight` opens), no force.
+    /// `State::finish_free_flight` opens); the force, the potential and the account's
+    /// columns at the run's end ([`Self::fill_constants`]).
     #[inline(always)]
     pub(crate) fn write(
         &mut self,
@@ -1056,12 +1058,27 @@ impl<const N: usize> FreeRows<N> {
                 };
                 previous = g;
                 self.gap_penetration.add(first + g).write(deepest);
-                self.gap_force.add(first + g).write(0.0);
+            }
+        }
+    }
+
+    /// The columns that stay the same over the run, for every row written: no force, no
+    /// contact potential, the account's values (filled in one pass each, not per row).
+    fn fill_constants(&self) {
+        let rows = self.written;
+        // SAFETY: the rows `write` wrote, within the room of every column as there.
+        unsafe {
+            for i in 0..rows * self.gaps {
+                self.gap_force.add(i).write(0.0);
             }
             let [potential, work @ ..] = self.energy;
-            potential.add(r).write(0.0);
+            for r in 0..rows {
+                potential.add(r).write(0.0);
+            }
             for (column, value) in work.into_iter().zip(self.account) {
-                column.add(r).write(value);
+                for r in 0..rows {
+                    column.add(r).write(value);
+                }
             }
         }
     }
