@@ -64,6 +64,14 @@ pub(crate) trait StepPolicy {
     fn commits_once_per_advance(&self) -> bool {
         false
     }
+
+    /// Takes up to `max` steps in free flight before the next advance, each committed and
+    /// recorded ([`Stepper::free_run`]: the fixed grid's Newmark steps). Called by
+    /// [`Run::drive`] only where nothing watches a step: see there. `false`: it never takes
+    /// any (the default), and is not asked again.
+    fn free_run(&mut self, _run: &mut Run, _sys: &System, _max: usize) -> bool {
+        false
+    }
 }
 
 /// The state of a run and everything accumulated from its accepted steps.
@@ -507,6 +515,20 @@ impl<'o> Run<'o> {
     ) -> Option<SimError> {
         // advances left until the next row (a countdown: no division per step)
         let mut until_row = every;
+        // Free runs (StepPolicy::free_run) take the steps in free flight in one tight loop,
+        // where nothing is watched per step: a row every step, no observer (sweeps, orbits),
+        // no state-transition matrix, no radial gap (its slide is checked per step), the rows'
+        // energies from the rows, and nothing for the account per free step (no loads, no
+        // damping's work); the peaks from the rows or off (Self::free_room). A run ends at the
+        // next check of the interrupt and the energy and at the rows' room (a full streamed
+        // block), which the general step then takes.
+        let mut free_runs = every == 1
+            && self.observer.is_none()
+            && !self.wants_sensitivity
+            && !sys.has_radial
+            && self.out.energies_from_rows
+            && sys.loads.is_empty()
+            && !self.account.damping_work;
         if self.out.peaks != Peaks::Off {
             self.out.peaks = if every == 1 && policy.commits_once_per_advance() {
                 Peaks::FromRows
@@ -515,6 +537,12 @@ impl<'o> Run<'o> {
             };
         }
         loop {
+            if free_runs {
+                let room = self.free_room();
+                if room > 0 {
+                    free_runs = policy.free_run(self, sys, room);
+                }
+            }
             match policy.advance(self, sys) {
                 Ok(true) => {
                     if let Some(observer) = self.observer.as_deref_mut() {
@@ -541,6 +569,34 @@ impl<'o> Run<'o> {
                 }
             }
         }
+    }
+
+    /// The steps a free run may take from here ([`Self::drive`]): up to the next check of the
+    /// interrupt and the energy, and the rows that fit; none while the peaks are kept per
+    /// commit (after a cut step).
+    fn free_room(&self) -> usize {
+        if self.out.peaks == Peaks::PerCommit {
+            return 0;
+        }
+        let to_check = (interrupt::CHECK_EVERY - 1).saturating_sub(self.since_check);
+        to_check.min(self.out.room.saturating_sub(self.out.written))
+    }
+
+    /// Whether a free run may start from `cur` ([`Stepper::free_run`]): no contact force and
+    /// every wall open, without force or potential, as in the state the trial becomes after a
+    /// free step (an open wall keeps them, a closed one is reset: `WallState::set_open`), so
+    /// that the rows' forces and potentials are +0.
+    pub(crate) fn free_run_starts(&self) -> bool {
+        let unloaded = |w: &WallState| w.force.to_bits() == 0 && w.potential.to_bits() == 0;
+        self.cur.phi.iter().all(|&p| p == 0.0)
+            && self.cur.walls.iter().all(|w| !w.closed() && unloaded(w))
+            && self.trial.walls.iter().all(|w| w.closed() || unloaded(w))
+    }
+
+    /// A free run committed `steps` steps, and recorded them (what their commits count).
+    pub(crate) fn took_free_steps(&mut self, steps: usize) {
+        self.stats.steps += steps;
+        self.since_check += steps;
     }
 
     /// A rigid wall's impact at `t` with approach speed `v_in` and separation speed `v_out`,
@@ -873,6 +929,54 @@ impl Recorder<'_> {
         put(&mut e.contact_dissipated, r, account.contact_dissipated);
     }
 
+    /// The columns of a free run's rows from the next row on ([`FreeRows`]; the conditions of
+    /// [`Run::drive`]'s free runs: every DOF recorded, in order, the energies from the rows;
+    /// its rows within the room, [`Run::free_room`]), the account's values fixed over it.
+    pub(crate) fn free_rows<const N: usize>(&mut self, account: &Account) -> FreeRows<N> {
+        debug_assert!(self.energies_from_rows && self.dofs.len() == N);
+        let (r, gaps) = (self.written, self.gap_walls.len());
+        let rows = &mut self.rows;
+        let e = &mut rows.energy;
+        let at = |column: &mut Vec<f64>, width: usize| {
+            debug_assert!(self.room * width <= column.capacity());
+            // SAFETY: within the allocation: `make_room` made every column's capacity at
+            // least `room > r` rows (asserted above in debug builds).
+            unsafe { column.as_mut_ptr().add(r * width) }
+        };
+        FreeRows {
+            time: at(&mut rows.time, 1),
+            motion: [
+                at(&mut rows.displacement, N),
+                at(&mut rows.velocity, N),
+                at(&mut rows.acceleration, N),
+            ],
+            gap_penetration: at(&mut rows.gap_penetration, gaps),
+            gap_force: at(&mut rows.gap_force, gaps),
+            energy: [
+                at(&mut e.contact_potential, 1),
+                at(&mut e.external_work, 1),
+                at(&mut e.damping_dissipated, 1),
+                at(&mut e.contact_dissipated, 1),
+            ],
+            account: [
+                account.external_work,
+                account.damping_dissipated,
+                account.contact_dissipated,
+            ],
+            gaps,
+            written: 0,
+            room: self.room - r,
+            last_time: self.last_time,
+        }
+    }
+
+    /// The rows a free run wrote ([`Self::free_rows`]) are the recorder's.
+    pub(crate) fn wrote_free<const N: usize>(&mut self, rows: FreeRows<N>) {
+        rows.fill_constants();
+        self.written += rows.written;
+        self.last_time = rows.last_time;
+    }
+
     /// The columns [`Self::record`] writes, each with its values a row (the kinetic and
     /// strain energies' none when they come from the rows, [`Self::complete`]).
     fn columns(&mut self) -> impl Iterator<Item = (&mut Vec<f64>, usize)> {
@@ -941,6 +1045,91 @@ impl Recorder<'_> {
             })
             .fold(usize::MAX, usize::min);
         self.room = block.map_or(rows, |n| rows.min(n));
+    }
+}
+
+/// The columns a free run writes its rows into ([`Recorder::free_rows`]), as pointers to its
+/// first row held in locals: the run's values do not get reloaded after each write, which
+/// could alias them for all the compiler knows, and the columns are not looked up per row.
+pub(crate) struct FreeRows<const N: usize> {
+    time: *mut f64,
+    /// Displacement, velocity, acceleration.
+    motion: [*mut f64; 3],
+    gap_penetration: *mut f64,
+    gap_force: *mut f64,
+    /// Contact potential, external work, damping and contact dissipation.
+    energy: [*mut f64; 4],
+    /// The account's values (no work in free flight without loads or damping's work).
+    account: [f64; 3],
+    gaps: usize,
+    /// Rows written, and that fit.
+    written: usize,
+    room: usize,
+    last_time: f64,
+}
+
+impl<const N: usize> FreeRows<N> {
+    /// [`Recorder::record`] of a free-flight state at `t`: `motion` its `x`, `v` and `a`,
+    /// `walls` each wall's gap, sign and clearance (walls of a gap adjacent) and `depth` its
+    /// penetration; every wall open, without force or potential ([`Run::free_run_starts`]):
+    /// each gap's column the deepest of its walls (as [`gap_columns`] of the walls
+    /// `State::finish_free_flight` opens); the force, the potential and the account's
+    /// columns at the run's end ([`Self::fill_constants`]).
+    #[inline(always)]
+    pub(crate) fn write(
+        &mut self,
+        t: f64,
+        motion: [&[f64; N]; 3],
+        walls: &[(usize, f64, f64)],
+        depth: &[f64],
+    ) {
+        assert!(self.written < self.room);
+        let r = self.written;
+        self.written += 1;
+        self.last_time = t;
+        // SAFETY: row `r` is below the room of every column (asserted; `Recorder::free_rows`)
+        // and each writes its `width` values of the row from `r * width`.
+        unsafe {
+            self.time.add(r).write(t);
+            for (column, values) in self.motion.into_iter().zip(motion) {
+                for (i, &value) in values.iter().enumerate() {
+                    column.add(r * N + i).write(value);
+                }
+            }
+            let first = r * self.gaps;
+            let mut previous = usize::MAX;
+            let mut deepest = 0.0;
+            for (&(g, ..), &depth) in walls.iter().zip(depth) {
+                deepest = if g == previous {
+                    f64::max(deepest, depth)
+                } else {
+                    depth
+                };
+                previous = g;
+                self.gap_penetration.add(first + g).write(deepest);
+            }
+        }
+    }
+
+    /// The columns that stay the same over the run, for every row written: no force, no
+    /// contact potential, the account's values (filled in one pass each, not per row).
+    fn fill_constants(&self) {
+        let rows = self.written;
+        // SAFETY: the rows `write` wrote, within the room of every column as there.
+        unsafe {
+            for i in 0..rows * self.gaps {
+                self.gap_force.add(i).write(0.0);
+            }
+            let [potential, work @ ..] = self.energy;
+            for r in 0..rows {
+                potential.add(r).write(0.0);
+            }
+            for (column, value) in work.into_iter().zip(self.account) {
+                for r in 0..rows {
+                    column.add(r).write(value);
+                }
+            }
+        }
     }
 }
 

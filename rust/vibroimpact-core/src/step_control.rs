@@ -112,6 +112,21 @@ impl<S: Stepper + ?Sized, D: StepDerivative> StepPolicy for FixedSteps<'_, S, D>
         true
     }
 
+    /// The stepper's free run ([`Stepper::free_run`]) on the grid, up to its end.
+    fn free_run(&mut self, run: &mut Run, sys: &System, max: usize) -> bool {
+        let max = max.min(self.n_steps - self.step);
+        if max == 0 {
+            return true;
+        }
+        match self.stepper.free_run(sys, run, self.h0, self.step, max) {
+            Some(taken) => {
+                self.step += taken;
+                true
+            }
+            None => false,
+        }
+    }
+
     fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError> {
         if self.step == self.n_steps {
             return Ok(false);

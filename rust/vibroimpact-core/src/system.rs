@@ -415,6 +415,14 @@ fn gap_walls<'s, const OPEN: bool>(
     [force, d_penetration, d_rate]
 }
 
+/// Whether a DOF's displacement `x` and velocity `v` are both finite: 0·x is ±0 for a finite
+/// x, NaN for an infinite or NaN one, so one test in floating point for both values, where
+/// `is_finite` tests each in the integer registers.
+#[inline(always)]
+pub(crate) fn finite_motion(x: f64, v: f64) -> bool {
+    x * 0.0 + v * 0.0 == 0.0
+}
+
 /// Everything the integrators carry from one step to the next. The motion is held at a small
 /// model's size ([`Inline`]): the Newmark step of a model of up to four DOFs reads and writes
 /// it at constant places.
@@ -462,13 +470,11 @@ impl State {
     /// [`Self::finish_free_flight`]).
     #[inline(always)]
     pub(crate) fn motion_finite<const N: usize>(&self) -> bool {
-        // 0·x is ±0 for a finite x, NaN for an infinite or NaN one: one test in floating
-        // point for both values, where `is_finite` tests each in the integer registers
         self.x
             .sized::<N>()
             .iter()
             .zip(self.v.sized::<N>())
-            .all(|(&x, &v)| x * 0.0 + v * 0.0 == 0.0)
+            .all(|(&x, &v)| finite_motion(x, v))
     }
 
     #[inline(always)]

@@ -160,6 +160,22 @@ pub trait Stepper {
         None
     }
 
+    /// Takes up to `max` steps of `h` of the fixed grid from its step `step` while they are
+    /// in free flight, each committed and recorded as the general step and the driver would
+    /// (the fixed-step loop's free run, [`crate::driver::Run::drive`]); returns how many,
+    /// `None` if it never takes any (the default).
+    #[allow(private_interfaces)] // the crate's own fixed-step loop calls it
+    fn free_run(
+        &mut self,
+        _sys: &System,
+        _run: &mut crate::driver::Run,
+        _h: f64,
+        _step: usize,
+        _max: usize,
+    ) -> Option<usize> {
+        None
+    }
+
     /// Which step it takes for `sys` ([`crate::output::Stats::step_path`]).
     fn step_path(&self, _sys: &System) -> &'static str {
         "general"

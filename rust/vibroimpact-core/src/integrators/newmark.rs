@@ -14,13 +14,15 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use nalgebra::DMatrix;
 
 use super::newton::{GapNewton, GapProblem, NewtonSettings, OneGap, RateMap};
-use super::sized::{by_size, dofs, sized_step_path, Inline};
+use super::sized::{by_size, dofs, sized_step_path, Inline, MAX_SIZED};
 use super::{OperatorCache, StepFailure, Stepper};
+use crate::driver::Run;
 use crate::error::{invalid, SimError};
 use crate::factor::{FactorChoice, FactorInfo, FactorPlan, SpdFactor};
+use crate::gap::Gap;
 use crate::linalg::{axpy, inverse_permutation, DenseMatVec, StackedRows};
 use crate::structure::MAX_DENSE_DOFS;
-use crate::system::{State, System};
+use crate::system::{finite_motion, State, System};
 
 /// The schemes the tests run: Newmark-β (average acceleration), HHT-α (`α_f = 0.1`) and
 /// generalized-α (`α_m`, `α_f` ≠ 0).
@@ -386,6 +388,110 @@ fn mat_vec_sub_sized<const N: usize>(a: &[f64], x: &[f64], y: &mut [f64]) {
     }
 }
 
+/// The most walls (and so gaps) of a model whose free flight runs in one loop
+/// ([`NewmarkStepper::free_run`]): its walls and gap coordinates are held in local arrays.
+pub(crate) const FREE_RUN_WALLS: usize = 8;
+
+/// `d −= Σ_k A_k y_k`: the dense predictor's operators applied to the vectors `inputs` they
+/// multiply (`x̃ + c_f x₀`, `ṽ + c_f v₀`, `a₀`), at a small model's size `N` below four.
+#[inline(always)]
+fn dense_correction<const N: usize, O: AsRef<[f64]>>(
+    mat_vec: &DenseMatVec,
+    operators: &[O],
+    inputs: [&[f64]; 3],
+    d: &mut [f64],
+) {
+    for (operator, input) in operators.iter().zip(inputs) {
+        let operator = operator.as_ref();
+        if N > 0 && N < 4 {
+            mat_vec_sub_sized::<N>(operator, input, d);
+        } else {
+            mat_vec.apply(operator, input, d);
+        }
+    }
+}
+
+/// The linear increment `e + d̃` of the gap coordinate of the unit gap on DOF `d`.
+#[inline(always)]
+fn unit_increment(d: usize, e: &[f64], d_tilde: &[f64]) -> f64 {
+    e[d] + d_tilde[d]
+}
+
+/// The linear increment of `gap`'s coordinate: its combination of `e` plus that of `d̃` (as
+/// `System::gap_coordinates` of each, in one pass).
+#[inline(always)]
+fn gap_increment(gap: &Gap, e: &[f64], d_tilde: &[f64]) -> f64 {
+    let (mut de, mut dp) = (-0.0, -0.0); // as `Iterator::sum`
+    for (&d, &c) in gap.dofs.iter().zip(&gap.coefficients) {
+        de += c * e[d];
+        dp += c * d_tilde[d];
+    }
+    de + dp
+}
+
+/// The scheme's formulas at one DOF for a step of `h`, the one home of the arithmetic of both
+/// the general step ([`NewmarkStepper::step`]) and the free run ([`NewmarkStepper::free_run`]):
+/// the same operations in the same order in both.
+#[derive(Clone, Copy)]
+struct StepFormulas {
+    h: f64,
+    /// `h²(½ − β)`, `(1 − γ) h`, `c_f`.
+    d_a: f64,
+    v_a: f64,
+    c_f: f64,
+    /// Newmark's `a₀ = 1/(β h²)`, `γ`, `1 − γ`.
+    a0: f64,
+    gamma: f64,
+    one_minus_gamma: f64,
+}
+
+impl StepFormulas {
+    #[inline(always)]
+    fn new(constants: &SchemeConstants, gamma: f64, a0: f64, h: f64) -> Self {
+        Self {
+            h,
+            d_a: h * h * constants.half_minus_beta,
+            v_a: constants.one_minus_gamma * h,
+            c_f: constants.c_f,
+            a0,
+            gamma,
+            one_minus_gamma: constants.one_minus_gamma,
+        }
+    }
+
+    /// Newmark's displacement predictor `d̃ = h v₀ + h²(½ − β) a₀` and the vectors the
+    /// predictor's operators multiply, `x̃ + c_f x₀` and `ṽ + c_f v₀`.
+    #[inline(always)]
+    fn predictors(&self, x: f64, v: f64, a: f64) -> [f64; 3] {
+        let d_tilde = self.h * v + self.d_a * a;
+        [
+            d_tilde,
+            x + d_tilde + self.c_f * x,
+            v + self.v_a * a + self.c_f * v,
+        ]
+    }
+
+    /// The Newmark relations (eqs. 14, 18) in predictor form from the correction `e`:
+    /// `x₁ = x₀ + d̃ + e`, `a₁ = a₀ e` (the same as `a₀ Δx − a₂ v₀ − a₃ a₀` without its
+    /// cancellation of large terms; below [`NEGLIGIBLE_ACCELERATION`] set to 0), `v₁` from
+    /// `a₁`. Returns `[x₁, v₁, a₁]`.
+    #[inline(always)]
+    fn relations(&self, x0: f64, v0: f64, a0: f64, d_tilde: f64, e: f64) -> [f64; 3] {
+        let x1 = x0 + (d_tilde + e);
+        let a = self.a0 * e;
+        let a1 = if a.abs() < NEGLIGIBLE_ACCELERATION {
+            0.0
+        } else {
+            a
+        };
+        [
+            x1,
+            v0 + self.h * (self.one_minus_gamma * a0 + self.gamma * a1),
+            a1,
+        ]
+    }
+}
+
 /// The scheme's constants a step uses, computed once per run (the same expressions the step
 /// evaluated each time: the same values; `c_f` was a division per step).
 #[derive(Debug, Clone, Copy)]
@@ -620,6 +726,22 @@ impl<const N: usize> Stepper for SizedNewmark<'_, N> {
     fn step_path(&self, sys: &System) -> &'static str {
         self.0.step_path(sys)
     }
+
+    /// [`NewmarkStepper::free_run`] for a model of one to four DOFs (none for the others).
+    fn free_run(
+        &mut self,
+        sys: &System,
+        run: &mut Run,
+        h: f64,
+        step: usize,
+        max: usize,
+    ) -> Option<usize> {
+        if N > 0 {
+            self.0.free_run::<N>(sys, run, h, step, max)
+        } else {
+            None
+        }
+    }
 }
 
 impl NewmarkStepper {
@@ -666,11 +788,7 @@ impl NewmarkStepper {
             .ensure(level, h, build)
             .map_err(|_| StepFailure::singular_tangent())?;
         let gamma = self.scheme.gamma;
-        let SchemeConstants {
-            half_minus_beta,
-            one_minus_gamma,
-            c_f,
-        } = self.constants;
+        let c_f = self.constants.c_f;
         let a0 = op.a[0];
         let n = dofs::<N>(s0.x.len());
 
@@ -684,7 +802,7 @@ impl NewmarkStepper {
         // (at constant places for a small model; `[..n]`: one length for the general one)
         let (x_old, v_old, a_old) = (s0.x.sized::<N>(), s0.v.sized::<N>(), s0.a.sized::<N>());
         let (x_old, v_old, a_old) = (&x_old[..n], &v_old[..n], &a_old[..n]);
-        let (d_a, v_a) = (h * h * half_minus_beta, one_minus_gamma * h);
+        let f = StepFormulas::new(&self.constants, gamma, a0, h);
         let [xt, vt] = &mut self.tilde;
         let (d_tilde, d, xt, vt) = (
             self.d_tilde.sized_mut::<N>(),
@@ -693,21 +811,13 @@ impl NewmarkStepper {
             vt.sized_mut::<N>(),
         );
         for i in 0..n {
-            d_tilde[i] = h * v_old[i] + d_a * a_old[i];
+            [d_tilde[i], xt[i], vt[i]] = f.predictors(x_old[i], v_old[i], a_old[i]);
             d[i] = 0.0;
-            xt[i] = x_old[i] + d_tilde[i] + c_f * x_old[i];
-            vt[i] = v_old[i] + v_a * a_old[i] + c_f * v_old[i];
         }
         let inputs: [&[f64]; 3] = [xt, vt, a_old];
         match &op.predictor {
             Predictor::Dense { operators, loads } => {
-                for (operator, input) in operators.iter().zip(inputs) {
-                    if N > 0 && N < 4 {
-                        mat_vec_sub_sized::<N>(operator, input, d);
-                    } else {
-                        self.mat_vec.apply(operator, input, d);
-                    }
-                }
+                dense_correction::<N, _>(&self.mat_vec, operators, inputs, d);
                 for (l, col) in loads.iter().enumerate() {
                     let coef = s1.load[l] + c_f * s0.load[l];
                     if coef != 0.0 {
@@ -760,17 +870,12 @@ impl NewmarkStepper {
         let gaps = self.du_lin.iter_mut().zip(&mut newton.u).zip(&s0.u);
         if let Some(dofs) = &sys.unit_dofs {
             for (((du, u), &u0), &d) in gaps.zip(dofs) {
-                *du = dx[d] + d_tilde[d];
+                *du = unit_increment(d, dx, d_tilde);
                 *u = u0 + *du;
             }
         } else {
             for (((du, u), &u0), gap) in gaps.zip(&sys.gaps) {
-                let (mut e, mut p) = (-0.0, -0.0); // as `Iterator::sum`
-                for (&d, &c) in gap.dofs.iter().zip(&gap.coefficients) {
-                    e += c * dx[d];
-                    p += c * d_tilde[d];
-                }
-                *du = e + p;
+                *du = gap_increment(gap, dx, d_tilde);
                 *u = u0 + *du;
             }
         }
@@ -785,9 +890,7 @@ impl NewmarkStepper {
             self.contact_correction::<N>(sys, s0, level, h, s1)?
         };
 
-        // The Newmark relations (eqs. 14, 18) in predictor form: x₁ = x₀ + d̃ + e and
-        // a₁ = a₀ e (the same as a₀ Δx − a₂ v₀ − a₃ a₀ without its cancellation of large
-        // terms), v₁ from a₁; a₁ below NEGLIGIBLE_ACCELERATION is set to 0.
+        // The Newmark relations (StepFormulas::relations).
         let dx = self.dx.sized::<N>();
         let (x0, v0, a0_old) = (s0.x.sized::<N>(), s0.v.sized::<N>(), s0.a.sized::<N>());
         let (x0, v0, a0_old) = (&x0[..n], &v0[..n], &a0_old[..n]);
@@ -798,15 +901,7 @@ impl NewmarkStepper {
         );
         let d_tilde = self.d_tilde.sized::<N>();
         for i in 0..n {
-            let e = dx[i];
-            x1[i] = x0[i] + (d_tilde[i] + e);
-            let a = a0 * e;
-            a1_new[i] = if a.abs() < NEGLIGIBLE_ACCELERATION {
-                0.0
-            } else {
-                a
-            };
-            v1[i] = v0[i] + h * (one_minus_gamma * a0_old[i] + gamma * a1_new[i]);
+            [x1[i], v1[i], a1_new[i]] = f.relations(x0[i], v0[i], a0_old[i], d_tilde[i], dx[i]);
         }
         self.free = if free {
             s1.finish_free_flight::<N>(sys, &self.gap_newton.u) && !sys.has_radial
@@ -815,6 +910,126 @@ impl NewmarkStepper {
             false
         };
         Ok(iterations)
+    }
+
+    /// Up to `max` steps of `h` of the fixed grid from its step `step` in free flight
+    /// ([`Stepper::free_run`]), each committed and recorded: the general step's arithmetic
+    /// ([`StepFormulas`], [`dense_correction`]) with the motion of the model's `N` DOFs, the
+    /// operators, the walls and the gap coordinates in local arrays and nothing else, while
+    /// what the general step would do besides is nothing (the driver's conditions,
+    /// `Run::drive`): no loads (their values and work), the dense predictor, no contact force
+    /// at the start (so no `φ` term), every wall open. Ends, before taking it, at the first
+    /// step whose linear predictor closes a wall or whose motion is not finite: the general
+    /// step then takes it as before. Returns the steps taken; `None`: never any for this
+    /// model (loads, the sparse predictor, more than [`FREE_RUN_WALLS`] walls).
+    #[inline(never)]
+    fn free_run<const N: usize>(
+        &mut self,
+        sys: &System,
+        run: &mut Run,
+        h: f64,
+        step: usize,
+        max: usize,
+    ) -> Option<usize> {
+        let op = self.operators.largest()?;
+        let Predictor::Dense { operators, loads } = &op.predictor else {
+            return None;
+        };
+        let (ng, nw) = (sys.gaps.len(), sys.walls.len());
+        if !loads.is_empty() || nw > FREE_RUN_WALLS || operators.len() > 3 {
+            return None;
+        }
+        if !run.free_run_starts() {
+            return Some(0);
+        }
+        // Everything a step reads, in locals: the rows' writes cannot alias them, so they
+        // are not reloaded from the stepper and the model every step.
+        let f = StepFormulas::new(&self.constants, self.scheme.gamma, op.a[0], h);
+        let mut ops = [[0.0; MAX_SIZED * MAX_SIZED]; 3];
+        for (local, operator) in ops.iter_mut().zip(operators) {
+            local[..N * N].copy_from_slice(&operator[..N * N]);
+        }
+        let ops = &ops[..operators.len()];
+        let mut walls = [(0, 0.0, 0.0); FREE_RUN_WALLS];
+        for (local, wall) in walls.iter_mut().zip(&sys.walls) {
+            *local = (wall.gap, wall.sign, wall.clearance);
+        }
+        let walls = &walls[..nw];
+        let mut unit = [0; FREE_RUN_WALLS];
+        let unit_gaps = sys.unit_dofs.is_some();
+        if let Some(dofs) = &sys.unit_dofs {
+            unit[..ng].copy_from_slice(dofs);
+        }
+        let motion = |values: &[f64]| -> [f64; N] { std::array::from_fn(|i| values[i]) };
+        let cur = &*run.cur;
+        let (mut x, mut v, mut a) = (
+            motion(cur.x.sized::<N>()),
+            motion(cur.v.sized::<N>()),
+            motion(cur.a.sized::<N>()),
+        );
+        let mut u = [0.0; FREE_RUN_WALLS];
+        u[..ng].copy_from_slice(&cur.u);
+        let mut rows = run.out.free_rows::<N>(&run.account);
+        // (the gaps' increments and the walls' penetrations of a step: only the first `ng`
+        // and `nw` are read, so they are not cleared per step)
+        let (mut du, mut depth) = ([0.0; FREE_RUN_WALLS], [0.0; FREE_RUN_WALLS]);
+        let mut taken = 0;
+        while taken < max {
+            let (mut d_tilde, mut xt, mut vt, mut e) = ([0.0; N], [0.0; N], [0.0; N], [0.0; N]);
+            for i in 0..N {
+                [d_tilde[i], xt[i], vt[i]] = f.predictors(x[i], v[i], a[i]);
+            }
+            dense_correction::<N, _>(&self.mat_vec, ops, [&xt, &vt, &a], &mut e);
+            // the gap coordinates' increments, and the walls' penetrations at the end: any
+            // wall closing ends the run (`GapNewton::free_flight` with every wall open at the
+            // start: `s u <= c` is `s u − c <= 0`, the difference of two floats being 0 only
+            // when they are equal)
+            if unit_gaps {
+                for (du, &d) in du[..ng].iter_mut().zip(&unit) {
+                    *du = unit_increment(d, &e, &d_tilde);
+                }
+            } else {
+                for (du, gap) in du[..ng].iter_mut().zip(&sys.gaps) {
+                    *du = gap_increment(gap, &e, &d_tilde);
+                }
+            }
+            let closing = walls.iter().zip(&mut depth).any(|(&(g, sign, c), depth)| {
+                *depth = sign * (u[g] + du[g]) - c;
+                *depth > 0.0 || depth.is_nan()
+            });
+            if closing {
+                break;
+            }
+            let (mut x1, mut v1, mut a1) = ([0.0; N], [0.0; N], [0.0; N]);
+            for i in 0..N {
+                [x1[i], v1[i], a1[i]] = f.relations(x[i], v[i], a[i], d_tilde[i], e[i]);
+            }
+            if !(0..N).all(|i| finite_motion(x1[i], v1[i])) {
+                break;
+            }
+            (x, v, a) = (x1, v1, a1);
+            for (u, du) in u[..ng].iter_mut().zip(&du) {
+                *u += du;
+            }
+            taken += 1;
+            // (the grid's time, as `FixedSteps::advance` sets it)
+            let t = (step + taken) as i64 as f64 * h;
+            rows.write(t, [&x, &v, &a], walls, &depth);
+        }
+        if taken > 0 {
+            // the state the general steps would have left: its gap rates, walls and forces
+            // from the last step's motion and gap coordinates (State::finish_free_flight)
+            run.out.wrote_free(rows);
+            let cur = &mut *run.cur;
+            cur.t = (step + taken) as i64 as f64 * h;
+            cur.x.sized_mut::<N>().copy_from_slice(&x);
+            cur.v.sized_mut::<N>().copy_from_slice(&v);
+            cur.a.sized_mut::<N>().copy_from_slice(&a);
+            let finite = cur.finish_free_flight::<N>(sys, &u[..ng]);
+            debug_assert!(finite);
+            run.took_free_steps(taken);
+        }
+        Some(taken)
     }
 
     /// The contact step's part of [`Self::step`] (some wall closed at an end of the step):
