@@ -66,7 +66,7 @@ pub(crate) trait StepPolicy {
     }
 
     /// Takes up to `max` steps in free flight before the next advance, each committed and
-    /// recorded ([`Stepper::free_run`]: the fixed grid's Newmark steps). Called by
+    /// recorded ([`Stepper::free_run`]: the fixed grid's Newmark and Adams steps). Called by
     /// [`Run::drive`] only where nothing watches a step: see there. `false`: it never takes
     /// any (the default), and is not asked again.
     fn free_run(&mut self, _run: &mut Run, _sys: &System, _max: usize) -> bool {
@@ -593,10 +593,30 @@ impl<'o> Run<'o> {
             && self.trial.walls.iter().all(|w| w.closed() || unloaded(w))
     }
 
-    /// A free run committed `steps` steps, and recorded them (what their commits count).
-    pub(crate) fn took_free_steps(&mut self, steps: usize) {
-        self.stats.steps += steps;
-        self.since_check += steps;
+    /// Ends a free run ([`Stepper::free_run`]) of `taken` steps, the last ending at `t` with
+    /// the motion `[x, v, a]` and the gap coordinates `u`: its rows become the recorder's,
+    /// `cur` the state the general steps would have left (its gap rates, walls and forces from
+    /// the last step's motion and gap coordinates, `State::finish_free_flight`), and the steps
+    /// count as committed.
+    pub(crate) fn end_free_run<const N: usize>(
+        &mut self,
+        sys: &System,
+        rows: FreeRows<N>,
+        taken: usize,
+        t: f64,
+        [x, v, a]: [&[f64; N]; 3],
+        u: &[f64],
+    ) {
+        self.out.wrote_free(rows);
+        let cur = &mut *self.cur;
+        cur.t = t;
+        cur.x.sized_mut::<N>().copy_from_slice(x);
+        cur.v.sized_mut::<N>().copy_from_slice(v);
+        cur.a.sized_mut::<N>().copy_from_slice(a);
+        let finite = cur.finish_free_flight::<N>(sys, u);
+        debug_assert!(finite);
+        self.stats.steps += taken;
+        self.since_check += taken;
     }
 
     /// A rigid wall's impact at `t` with approach speed `v_in` and separation speed `v_out`,

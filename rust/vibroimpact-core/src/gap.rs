@@ -111,6 +111,16 @@ pub struct Gap {
 }
 
 impl Gap {
+    /// The gap coordinate `u = Σ c_i y_{dof_i}` of a vector of the DOFs' values.
+    #[inline(always)]
+    pub fn coordinate(&self, y: &[f64]) -> f64 {
+        self.dofs
+            .iter()
+            .zip(&self.coefficients)
+            .map(|(&d, &c)| c * y[d])
+            .sum()
+    }
+
     pub fn validate(&self, index: usize, n_dof: usize) -> Result<(), SimError> {
         let field = format!("gaps[{index}]");
         if self.dofs.is_empty() || self.dofs.len() != self.coefficients.len() {

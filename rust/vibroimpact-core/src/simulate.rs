@@ -371,7 +371,7 @@ mod tests {
     use super::*;
     use crate::contact::{Hysteretic, Law};
     use crate::gap::{Gap, Side};
-    use crate::integrators::NewmarkFamily;
+    use crate::integrators::{NewmarkFamily, PreciseIntegration};
     use crate::interrupt;
     use crate::structure::LinearStructure;
 
@@ -511,53 +511,57 @@ mod tests {
         }
     }
 
-    /// The fixed-step Newmark loop's free runs (every step recorded, nothing watched per
-    /// step: `Run::drive`) take the general step's steps: the paper's case recorded every
-    /// step (free runs between the contacts) and every second step (the general step
-    /// throughout) has the same rows at the same steps, to the bit, and the same impacts,
-    /// peaks, energy balance and statistics.
+    /// The fixed-step loop's free runs of the Newmark family and of precise integration's
+    /// Adams steps (every step recorded, nothing watched per step: `Run::drive`) take the
+    /// general step's steps: the paper's case recorded every step (free runs between the
+    /// contacts) and every second step (the general step throughout) has the same rows at the
+    /// same steps, to the bit, and the same impacts, peaks, energy balance and statistics.
     #[test]
     fn free_runs_take_the_general_steps() {
         let sys = sdof();
-        let method = Method::Newmark(NewmarkFamily::average_acceleration());
-        let run = |every: usize| {
-            let s = RunSettings {
-                every,
-                ..settings(1e-6, None, 25)
+        for method in [
+            Method::Newmark(NewmarkFamily::average_acceleration()),
+            Method::Precise(PreciseIntegration::default()),
+        ] {
+            let run = |every: usize| {
+                let s = RunSettings {
+                    every,
+                    ..settings(1e-6, None, 25)
+                };
+                let (x0, v0) = (DVector::zeros(1), DVector::from_element(1, 8.0));
+                simulate(&sys, method, &s, x0, v0).unwrap()
             };
-            let (x0, v0) = (DVector::zeros(1), DVector::from_element(1, 8.0));
-            simulate(&sys, method, &s, x0, v0).unwrap()
-        };
-        let (each, second) = (run(1), run(2));
-        assert!(each.error.is_none() && second.error.is_none());
-        assert!(
-            each.impacts.len() >= 5,
-            "{} impacts: free runs between them",
-            each.impacts.len()
-        );
-        assert_eq!(
-            (each.rows.time.len(), second.rows.time.len()),
-            (20_001, 10_001)
-        );
-        let even = |column: &[f64]| column.iter().step_by(2).copied().collect::<Vec<_>>();
-        let (a, b) = (&each.rows, &second.rows);
-        assert_eq!(even(&a.time), b.time);
-        assert_eq!(even(&a.displacement), b.displacement);
-        assert_eq!(even(&a.velocity), b.velocity);
-        assert_eq!(even(&a.acceleration), b.acceleration);
-        assert_eq!(even(&a.gap_penetration), b.gap_penetration);
-        assert_eq!(even(&a.gap_force), b.gap_force);
-        assert_eq!(even(&a.energy.kinetic), b.energy.kinetic);
-        assert_eq!(
-            even(&a.energy.contact_dissipated),
-            b.energy.contact_dissipated
-        );
-        assert_eq!(each.impacts, second.impacts);
-        assert_eq!(each.max_abs_displacement, second.max_abs_displacement);
-        assert_eq!(
-            (each.stats.steps, each.stats.newton_iterations),
-            (second.stats.steps, second.stats.newton_iterations)
-        );
+            let (each, second) = (run(1), run(2));
+            assert!(each.error.is_none() && second.error.is_none(), "{method:?}");
+            assert!(
+                each.impacts.len() >= 5,
+                "{method:?}: {} impacts: free runs between them",
+                each.impacts.len()
+            );
+            assert_eq!(
+                (each.rows.time.len(), second.rows.time.len()),
+                (20_001, 10_001)
+            );
+            let even = |column: &[f64]| column.iter().step_by(2).copied().collect::<Vec<_>>();
+            let (a, b) = (&each.rows, &second.rows);
+            assert_eq!(even(&a.time), b.time);
+            assert_eq!(even(&a.displacement), b.displacement, "{method:?}");
+            assert_eq!(even(&a.velocity), b.velocity);
+            assert_eq!(even(&a.acceleration), b.acceleration);
+            assert_eq!(even(&a.gap_penetration), b.gap_penetration);
+            assert_eq!(even(&a.gap_force), b.gap_force);
+            assert_eq!(even(&a.energy.kinetic), b.energy.kinetic);
+            assert_eq!(
+                even(&a.energy.contact_dissipated),
+                b.energy.contact_dissipated
+            );
+            assert_eq!(each.impacts, second.impacts);
+            assert_eq!(each.max_abs_displacement, second.max_abs_displacement);
+            assert_eq!(
+                (each.stats.steps, each.stats.newton_iterations),
+                (second.stats.steps, second.stats.newton_iterations)
+            );
+        }
     }
 
     #[test]

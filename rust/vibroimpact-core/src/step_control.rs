@@ -59,6 +59,13 @@ impl StepDerivative for NewmarkTransition {
     }
 }
 
+/// The time `k h0` of step `k` of the fixed grid of steps `h0` (through i64: one conversion
+/// instruction where u64 takes five; the same value below 2^63 steps).
+#[inline(always)]
+pub(crate) fn grid_time(k: usize, h0: f64) -> f64 {
+    k as i64 as f64 * h0
+}
+
 /// Steps of a fixed size `h0` on the grid `k h0`, each halved (recursively, up to `max_cuts`
 /// times) when Newton fails; `derivative` composed along them. Compiled per stepper type `S`
 /// where the caller knows it (the Newmark family's), so that its step is inlined into the
@@ -165,9 +172,7 @@ impl<S: Stepper + ?Sized, D: StepDerivative> StepPolicy for FixedSteps<'_, S, D>
                 }
             }
         }
-        // (through i64: one conversion instruction where u64 takes five; the same value below
-        // 2^63 steps)
-        run.cur.t = self.step as i64 as f64 * self.h0;
+        run.cur.t = grid_time(self.step, self.h0);
         Ok(true)
     }
 }

@@ -204,12 +204,7 @@ impl System {
     #[inline]
     pub fn gap_coordinates(&self, y: &[f64], out: &mut [f64]) {
         for (o, g) in out.iter_mut().zip(&self.gaps) {
-            *o = g
-                .dofs
-                .iter()
-                .zip(&g.coefficients)
-                .map(|(&d, &c)| c * y[d])
-                .sum();
+            *o = g.coordinate(y);
         }
     }
 

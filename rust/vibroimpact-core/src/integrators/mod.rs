@@ -5,6 +5,7 @@ mod bathe;
 pub(crate) mod dop853;
 mod dop853_tableau;
 pub mod expm;
+mod free_run;
 mod newmark;
 mod newmark_variational;
 mod newton;

@@ -13,6 +13,7 @@ use std::sync::OnceLock;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use nalgebra::DMatrix;
 
+use super::free_run::{FreeWalls, FREE_RUN_WALLS};
 use super::newton::{GapNewton, GapProblem, NewtonSettings, OneGap, RateMap};
 use super::sized::{by_size, dofs, sized_step_path, Inline, MAX_SIZED};
 use super::{OperatorCache, StepFailure, Stepper};
@@ -21,6 +22,7 @@ use crate::error::{invalid, SimError};
 use crate::factor::{FactorChoice, FactorInfo, FactorPlan, SpdFactor};
 use crate::gap::Gap;
 use crate::linalg::{axpy, inverse_permutation, DenseMatVec, StackedRows};
+use crate::step_control::grid_time;
 use crate::structure::MAX_DENSE_DOFS;
 use crate::system::{finite_motion, State, System};
 
@@ -387,10 +389,6 @@ fn mat_vec_sub_sized<const N: usize>(a: &[f64], x: &[f64], y: &mut [f64]) {
         *yi -= row.iter().zip(x).map(|(r, x)| r * x).sum::<f64>();
     }
 }
-
-/// The most walls (and so gaps) of a model whose free flight runs in one loop
-/// ([`NewmarkStepper::free_run`]): its walls and gap coordinates are held in local arrays.
-pub(crate) const FREE_RUN_WALLS: usize = 8;
 
 /// `d −= Σ_k A_k y_k`: the dense predictor's operators applied to the vectors `inputs` they
 /// multiply (`x̃ + c_f x₀`, `ṽ + c_f v₀`, `a₀`), at a small model's size `N` below four.
@@ -935,13 +933,13 @@ impl NewmarkStepper {
         let Predictor::Dense { operators, loads } = &op.predictor else {
             return None;
         };
-        let (ng, nw) = (sys.gaps.len(), sys.walls.len());
-        if !loads.is_empty() || nw > FREE_RUN_WALLS || operators.len() > 3 {
+        if !loads.is_empty() || operators.len() > 3 {
             return None;
         }
         if !run.free_run_starts() {
             return Some(0);
         }
+        let walls = FreeWalls::new(sys)?;
         // Everything a step reads, in locals: the rows' writes cannot alias them, so they
         // are not reloaded from the stepper and the model every step.
         let f = StepFormulas::new(&self.constants, self.scheme.gamma, op.a[0], h);
@@ -950,16 +948,6 @@ impl NewmarkStepper {
             local[..N * N].copy_from_slice(&operator[..N * N]);
         }
         let ops = &ops[..operators.len()];
-        let mut walls = [(0, 0.0, 0.0); FREE_RUN_WALLS];
-        for (local, wall) in walls.iter_mut().zip(&sys.walls) {
-            *local = (wall.gap, wall.sign, wall.clearance);
-        }
-        let walls = &walls[..nw];
-        let mut unit = [0; FREE_RUN_WALLS];
-        let unit_gaps = sys.unit_dofs.is_some();
-        if let Some(dofs) = &sys.unit_dofs {
-            unit[..ng].copy_from_slice(dofs);
-        }
         let motion = |values: &[f64]| -> [f64; N] { std::array::from_fn(|i| values[i]) };
         let cur = &*run.cur;
         let (mut x, mut v, mut a) = (
@@ -967,11 +955,12 @@ impl NewmarkStepper {
             motion(cur.v.sized::<N>()),
             motion(cur.a.sized::<N>()),
         );
+        let ng = sys.gaps.len();
         let mut u = [0.0; FREE_RUN_WALLS];
         u[..ng].copy_from_slice(&cur.u);
         let mut rows = run.out.free_rows::<N>(&run.account);
-        // (the gaps' increments and the walls' penetrations of a step: only the first `ng`
-        // and `nw` are read, so they are not cleared per step)
+        // (the gap coordinates' increments and the walls' penetrations of a step: only the
+        // first `ng` and walls are read, so they are not cleared per step)
         let (mut du, mut depth) = ([0.0; FREE_RUN_WALLS], [0.0; FREE_RUN_WALLS]);
         let mut taken = 0;
         while taken < max {
@@ -980,12 +969,10 @@ impl NewmarkStepper {
                 [d_tilde[i], xt[i], vt[i]] = f.predictors(x[i], v[i], a[i]);
             }
             dense_correction::<N, _>(&self.mat_vec, ops, [&xt, &vt, &a], &mut e);
-            // the gap coordinates' increments, and the walls' penetrations at the end: any
-            // wall closing ends the run (`GapNewton::free_flight` with every wall open at the
-            // start: `s u <= c` is `s u − c <= 0`, the difference of two floats being 0 only
-            // when they are equal)
-            if unit_gaps {
-                for (du, &d) in du[..ng].iter_mut().zip(&unit) {
+            // the gap coordinates' increments, and the walls' penetrations at the end (as the
+            // general step's Newton's first iterate): any wall closing ends the run
+            if let Some(unit) = &walls.unit_dofs {
+                for (du, &d) in du[..ng].iter_mut().zip(unit) {
                     *du = unit_increment(d, &e, &d_tilde);
                 }
             } else {
@@ -993,11 +980,7 @@ impl NewmarkStepper {
                     *du = gap_increment(gap, &e, &d_tilde);
                 }
             }
-            let closing = walls.iter().zip(&mut depth).any(|(&(g, sign, c), depth)| {
-                *depth = sign * (u[g] + du[g]) - c;
-                *depth > 0.0 || depth.is_nan()
-            });
-            if closing {
+            if walls.closing(|g| u[g] + du[g], &mut depth) {
                 break;
             }
             let (mut x1, mut v1, mut a1) = ([0.0; N], [0.0; N], [0.0; N]);
@@ -1012,22 +995,16 @@ impl NewmarkStepper {
                 *u += du;
             }
             taken += 1;
-            // (the grid's time, as `FixedSteps::advance` sets it)
-            let t = (step + taken) as i64 as f64 * h;
-            rows.write(t, [&x, &v, &a], walls, &depth);
+            rows.write(
+                grid_time(step + taken, h),
+                [&x, &v, &a],
+                walls.walls(),
+                &depth,
+            );
         }
         if taken > 0 {
-            // the state the general steps would have left: its gap rates, walls and forces
-            // from the last step's motion and gap coordinates (State::finish_free_flight)
-            run.out.wrote_free(rows);
-            let cur = &mut *run.cur;
-            cur.t = (step + taken) as i64 as f64 * h;
-            cur.x.sized_mut::<N>().copy_from_slice(&x);
-            cur.v.sized_mut::<N>().copy_from_slice(&v);
-            cur.a.sized_mut::<N>().copy_from_slice(&a);
-            let finite = cur.finish_free_flight::<N>(sys, &u[..ng]);
-            debug_assert!(finite);
-            run.took_free_steps(taken);
+            let t = grid_time(step + taken, h);
+            run.end_free_run(sys, rows, taken, t, [&x, &v, &a], &u[..ng]);
         }
         Some(taken)
     }

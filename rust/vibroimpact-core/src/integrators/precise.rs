@@ -39,14 +39,17 @@
 use nalgebra::DMatrix;
 
 use super::expm::duhamel;
+use super::free_run::{FreeWalls, FREE_RUN_WALLS};
 use super::newton::{solve_small, GapNewton, GapProblem, NewtonSettings, RateMap};
-use super::sized::{by_size, dofs, sized_step_path};
+use super::sized::{by_size, dofs, sized_step_path, MAX_SIZED};
 use super::{OperatorCache, StepFailure, Stepper};
+use crate::driver::Run;
 use crate::error::{invalid, SimError};
 use crate::gap::WallState;
 use crate::linalg::axpy;
+use crate::step_control::grid_time;
 use crate::structure::{DenseStructure, LinearStructure};
-use crate::system::{State, System, Tangent};
+use crate::system::{finite_motion, State, System, Tangent};
 
 /// Settings of the precise integration method.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -187,11 +190,7 @@ impl Fixed {
                 &self.m_inv_k[i * n..(i + 1) * n],
                 &self.m_inv_c[i * n..(i + 1) * n],
             );
-            let mut acc = 0.0;
-            for j in 0..n {
-                acc -= rk[j] * x[j] + rc[j] * v[j];
-            }
-            *a = acc;
+            *a = unforced_acceleration(rk, rc, x, v);
         }
         for (&g, col) in s.load.iter().zip(&self.m_inv_b) {
             if g != 0.0 {
@@ -271,6 +270,30 @@ impl Fixed {
             s,
         })
     }
+}
+
+/// Entry `i` of `−M⁻¹(K x + C v)`, from row `i` of `M⁻¹K` and `M⁻¹C`: a DOF's acceleration
+/// without loads and contact forces (the one home of its arithmetic: the step's
+/// [`Fixed::acceleration`] and the free run's).
+#[inline(always)]
+fn unforced_acceleration(m_inv_k: &[f64], m_inv_c: &[f64], x: &[f64], v: &[f64]) -> f64 {
+    let mut acc = 0.0;
+    for j in 0..x.len() {
+        acc -= m_inv_k[j] * x[j] + m_inv_c[j] * v[j];
+    }
+    acc
+}
+
+/// Entry `i` of the free response `Φ z` (eq. 38 without the forces) from row `i` of `Φ`
+/// (`z = [x; v]`; the step's and the free run's arithmetic).
+#[inline(always)]
+fn free_response(phi_row: &[f64], x: &[f64], v: &[f64]) -> f64 {
+    let (rx, rv) = phi_row.split_at(x.len());
+    let mut acc = 0.0;
+    for j in 0..x.len() {
+        acc += rx[j] * x[j] + rv[j] * v[j];
+    }
+    acc
 }
 
 /// Loads and contact forces at one accepted instant, and the step that ended there.
@@ -427,8 +450,7 @@ impl PreciseStepper {
     /// Makes the newest sample the step's start `s0` (a new run, or a state the history does
     /// not end at): the Adams formulas then restart from one point.
     fn sync_history(&mut self, s0: &State, h: f64) {
-        let newest = &self.history[self.newest];
-        if self.history_len > 0 && (newest.t - s0.t).abs() <= 1e-9 * h {
+        if self.history_ends_at(s0.t, h) {
             return;
         }
         let first = &mut self.history[self.newest];
@@ -437,6 +459,11 @@ impl PreciseStepper {
         first.load.copy_from_slice(&s0.load);
         first.phi.copy_from_slice(&s0.phi);
         self.history_len = 1;
+    }
+
+    /// Whether the history's newest sample is the instant `t` (to a step `h`'s 1e-9).
+    fn history_ends_at(&self, t: f64, h: f64) -> bool {
+        self.history_len > 0 && (self.history[self.newest].t - t).abs() <= 1e-9 * h
     }
 
     /// Past points usable for a step `h`: `[0, s₁, s₂]` in units of `h`.
@@ -528,6 +555,23 @@ impl Stepper for PreciseStepper {
     fn step_path(&self, sys: &System) -> &'static str {
         sized_step_path(sys.n_dof())
     }
+
+    /// [`Self::free_run`] of the Adams steps of a model of one to four DOFs (none for the
+    /// others, nor for the predictor–corrector, whose steps evaluate the walls).
+    #[allow(private_interfaces)]
+    fn free_run(
+        &mut self,
+        sys: &System,
+        run: &mut Run,
+        h: f64,
+        step: usize,
+        max: usize,
+    ) -> Option<usize> {
+        if self.variant.predictor_corrector {
+            return None;
+        }
+        by_size!(sys.n_dof(), |N| self.free_run::<N>(sys, run, h, step, max))
+    }
 }
 
 impl PreciseStepper {
@@ -584,12 +628,7 @@ impl PreciseStepper {
         // The free response Φ z₀, shared by predictor and corrector.
         let free = &mut free[..n2];
         for (row, out) in op.phi.chunks_exact(n2).zip(free.iter_mut()) {
-            let (rx, rv) = row.split_at(n);
-            let mut acc = 0.0;
-            for j in 0..n {
-                acc += rx[j] * x0[j] + rv[j] * v0[j];
-            }
-            *out = acc;
+            *out = free_response(row, x0, v0);
         }
         let (h1, h2) = (&history[h1], &history[h2]);
         let past_loads = [&s0.load[..], &h1.load[..], &h2.load[..]];
@@ -687,6 +726,121 @@ impl PreciseStepper {
         fixed.acceleration::<N>(s1, true);
         s1.finish_gaps(sys, if implicit && ng > 0 { &gap_newton.u } else { u });
         Ok(iterations)
+    }
+
+    /// Up to `max` Adams steps of `h` of the fixed grid from its step `step` in free flight
+    /// ([`Stepper::free_run`]), each committed and recorded: the general step's arithmetic
+    /// ([`free_response`], [`unforced_acceleration`]) with the motion of the model's `N` DOFs,
+    /// `Φ`, `M⁻¹K`, `M⁻¹C` and the walls in local arrays, while the step is `z₁ = Φ z₀` (eq. 38
+    /// with no force to extrapolate: no loads, and no contact force at the three instants of
+    /// the Adams history, eqs. 42–43) and what the general step would do besides is nothing
+    /// (the driver's conditions, `Run::drive`). Ends, before taking it, at the first step
+    /// that closes a wall or whose motion is not finite: the general step then takes it as
+    /// before. Leaves the history as the general steps' `accept` would. Returns the steps
+    /// taken; `None`: never any for this model (`N = 0`: more than four DOFs; loads, more
+    /// than [`super::free_run::FREE_RUN_WALLS`] walls).
+    #[inline(never)]
+    fn free_run<const N: usize>(
+        &mut self,
+        sys: &System,
+        run: &mut Run,
+        h: f64,
+        step: usize,
+        max: usize,
+    ) -> Option<usize> {
+        let op = self.operators.largest()?;
+        if N == 0 || !sys.loads.is_empty() {
+            return None;
+        }
+        // the Adams step of the full history (`Self::step`, `count == 3`), every force in it 0
+        let unforced = |s: &Sample| s.phi.iter().all(|&p| p == 0.0);
+        if !(run.free_run_starts()
+            && self.history_ends_at(run.cur.t, h)
+            && self.past_nodes(h).1 == 3
+            && self.history.iter().all(unforced))
+        {
+            return Some(0);
+        }
+        let walls = FreeWalls::new(sys)?;
+        let mut phi = [[0.0; 2 * MAX_SIZED]; 2 * MAX_SIZED];
+        for (local, row) in phi.iter_mut().zip(op.phi.chunks_exact(2 * N)) {
+            local[..2 * N].copy_from_slice(row);
+        }
+        let (mut m_inv_k, mut m_inv_c) =
+            ([[0.0; MAX_SIZED]; MAX_SIZED], [[0.0; MAX_SIZED]; MAX_SIZED]);
+        let fixed = &self.fixed;
+        let rows = fixed
+            .m_inv_k
+            .chunks_exact(N)
+            .zip(fixed.m_inv_c.chunks_exact(N));
+        for ((k, c), (row_k, row_c)) in m_inv_k.iter_mut().zip(&mut m_inv_c).zip(rows) {
+            k[..N].copy_from_slice(row_k);
+            c[..N].copy_from_slice(row_c);
+        }
+        let motion = |values: &[f64]| -> [f64; N] { std::array::from_fn(|i| values[i]) };
+        let cur = &*run.cur;
+        let (mut x, mut v, mut a) = (
+            motion(cur.x.sized::<N>()),
+            motion(cur.v.sized::<N>()),
+            motion(cur.a.sized::<N>()),
+        );
+        let ng = sys.gaps.len();
+        let mut rows = run.out.free_rows::<N>(&run.account);
+        // a motion's gap coordinates (as `System::gap_coordinates`; a unit gap's is its DOF's
+        // displacement, `−0 + 1·x`)
+        let coordinates = |x: &[f64; N], u: &mut [f64; FREE_RUN_WALLS]| {
+            if let Some(unit) = &walls.unit_dofs {
+                for (u, &d) in u[..ng].iter_mut().zip(unit) {
+                    *u = x[d];
+                }
+            } else {
+                for (u, gap) in u[..ng].iter_mut().zip(&sys.gaps) {
+                    *u = gap.coordinate(x);
+                }
+            }
+        };
+        // (the gap coordinates and the walls' penetrations at a step's end: only the first
+        // `ng` and walls are read, so they are not cleared per step)
+        let (mut u, mut depth) = ([0.0; FREE_RUN_WALLS], [0.0; FREE_RUN_WALLS]);
+        let mut taken = 0;
+        while taken < max {
+            let response = |row: usize| free_response(&phi[row][..2 * N], &x, &v);
+            let (x1, v1): ([f64; N], [f64; N]) = (
+                std::array::from_fn(response),
+                std::array::from_fn(|i| response(N + i)),
+            );
+            // a wall closing at the end, or a motion not finite, ends the run
+            coordinates(&x1, &mut u);
+            let finite = (0..N).all(|i| finite_motion(x1[i], v1[i]));
+            if walls.closing(|g| u[g], &mut depth) || !finite {
+                break;
+            }
+            let a1 = std::array::from_fn(|i| {
+                unforced_acceleration(&m_inv_k[i][..N], &m_inv_c[i][..N], &x1, &v1)
+            });
+            (x, v, a) = (x1, v1, a1);
+            taken += 1;
+            rows.write(
+                grid_time(step + taken, h),
+                [&x, &v, &a],
+                walls.walls(),
+                &depth,
+            );
+        }
+        if taken > 0 {
+            let t = grid_time(step + taken, h);
+            coordinates(&x, &mut u);
+            run.end_free_run(sys, rows, taken, t, [&x, &v, &a], &u[..ng]);
+            // the history's last three instants, as `accept` leaves them: each step's end
+            // `t₀ + h` (`Self::step`'s `s1.t`) after a step of `h`, its forces 0 as before
+            for k in taken.saturating_sub(3)..taken {
+                self.newest = if self.newest == 0 { 2 } else { self.newest - 1 };
+                let sample = &mut self.history[self.newest];
+                sample.t = grid_time(step + k, h) + h;
+                sample.h = h;
+            }
+        }
+        Some(taken)
     }
 }
 
