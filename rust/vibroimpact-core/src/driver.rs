@@ -65,12 +65,19 @@ pub(crate) trait StepPolicy {
         false
     }
 
-    /// Takes up to `max` steps in free flight before the next advance, each committed and
-    /// recorded ([`Stepper::free_run`]: the fixed grid's Newmark and Adams steps). Called by
-    /// [`Run::drive`] only where nothing watches a step: see there. `false`: it never takes
-    /// any (the default), and is not asked again.
-    fn free_run(&mut self, _run: &mut Run, _sys: &System, _max: usize) -> bool {
-        false
+    /// Takes up to `max` steps in free flight before the next advance, each committed and,
+    /// with `rows`, recorded ([`Stepper::free_run`]: the fixed grid's Newmark and Adams
+    /// steps); only steps the observer has no use for ([`Run::unobserved_until`]). Called by
+    /// [`Run::drive`] only where nothing else watches a step: see there. Returns the steps
+    /// taken; `None`: it takes no more (the default), and is not asked again.
+    fn free_run(
+        &mut self,
+        _run: &mut Run,
+        _sys: &System,
+        _max: usize,
+        _rows: bool,
+    ) -> Option<usize> {
+        None
     }
 }
 
@@ -516,19 +523,23 @@ impl<'o> Run<'o> {
         // advances left until the next row (a countdown: no division per step)
         let mut until_row = every;
         // Free runs (StepPolicy::free_run) take the steps in free flight in one tight loop,
-        // where nothing is watched per step: a row every step, no observer (sweeps, orbits),
-        // no state-transition matrix, no radial gap (its slide is checked per step), the rows'
-        // energies from the rows, and nothing for the account per free step (no loads, no
-        // damping's work); the peaks from the rows or off (Self::free_room). A run ends at the
-        // next check of the interrupt and the energy and at the rows' room (a full streamed
-        // block), which the general step then takes.
-        let mut free_runs = every == 1
-            && self.observer.is_none()
-            && !self.wants_sensitivity
+        // where nothing is watched per step: no state-transition matrix, no radial gap (its
+        // slide is checked per step), no damping's work, only steps the observer has no use
+        // for (a sweep's transient, Self::unobserved_until); either a row every step, the
+        // rows' energies from the rows and no loads (their work would change the rows'
+        // account), or no row and no peaks (a sweep's, Outputs::Observed: the row steps and
+        // the last step are general steps); the peaks from the rows or off (Self::free_room).
+        // A run ends at the next check of the interrupt and the energy and at the rows' room
+        // (a full streamed block) or the next row, which the general step then takes.
+        let rows = every == 1;
+        let mut free_runs = !self.wants_sensitivity
             && !sys.has_radial
-            && self.out.energies_from_rows
-            && sys.loads.is_empty()
-            && !self.account.damping_work;
+            && !self.account.damping_work
+            && if rows {
+                self.out.energies_from_rows && sys.loads.is_empty()
+            } else {
+                self.out.peaks == Peaks::Off
+            };
         if self.out.peaks != Peaks::Off {
             self.out.peaks = if every == 1 && policy.commits_once_per_advance() {
                 Peaks::FromRows
@@ -537,10 +548,15 @@ impl<'o> Run<'o> {
             };
         }
         loop {
-            if free_runs {
-                let room = self.free_room();
+            if free_runs && self.free_run_starts() {
+                // (without rows, up to the advance before the next row)
+                let room = self.free_room(rows, until_row - 1);
                 if room > 0 {
-                    free_runs = policy.free_run(self, sys, room);
+                    match policy.free_run(self, sys, room, rows) {
+                        Some(taken) if !rows => until_row -= taken,
+                        Some(_) => {}
+                        None => free_runs = false,
+                    }
                 }
             }
             match policy.advance(self, sys) {
@@ -572,42 +588,70 @@ impl<'o> Run<'o> {
     }
 
     /// The steps a free run may take from here ([`Self::drive`]): up to the next check of the
-    /// interrupt and the energy, and the rows that fit; none while the peaks are kept per
-    /// commit (after a cut step).
-    fn free_room(&self) -> usize {
+    /// interrupt and the energy, and with `rows` the rows that fit, else `before_row`; none
+    /// while the peaks are kept per commit (after a cut step).
+    fn free_room(&self, rows: bool, before_row: usize) -> usize {
         if self.out.peaks == Peaks::PerCommit {
             return 0;
         }
         let to_check = (interrupt::CHECK_EVERY - 1).saturating_sub(self.since_check);
-        to_check.min(self.out.room.saturating_sub(self.out.written))
+        to_check.min(if rows {
+            self.out.room.saturating_sub(self.out.written)
+        } else {
+            before_row
+        })
+    }
+
+    /// The steps from `s0` of length `h` with `s0.t + h` at most this are not handed to an
+    /// observer ([`Self::commit_step`]'s test, [`StepObserver::quiet_until`]): every step
+    /// without one.
+    pub(crate) fn unobserved_until(&self) -> f64 {
+        if self.observer.is_some() {
+            self.quiet_until
+        } else {
+            f64::INFINITY
+        }
     }
 
     /// Whether a free run may start from `cur` ([`Stepper::free_run`]): no contact force and
     /// every wall open, without force or potential, as in the state the trial becomes after a
     /// free step (an open wall keeps them, a closed one is reset: `WallState::set_open`), so
-    /// that the rows' forces and potentials are +0.
-    pub(crate) fn free_run_starts(&self) -> bool {
+    /// that the rows' forces and potentials are +0. Asked by [`Self::drive`], not by the
+    /// steppers: a contact's steps do not pay the calls down to them.
+    fn free_run_starts(&self) -> bool {
         let unloaded = |w: &WallState| w.force.to_bits() == 0 && w.potential.to_bits() == 0;
         self.cur.phi.iter().all(|&p| p == 0.0)
             && self.cur.walls.iter().all(|w| !w.closed() && unloaded(w))
             && self.trial.walls.iter().all(|w| w.closed() || unloaded(w))
     }
 
-    /// Ends a free run ([`Stepper::free_run`]) of `taken` steps, the last ending at `t` with
-    /// the motion `[x, v, a]` and the gap coordinates `u`: its rows become the recorder's,
-    /// `cur` the state the general steps would have left (its gap rates, walls and forces from
-    /// the last step's motion and gap coordinates, `State::finish_free_flight`), and the steps
-    /// count as committed.
+    /// Ends a free run ([`Stepper::free_run`]) as `end` says: its rows (if any) become the
+    /// recorder's, `cur` the state the general steps would have left (its gap rates, walls and
+    /// forces from the last step's motion and gap coordinates, `State::finish_free_flight`;
+    /// its loads' values), the account their external work, the steps count as committed, and
+    /// an observer has had the last step (quiet: [`Self::settle_observer`] hands it its state).
     pub(crate) fn end_free_run<const N: usize>(
         &mut self,
         sys: &System,
         rows: FreeRows<N>,
-        taken: usize,
-        t: f64,
-        [x, v, a]: [&[f64; N]; 3],
-        u: &[f64],
+        end: FreeRunEnd<N>,
     ) {
+        let FreeRunEnd {
+            taken,
+            t,
+            step_end,
+            motion: [x, v, a],
+            u,
+            loads,
+        } = end;
         self.out.wrote_free(rows);
+        if let Some((values, external_work)) = loads {
+            self.cur.load.copy_from_slice(values);
+            self.account.external_work = external_work;
+        }
+        if self.observer.is_some() {
+            self.observed_end = Some(step_end);
+        }
         let cur = &mut *self.cur;
         cur.t = t;
         cur.x.sized_mut::<N>().copy_from_slice(x);
@@ -656,6 +700,30 @@ impl<'o> Run<'o> {
     }
 }
 
+/// Where a free run ([`Stepper::free_run`]) ended, for [`Run::end_free_run`].
+pub(crate) struct FreeRunEnd<'a, const N: usize> {
+    /// Steps taken.
+    pub taken: usize,
+    /// The last step's end on the grid, and as the general step has it (`s₀.t + h`: the time
+    /// its loads are evaluated at and an observer is handed).
+    pub t: f64,
+    pub step_end: f64,
+    /// Its motion `[x, v, a]` and gap coordinates.
+    pub motion: [&'a [f64; N]; 3],
+    pub u: &'a [f64],
+    /// With loads: their values at `step_end` and the account's external work, J.
+    pub loads: Option<(&'a [f64], f64)>,
+}
+
+/// The work of a load on `dofs` over a step, `½ (f₀ + f₁) Σ (x₁ − x₀)` over them from its
+/// values `[f₀, f₁]` and the displacements at the step's ends: the account's
+/// ([`Account::commit`]) and a free run's, one arithmetic.
+#[inline(always)]
+pub(crate) fn load_work(dofs: &[usize], [f0, f1]: [f64; 2], x0: &[f64], x1: &[f64]) -> f64 {
+    let moved: f64 = dofs.iter().map(|&d| x1[d] - x0[d]).sum();
+    0.5 * (f0 + f1) * moved
+}
+
 /// Work integrals, accumulated every step with the trapezoidal rule in displacement,
 /// `W = Σ Δxᵀ (f₀ + f₁)/2`, which is exact for the average-acceleration rule's linear part.
 pub(crate) struct Account {
@@ -682,6 +750,11 @@ impl Account {
         }
     }
 
+    /// The external work so far, J.
+    pub(crate) fn external_work(&self) -> f64 {
+        self.external_work
+    }
+
     /// Adds increments of the external work, the damping and the contact dissipation, J.
     fn add(&mut self, work: [f64; 3]) {
         self.external_work += work[0];
@@ -695,8 +768,8 @@ impl Account {
     #[inline(always)]
     fn commit(&mut self, sys: &System, s0: &State, s1: &State) {
         for (l, load) in sys.loads.iter().enumerate() {
-            let moved: f64 = load.dofs.iter().map(|&d| s1.x[d] - s0.x[d]).sum();
-            self.external_work += 0.5 * (s0.load[l] + s1.load[l]) * moved;
+            let f = [s0.load[l], s1.load[l]];
+            self.external_work += load_work(&load.dofs, f, &s0.x, &s1.x);
         }
         if self.damping_work {
             // Δxᵀ C (v₀ + v₁)/2
@@ -986,6 +1059,23 @@ impl Recorder<'_> {
             gaps,
             written: 0,
             room: self.room - r,
+            last_time: self.last_time,
+        }
+    }
+
+    /// The columns of a free run that writes no rows ([`Self::free_rows`] with no room).
+    pub(crate) fn no_free_rows<const N: usize>(&self) -> FreeRows<N> {
+        let none = std::ptr::null_mut();
+        FreeRows {
+            time: none,
+            motion: [none; 3],
+            gap_penetration: none,
+            gap_force: none,
+            energy: [none; 4],
+            account: [0.0; 3],
+            gaps: 0,
+            written: 0,
+            room: 0,
             last_time: self.last_time,
         }
     }

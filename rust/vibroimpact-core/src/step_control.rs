@@ -66,6 +66,30 @@ pub(crate) fn grid_time(k: usize, h0: f64) -> f64 {
     k as i64 as f64 * h0
 }
 
+/// How many of the steps of the grid of steps `h0` from its step `k` on, up to `max > 0`,
+/// end by `t` as a commit has them (`grid_time(j, h0) + h0 <= t`: the general step's
+/// `s₀.t + h`, `Run::commit_step`'s test of a quiet step); that end grows with `j`, so the
+/// first step that does not is found by bisection.
+fn steps_ending_by(k: usize, h0: f64, t: f64, max: usize) -> usize {
+    let ends_by = |j: usize| grid_time(j, h0) + h0 <= t;
+    let (mut quiet, mut loud) = (k, k + max - 1);
+    if ends_by(loud) {
+        return max;
+    }
+    if !ends_by(quiet) {
+        return 0;
+    }
+    while loud - quiet > 1 {
+        let mid = quiet + (loud - quiet) / 2;
+        if ends_by(mid) {
+            quiet = mid;
+        } else {
+            loud = mid;
+        }
+    }
+    loud - k
+}
+
 /// Steps of a fixed size `h0` on the grid `k h0`, each halved (recursively, up to `max_cuts`
 /// times) when Newton fails; `derivative` composed along them. Compiled per stepper type `S`
 /// where the caller knows it (the Newmark family's), so that its step is inlined into the
@@ -80,6 +104,9 @@ pub(crate) struct FixedSteps<'s, S: Stepper + ?Sized, D: StepDerivative = ()> {
     /// Levels of the sub-steps still to take in the current grid step.
     pending: Vec<usize>,
     derivative: D,
+    /// The first step of the grid an observer is handed ([`Run::unobserved_until`]), found on
+    /// the first free run.
+    observed_from: Option<usize>,
 }
 
 impl<'s, S: Stepper + ?Sized> FixedSteps<'s, S> {
@@ -92,6 +119,7 @@ impl<'s, S: Stepper + ?Sized> FixedSteps<'s, S> {
             step: 0,
             pending: Vec::with_capacity(2 * max_cuts + 2),
             derivative: (),
+            observed_from: None,
         }
     }
 
@@ -105,6 +133,7 @@ impl<'s, S: Stepper + ?Sized> FixedSteps<'s, S> {
             step: self.step,
             pending: self.pending,
             derivative,
+            observed_from: self.observed_from,
         }
     }
 }
@@ -119,19 +148,24 @@ impl<S: Stepper + ?Sized, D: StepDerivative> StepPolicy for FixedSteps<'_, S, D>
         true
     }
 
-    /// The stepper's free run ([`Stepper::free_run`]) on the grid, up to its end.
-    fn free_run(&mut self, run: &mut Run, sys: &System, max: usize) -> bool {
+    /// The stepper's free run ([`Stepper::free_run`]) on the grid, up to its end and over
+    /// the steps the observer has no use for (none after the first it has: none again).
+    fn free_run(&mut self, run: &mut Run, sys: &System, max: usize, rows: bool) -> Option<usize> {
         let max = max.min(self.n_steps - self.step);
         if max == 0 {
-            return true;
+            return Some(0);
         }
-        match self.stepper.free_run(sys, run, self.h0, self.step, max) {
-            Some(taken) => {
-                self.step += taken;
-                true
-            }
-            None => false,
+        let observed_from = *self.observed_from.get_or_insert_with(|| {
+            let left = self.n_steps - self.step;
+            self.step + steps_ending_by(self.step, self.h0, run.unobserved_until(), left)
+        });
+        let max = max.min(observed_from.saturating_sub(self.step));
+        if max == 0 {
+            return None;
         }
+        let taken = (self.stepper).free_run(sys, run, self.h0, self.step, max, rows)?;
+        self.step += taken;
+        Some(taken)
     }
 
     fn advance(&mut self, run: &mut Run, sys: &System) -> Result<bool, SimError> {

@@ -916,6 +916,137 @@ mod tests {
         }
     }
 
+    /// The reducer handed every step, as [`EveryStep`], noting whether a wall is closed at
+    /// the end of the transient.
+    struct Unquiet<'r, 'a> {
+        every: EveryStep<'r, 'a>,
+        in_contact_at_start: bool,
+    }
+
+    impl StepObserver for Unquiet<'_, '_> {
+        fn accepted(
+            &mut self,
+            sys: &System,
+            s0: &State,
+            s1: &State,
+            h: f64,
+            turns: Option<&[Option<Turn>]>,
+        ) {
+            let start = self.every.0.start;
+            if s0.t + h <= start && s1.t + h > start {
+                self.in_contact_at_start = s1.walls.iter().any(WallState::closed);
+            }
+            self.every.accepted(sys, s0, s1, h, turns);
+        }
+
+        fn final_state(&mut self, s: &State, t: f64) {
+            self.every.final_state(s, t);
+        }
+    }
+
+    /// A fixed-step point's transient in free flight goes through the stepper's free run (its
+    /// steps quiet: `Run::unobserved_until`), with the loads' values, predictor columns and
+    /// work: the summary, the statistics and the account's external work are the same, to the
+    /// bit, as those of the same point with every step handed to the observer (no free run),
+    /// for one load and two (on a 2-DOF model), with `c_f = 0` and not (generalized-α), and
+    /// for transients that end in free flight and in contact.
+    #[test]
+    fn a_free_transient_gives_the_same_summary() {
+        let two_dof = |frequency: f64| {
+            let m = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, 0.5]);
+            let k = DMatrix::from_row_slice(2, 2, &[60.0, -20.0, -20.0, 40.0]);
+            let c = &m * 0.3 + &k * 1e-3;
+            let gap = Gap {
+                dofs: vec![1],
+                coefficients: vec![1.0],
+                clearance: 0.01,
+                side: Side::Both,
+                law: Law::KelvinVoigt(KelvinVoigt::new(1e3, 2.0).unwrap()),
+            };
+            let load = |dof: usize, amplitude: f64, frequency: f64, phase: f64| Load {
+                dofs: vec![dof],
+                amplitude,
+                history: LoadHistory::Harmonic { frequency, phase },
+            };
+            let loads = vec![
+                load(0, 4.0, frequency, 0.0),
+                load(1, 2.0, 1.7 * frequency, 0.4),
+            ];
+            let structure = LinearStructure::new(m, c, k).unwrap();
+            System::new(structure, vec![gap], loads).unwrap()
+        };
+        let generalized_alpha = NewmarkFamily {
+            alpha_m: -0.2,
+            alpha_f: 0.1,
+            gamma: 0.8,
+            beta: 0.4225,
+        };
+        let mut ends_in_contact = [false, false];
+        for (m, system) in [oscillator(0.8, 0.02), two_dof(0.8)]
+            .into_iter()
+            .enumerate()
+        {
+            let n = system.n_dof();
+            let system = Arc::new(system);
+            for method in [
+                Method::Newmark(NewmarkFamily::average_acceleration()),
+                Method::GeneralizedAlpha(generalized_alpha),
+            ] {
+                for transient in 1..=8 {
+                    let mut j = job(0.8, 0.02);
+                    (j.system, j.method) = (system.clone(), method);
+                    (j.x0, j.v0) = (DVector::zeros(n), DVector::zeros(n));
+                    // (a sampling period off the forcing's: the transients end at many phases)
+                    j.sampling.transient = transient;
+                    j.sampling.period *= 1.0 + 0.09 * transient as f64;
+                    j.sampling.dofs = (0..n).collect();
+                    let sampling = &j.sampling;
+                    let mut settings = j.settings.clone();
+                    settings.t_end = sampling.t_end();
+                    settings.every = usize::MAX;
+                    settings.record_dofs = sampling.dofs.clone();
+                    settings.dt = sampling.period / (sampling.period / settings.dt - 1e-9).ceil();
+                    let run = |every_step: bool| {
+                        let mut reducer =
+                            Reducer::new(sampling, 1, j.x0.as_slice(), j.v0.as_slice());
+                        let mut unquiet = Unquiet {
+                            every: EveryStep(&mut reducer),
+                            in_contact_at_start: false,
+                        };
+                        let observer: &mut dyn StepObserver = if every_step {
+                            &mut unquiet
+                        } else {
+                            unquiet.every.0
+                        };
+                        let (sys, x0, v0) = (&*j.system, j.x0.clone(), j.v0.clone());
+                        let out = simulate_observed(
+                            sys,
+                            j.method,
+                            &settings,
+                            x0,
+                            v0,
+                            Some(observer),
+                            Outputs::Observed,
+                        )
+                        .unwrap();
+                        let in_contact = unquiet.in_contact_at_start;
+                        let mut summary = reducer.finish();
+                        (summary.stats, summary.error) = (out.stats, out.error);
+                        (summary, out.rows.energy.external_work, in_contact)
+                    };
+                    let (free, free_work, _) = run(false);
+                    let (general, general_work, in_contact) = run(true);
+                    assert!(free.error.is_none() && free.impact_count[0] > 0);
+                    assert!(same(&free, &general), "{m} {method:?} {transient}");
+                    let bits = |w: Vec<f64>| w.iter().map(|w| w.to_bits()).collect::<Vec<_>>();
+                    assert_eq!(bits(free_work), bits(general_work));
+                    ends_in_contact[usize::from(in_contact)] = true;
+                }
+            }
+        }
+        assert_eq!(ends_in_contact, [true, true]);
+    }
+
     #[test]
     fn parallel_equals_serial_and_chains_carry_the_state() {
         let jobs: Vec<SweepJob> = [0.6, 0.8, 1.0, 1.2].iter().map(|&f| job(f, 0.02)).collect();

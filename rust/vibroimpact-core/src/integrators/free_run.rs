@@ -1,6 +1,6 @@
 //! What the fixed-step loop's free runs share ([`super::Stepper::free_run`]: the Newmark
 //! family's and precise integration's Adams steps, taken in one tight loop while every wall
-//! stays open): the walls held in local arrays and the test that ends a run where a wall would
+//! stays open): the walls (and the loads) held in local arrays and the test that ends a run where a wall would
 //! close. A run ends with [`crate::driver::Run::end_free_run`].
 
 use crate::system::System;
@@ -8,6 +8,10 @@ use crate::system::System;
 /// The most walls (and so gaps) of a model whose free flight runs in one loop: its walls and
 /// gap coordinates are held in local arrays.
 pub(crate) const FREE_RUN_WALLS: usize = 8;
+
+/// The most loads of a model whose free flight runs in one loop (without rows: a sweep's
+/// transient): their values and predictor columns are held in local arrays.
+pub(crate) const FREE_RUN_LOADS: usize = 4;
 
 /// A model's walls in locals, for a free run: the rows' writes cannot alias them, so they are
 /// not reloaded from the model every step.

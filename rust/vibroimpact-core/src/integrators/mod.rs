@@ -162,9 +162,9 @@ pub trait Stepper {
     }
 
     /// Takes up to `max` steps of `h` of the fixed grid from its step `step` while they are
-    /// in free flight, each committed and recorded as the general step and the driver would
-    /// (the fixed-step loop's free run, [`crate::driver::Run::drive`]); returns how many,
-    /// `None` if it never takes any (the default).
+    /// in free flight, each committed and (with `rows`) recorded as the general step and the
+    /// driver would (the fixed-step loop's free run, [`crate::driver::Run::drive`]); returns
+    /// how many, `None` if it never takes any (the default).
     #[allow(private_interfaces)] // the crate's own fixed-step loop calls it
     fn free_run(
         &mut self,
@@ -173,6 +173,7 @@ pub trait Stepper {
         _h: f64,
         _step: usize,
         _max: usize,
+        _rows: bool,
     ) -> Option<usize> {
         None
     }

@@ -13,11 +13,11 @@ use std::sync::OnceLock;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use nalgebra::DMatrix;
 
-use super::free_run::{FreeWalls, FREE_RUN_WALLS};
+use super::free_run::{FreeWalls, FREE_RUN_LOADS, FREE_RUN_WALLS};
 use super::newton::{GapNewton, GapProblem, NewtonSettings, OneGap, RateMap};
 use super::sized::{by_size, dofs, sized_step_path, Inline, MAX_SIZED};
 use super::{OperatorCache, StepFailure, Stepper};
-use crate::driver::Run;
+use crate::driver::{load_work, FreeRunEnd, Run};
 use crate::error::{invalid, SimError};
 use crate::factor::{FactorChoice, FactorInfo, FactorPlan, SpdFactor};
 use crate::gap::Gap;
@@ -725,7 +725,8 @@ impl<const N: usize> Stepper for SizedNewmark<'_, N> {
         self.0.step_path(sys)
     }
 
-    /// [`NewmarkStepper::free_run`] for a model of one to four DOFs (none for the others).
+    /// [`NewmarkStepper::free_run`] for a model of one to four DOFs (none for the others),
+    /// compiled with rows and without.
     fn free_run(
         &mut self,
         sys: &System,
@@ -733,11 +734,12 @@ impl<const N: usize> Stepper for SizedNewmark<'_, N> {
         h: f64,
         step: usize,
         max: usize,
+        rows: bool,
     ) -> Option<usize> {
-        if N > 0 {
-            self.0.free_run::<N>(sys, run, h, step, max)
-        } else {
-            None
+        match (N > 0, rows) {
+            (false, _) => None,
+            (true, true) => self.0.free_run::<N, true>(sys, run, h, step, max),
+            (true, false) => self.0.free_run::<N, false>(sys, run, h, step, max),
         }
     }
 }
@@ -911,17 +913,19 @@ impl NewmarkStepper {
     }
 
     /// Up to `max` steps of `h` of the fixed grid from its step `step` in free flight
-    /// ([`Stepper::free_run`]), each committed and recorded: the general step's arithmetic
-    /// ([`StepFormulas`], [`dense_correction`]) with the motion of the model's `N` DOFs, the
-    /// operators, the walls and the gap coordinates in local arrays and nothing else, while
-    /// what the general step would do besides is nothing (the driver's conditions,
-    /// `Run::drive`): no loads (their values and work), the dense predictor, no contact force
-    /// at the start (so no `φ` term), every wall open. Ends, before taking it, at the first
-    /// step whose linear predictor closes a wall or whose motion is not finite: the general
-    /// step then takes it as before. Returns the steps taken; `None`: never any for this
-    /// model (loads, the sparse predictor, more than [`FREE_RUN_WALLS`] walls).
+    /// ([`Stepper::free_run`]), each committed and, with `ROWS`, recorded: the general step's
+    /// arithmetic ([`StepFormulas`], [`dense_correction`], the loads' columns) with the motion
+    /// of the model's `N` DOFs, the operators, the walls and the gap coordinates in local
+    /// arrays and nothing else, while what the general step would do besides is nothing (the
+    /// driver's conditions, `Run::drive`): the dense predictor, no contact force at the start
+    /// (so no `φ` term), every wall open; the loads (their values at the general step's
+    /// `s₀.t + h` and their work, [`load_work`]) only without rows. Ends, before taking it,
+    /// at the first step whose linear predictor closes a wall or whose motion is not finite:
+    /// the general step then takes it as before. Returns the steps taken; `None`: never any
+    /// for this model (loads with rows, more than [`FREE_RUN_LOADS`] loads, the sparse
+    /// predictor, more than [`FREE_RUN_WALLS`] walls).
     #[inline(never)]
-    fn free_run<const N: usize>(
+    fn free_run<const N: usize, const ROWS: bool>(
         &mut self,
         sys: &System,
         run: &mut Run,
@@ -933,11 +937,9 @@ impl NewmarkStepper {
         let Predictor::Dense { operators, loads } = &op.predictor else {
             return None;
         };
-        if !loads.is_empty() || operators.len() > 3 {
+        let nl = loads.len();
+        if (ROWS && nl > 0) || nl > FREE_RUN_LOADS || operators.len() > 3 {
             return None;
-        }
-        if !run.free_run_starts() {
-            return Some(0);
         }
         let walls = FreeWalls::new(sys)?;
         // Everything a step reads, in locals: the rows' writes cannot alias them, so they
@@ -948,6 +950,11 @@ impl NewmarkStepper {
             local[..N * N].copy_from_slice(&operator[..N * N]);
         }
         let ops = &ops[..operators.len()];
+        let mut columns = [[0.0; N]; FREE_RUN_LOADS];
+        for (local, column) in columns.iter_mut().zip(loads) {
+            local.copy_from_slice(&column[..N]);
+        }
+        let columns = &columns[..nl];
         let motion = |values: &[f64]| -> [f64; N] { std::array::from_fn(|i| values[i]) };
         let cur = &*run.cur;
         let (mut x, mut v, mut a) = (
@@ -955,10 +962,18 @@ impl NewmarkStepper {
             motion(cur.v.sized::<N>()),
             motion(cur.a.sized::<N>()),
         );
+        // the loads' values at the step's start and the external work so far
+        let mut load = [0.0; FREE_RUN_LOADS];
+        load[..nl].copy_from_slice(&cur.load);
+        let mut work = run.account.external_work();
         let ng = sys.gaps.len();
         let mut u = [0.0; FREE_RUN_WALLS];
         u[..ng].copy_from_slice(&cur.u);
-        let mut rows = run.out.free_rows::<N>(&run.account);
+        let mut rows = if ROWS {
+            run.out.free_rows::<N>(&run.account)
+        } else {
+            run.out.no_free_rows::<N>()
+        };
         // (the gap coordinates' increments and the walls' penetrations of a step: only the
         // first `ng` and walls are read, so they are not cleared per step)
         let (mut du, mut depth) = ([0.0; FREE_RUN_WALLS], [0.0; FREE_RUN_WALLS]);
@@ -969,6 +984,20 @@ impl NewmarkStepper {
                 [d_tilde[i], xt[i], vt[i]] = f.predictors(x[i], v[i], a[i]);
             }
             dense_correction::<N, _>(&self.mat_vec, ops, [&xt, &vt, &a], &mut e);
+            // the loads at the step's end as the general step has it, and their columns
+            let mut load1 = [0.0; FREE_RUN_LOADS];
+            if !ROWS {
+                let t1 = grid_time(step + taken, h) + h;
+                for (value, l) in load1.iter_mut().zip(&sys.loads) {
+                    *value = l.value(t1);
+                }
+                for ((column, &f1), &f0) in columns.iter().zip(&load1).zip(&load) {
+                    let coef = f1 + f.c_f * f0;
+                    if coef != 0.0 {
+                        axpy(coef, column, &mut e);
+                    }
+                }
+            }
             // the gap coordinates' increments, and the walls' penetrations at the end (as the
             // general step's Newton's first iterate): any wall closing ends the run
             if let Some(unit) = &walls.unit_dofs {
@@ -990,21 +1019,36 @@ impl NewmarkStepper {
             if !(0..N).all(|i| finite_motion(x1[i], v1[i])) {
                 break;
             }
+            if !ROWS {
+                for ((l, &f0), &f1) in sys.loads.iter().zip(&load).zip(&load1) {
+                    work += load_work(&l.dofs, [f0, f1], &x, &x1);
+                }
+                load = load1;
+            }
             (x, v, a) = (x1, v1, a1);
             for (u, du) in u[..ng].iter_mut().zip(&du) {
                 *u += du;
             }
             taken += 1;
-            rows.write(
-                grid_time(step + taken, h),
-                [&x, &v, &a],
-                walls.walls(),
-                &depth,
-            );
+            if ROWS {
+                rows.write(
+                    grid_time(step + taken, h),
+                    [&x, &v, &a],
+                    walls.walls(),
+                    &depth,
+                );
+            }
         }
         if taken > 0 {
-            let t = grid_time(step + taken, h);
-            run.end_free_run(sys, rows, taken, t, [&x, &v, &a], &u[..ng]);
+            let end = FreeRunEnd {
+                taken,
+                t: grid_time(step + taken, h),
+                step_end: grid_time(step + taken - 1, h) + h,
+                motion: [&x, &v, &a],
+                u: &u[..ng],
+                loads: (!ROWS && nl > 0).then_some((&load[..nl], work)),
+            };
+            run.end_free_run(sys, rows, end);
         }
         Some(taken)
     }

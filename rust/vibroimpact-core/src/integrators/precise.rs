@@ -43,7 +43,7 @@ use super::free_run::{FreeWalls, FREE_RUN_WALLS};
 use super::newton::{solve_small, GapNewton, GapProblem, NewtonSettings, RateMap};
 use super::sized::{by_size, dofs, sized_step_path, MAX_SIZED};
 use super::{OperatorCache, StepFailure, Stepper};
-use crate::driver::Run;
+use crate::driver::{FreeRunEnd, Run};
 use crate::error::{invalid, SimError};
 use crate::gap::WallState;
 use crate::linalg::axpy;
@@ -557,7 +557,8 @@ impl Stepper for PreciseStepper {
     }
 
     /// [`Self::free_run`] of the Adams steps of a model of one to four DOFs (none for the
-    /// others, nor for the predictor–corrector, whose steps evaluate the walls).
+    /// others, nor for the predictor–corrector, whose steps evaluate the walls, nor without
+    /// rows).
     #[allow(private_interfaces)]
     fn free_run(
         &mut self,
@@ -566,8 +567,9 @@ impl Stepper for PreciseStepper {
         h: f64,
         step: usize,
         max: usize,
+        rows: bool,
     ) -> Option<usize> {
-        if self.variant.predictor_corrector {
+        if self.variant.predictor_corrector || !rows {
             return None;
         }
         by_size!(sys.n_dof(), |N| self.free_run::<N>(sys, run, h, step, max))
@@ -754,8 +756,7 @@ impl PreciseStepper {
         }
         // the Adams step of the full history (`Self::step`, `count == 3`), every force in it 0
         let unforced = |s: &Sample| s.phi.iter().all(|&p| p == 0.0);
-        if !(run.free_run_starts()
-            && self.history_ends_at(run.cur.t, h)
+        if !(self.history_ends_at(run.cur.t, h)
             && self.past_nodes(h).1 == 3
             && self.history.iter().all(unforced))
         {
@@ -830,7 +831,15 @@ impl PreciseStepper {
         if taken > 0 {
             let t = grid_time(step + taken, h);
             coordinates(&x, &mut u);
-            run.end_free_run(sys, rows, taken, t, [&x, &v, &a], &u[..ng]);
+            let end = FreeRunEnd {
+                taken,
+                t,
+                step_end: grid_time(step + taken - 1, h) + h,
+                motion: [&x, &v, &a],
+                u: &u[..ng],
+                loads: None,
+            };
+            run.end_free_run(sys, rows, end);
             // the history's last three instants, as `accept` leaves them: each step's end
             // `t₀ + h` (`Self::step`'s `s1.t`) after a step of `h`, its forces 0 as before
             for k in taken.saturating_sub(3)..taken {
