@@ -3,7 +3,7 @@
 //! stays open): the walls (and the loads) held in local arrays and the test that ends a run where a wall would
 //! close. A run ends with [`crate::driver::Run::end_free_run`].
 
-use crate::system::System;
+use crate::system::{State, System};
 
 /// The most walls (and so gaps) of a model whose free flight runs in one loop: its walls and
 /// gap coordinates are held in local arrays.
@@ -67,4 +67,15 @@ impl FreeWalls {
                 *depth > 0.0 || depth.is_nan()
             })
     }
+}
+
+/// The motion `[x, v, a]` of `state`'s `N` DOFs in locals: where a free run starts.
+#[inline(always)]
+pub(crate) fn local_motion<const N: usize>(state: &State) -> [[f64; N]; 3] {
+    let local = |values: &[f64]| std::array::from_fn(|i| values[i]);
+    [
+        local(state.x.sized::<N>()),
+        local(state.v.sized::<N>()),
+        local(state.a.sized::<N>()),
+    ]
 }

@@ -13,7 +13,7 @@ use std::sync::OnceLock;
 use faer::dyn_stack::{MemBuffer, MemStack};
 use nalgebra::DMatrix;
 
-use super::free_run::{FreeWalls, FREE_RUN_LOADS, FREE_RUN_WALLS};
+use super::free_run::{local_motion, FreeWalls, FREE_RUN_LOADS, FREE_RUN_WALLS};
 use super::newton::{GapNewton, GapProblem, NewtonSettings, OneGap, RateMap};
 use super::sized::{by_size, dofs, sized_step_path, Inline, MAX_SIZED};
 use super::{OperatorCache, StepFailure, Stepper};
@@ -955,13 +955,8 @@ impl NewmarkStepper {
             local.copy_from_slice(&column[..N]);
         }
         let columns = &columns[..nl];
-        let motion = |values: &[f64]| -> [f64; N] { std::array::from_fn(|i| values[i]) };
         let cur = &*run.cur;
-        let (mut x, mut v, mut a) = (
-            motion(cur.x.sized::<N>()),
-            motion(cur.v.sized::<N>()),
-            motion(cur.a.sized::<N>()),
-        );
+        let [mut x, mut v, mut a] = local_motion::<N>(cur);
         // the loads' values at the step's start and the external work so far
         let mut load = [0.0; FREE_RUN_LOADS];
         load[..nl].copy_from_slice(&cur.load);

@@ -39,7 +39,7 @@
 use nalgebra::DMatrix;
 
 use super::expm::duhamel;
-use super::free_run::{FreeWalls, FREE_RUN_WALLS};
+use super::free_run::{local_motion, FreeWalls, FREE_RUN_WALLS};
 use super::newton::{solve_small, GapNewton, GapProblem, NewtonSettings, RateMap};
 use super::sized::{by_size, dofs, sized_step_path, MAX_SIZED};
 use super::{OperatorCache, StepFailure, Stepper};
@@ -778,13 +778,7 @@ impl PreciseStepper {
             k[..N].copy_from_slice(row_k);
             c[..N].copy_from_slice(row_c);
         }
-        let motion = |values: &[f64]| -> [f64; N] { std::array::from_fn(|i| values[i]) };
-        let cur = &*run.cur;
-        let (mut x, mut v, mut a) = (
-            motion(cur.x.sized::<N>()),
-            motion(cur.v.sized::<N>()),
-            motion(cur.a.sized::<N>()),
-        );
+        let [mut x, mut v, mut a] = local_motion::<N>(&run.cur);
         let ng = sys.gaps.len();
         let mut rows = run.out.free_rows::<N>(&run.account);
         // a motion's gap coordinates (as `System::gap_coordinates`; a unit gap's is its DOF's
