@@ -736,11 +736,13 @@ machine's load):
 | Bathe (γ = 1/2) | 5.84 ms | 1.65 | 1.64 | | |
 
 Targets: generalized-α ≤ 1.3× Newmark, precise ≤ 3× Newmark: both met. The table predates
-issue 20's per-step work, which made every step cheaper and Newmark's free-flight step most
-(issue 20 asks precise ≤ 1.5× Newmark). Instructions a step on the current core (callgrind,
-`examples/sdof_bench.rs`; `METHOD=precise`, `METHOD=precise-pc`, `SCHEME=generalized-alpha`):
-Newmark 876, generalized-α 915 (1.04×), precise Adams 1,118 (1.28×: no Newton, one 2×2
-mat-vec for the exact linear part, and in free flight no wall evaluated, as Newmark's step;
-Newmark's contact step is cheaper still), predictor–corrector 1,815 (2.07×); the latest
-wall-time ratios are `vibroimpact bench`'s, in the README.
+issue 20's per-step work, which made every step cheaper (issue 20 asks precise ≤ 1.5×
+Newmark). Instructions a step on the current core (callgrind, `examples/sdof_bench.rs`;
+`METHOD=precise`, `METHOD=precise-pc`, `SCHEME=generalized-alpha`): Newmark 515,
+generalized-α 535 (1.04×), precise Adams 512 (0.99×), predictor–corrector 1,716 (3.33×).
+Where nothing watches a step, free flight runs in *free runs* (docs/architecture.md) for
+the Newmark family (Newmark, generalized-α, HHT-α) and precise integration's Adams steps:
+about 200 instructions a free step for Newmark and for the Adams step; a contact step is
+Newmark's Newton on the gaps, or the Adams step's wall evaluation. The predictor–corrector
+evaluates the walls and solves for the contact force every step. The latest wall-time ratios are `vibroimpact bench`'s, in the README.
 """
