@@ -744,5 +744,6 @@ Where nothing watches a step, free flight runs in *free runs* (docs/architecture
 the Newmark family (Newmark, generalized-α, HHT-α) and precise integration's Adams steps:
 about 200 instructions a free step for Newmark and for the Adams step; a contact step is
 Newmark's Newton on the gaps, or the Adams step's wall evaluation. The predictor–corrector
-evaluates the walls and solves for the contact force every step. The latest wall-time ratios are `vibroimpact bench`'s, in the README.
+evaluates the walls and solves for the contact force every step. The latest wall-time
+ratios are `vibroimpact bench`'s, in the README.
 """
